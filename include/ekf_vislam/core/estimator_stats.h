@@ -1,0 +1,67 @@
+// Counters of what the estimator used and rejected, by reason. No ROS.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+
+namespace ekf_vislam {
+
+/// Every event the estimator counts. Names (counterName) are the keys of stats.json and of the
+/// diagnostics; keep them stable.
+enum class Counter : int {
+  // Twist messages
+  kTwistUsed = 0,
+  kTwistNonFinite,           ///< NaN/Inf component: rejected
+  kTwistImplausible,         ///< speed beyond limits/max_linear_speed or max_angular_speed: rejected
+  kTwistNotIncreasing,       ///< stamp <= previous twist stamp (duplicate or backwards): rejected
+  kTwistLate,                ///< older than the filter time (a frame was processed after it): held, no predict
+  kTwistGap,                 ///< time gap beyond limits/max_twist_gap: handled per gap policy
+  // Feature messages
+  kFrameUsed,
+  kFrameEmpty,               ///< no features (prediction still done)
+  kFrameStale,               ///< stamp older than the filter time: rejected
+  kFrameNoCalibration,       ///< calibration missing or invalid: rejected
+  kFrameBeforeTwist,         ///< no twist yet: rejected (the filter has no time origin)
+  kFrameCapped,              ///< more than limits/max_features_per_frame: extra features dropped
+  kFrameNonFiniteStamp,      ///< stamp NaN/Inf: rejected
+  // Observations (one feature of one frame)
+  kObservationUpdate,        ///< used in an EKF update
+  kObservationInitialized,   ///< started a new landmark
+  kObsNonFinite,             ///< NaN/Inf coordinate
+  kObsDisparity,             ///< disparity below landmarks/min_disparity_px (incl. negative)
+  kObsDepth,                 ///< triangulated depth outside [min_depth, max_depth]
+  kObsOutsideImage,          ///< coordinates outside the image
+  kObsRowMismatch,           ///< |v_left - v_right| beyond limits/max_row_difference_px
+  kObsDuplicateId,           ///< id repeated within one frame: all but the first dropped
+  kObsGated,                 ///< Mahalanobis distance beyond the chi-square gate
+  kObsBehindCamera,          ///< predicted point not in front of the camera
+  kObsMappingOnly,           ///< dead reckoning mode: observations not used
+  // Landmark life cycle
+  kLandmarkInitialized,
+  kLandmarkMarginalized,
+  // Filter health
+  kCovarianceRepaired,       ///< covariance lost symmetry/positivity and was repaired
+  kDivergenceRecovery,       ///< divergence detected; recovery policy applied
+  kUpdateNonFinite,          ///< an update produced non-finite numbers and was discarded
+  kCount
+};
+
+/// Stable snake_case name of a counter (e.g. "twist_non_finite").
+const char* counterName(Counter counter);
+
+class EstimatorStats {
+ public:
+  void increment(Counter counter, uint64_t amount = 1) {
+    counts_[static_cast<int>(counter)] += amount;
+  }
+  uint64_t get(Counter counter) const { return counts_[static_cast<int>(counter)]; }
+  void clear() { counts_.fill(0); }
+  /// Observations rejected for any reason (not used in an update or an initialization).
+  uint64_t observationsRejected() const;
+
+ private:
+  std::array<uint64_t, static_cast<int>(Counter::kCount)> counts_{};
+};
+
+}  // namespace ekf_vislam

@@ -1,0 +1,54 @@
+// Puts twists and feature frames into stamp order before they reach the estimator, so the live
+// nodelet and the offline runner feed the core the same sequence. No ROS.
+#pragma once
+
+#include "ekf_vislam/core/types.h"
+
+#include <cstddef>
+#include <deque>
+#include <variant>
+#include <vector>
+
+namespace ekf_vislam {
+
+using Measurement = std::variant<TwistData, FeatureFrame>;
+
+inline double stampOf(const Measurement& m) {
+  return std::holds_alternative<TwistData>(m) ? std::get<TwistData>(m).stamp
+                                              : std::get<FeatureFrame>(m).stamp;
+}
+
+/// A message is released once both streams have delivered a stamp >= its own (no later message
+/// can precede it), or once the newest stamp seen is more than max_delay past it (one stream
+/// stopped), or when the buffer is over max_buffered. At equal stamps the twist goes first.
+/// A message older than what was already released is returned anyway (the estimator rejects or
+/// absorbs it and counts it) and counted in late().
+class MeasurementSequencer {
+ public:
+  struct Options {
+    double max_delay = 0.3;      ///< s
+    size_t max_buffered = 1000;  ///< messages
+  };
+  MeasurementSequencer() = default;
+  explicit MeasurementSequencer(const Options& options) : options_(options) {}
+
+  void push(Measurement measurement);
+  /// Messages ready for the estimator, in order.
+  std::vector<Measurement> popReady();
+  /// Everything still buffered, in order (end of input).
+  std::vector<Measurement> flush();
+  void clear();
+
+  size_t buffered() const { return buffer_.size(); }
+  size_t late() const { return late_; }
+
+ private:
+  Options options_;
+  std::deque<Measurement> buffer_;  ///< sorted by (stamp, twist first)
+  double newest_twist_ = -1e300;
+  double newest_frame_ = -1e300;
+  double released_until_ = -1e300;
+  size_t late_ = 0;
+};
+
+}  // namespace ekf_vislam

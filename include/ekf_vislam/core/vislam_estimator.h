@@ -1,0 +1,124 @@
+// EKF visual-inertial SLAM on SE(3): the estimator core. No ROS.
+//
+// State: pose imu_T_world (U) with a 6-dof left perturbation U = exp(dxi^) U_mean, dxi = [rho; phi]
+// (translation first), optional twist bias b (u_true = u_measured - b), and the landmarks that are
+// currently tracked (p_world, 3 each). One joint covariance.
+//
+// Time: feedTwist(t) predicts from the filter time to t with that twist (the twist sample k+1
+// drives [t_k, t_k+1], which fits the data best) and holds it; feedFeatures(t) predicts to t with
+// the held twist, then initializes new ids, updates with re-observed ones and marginalizes ids
+// that are absent (their final estimate stays in the map). Feed measurements in stamp order
+// (MeasurementSequencer does that for live input).
+#pragma once
+
+#include "ekf_vislam/core/estimator_stats.h"
+#include "ekf_vislam/core/stereo_camera.h"
+#include "ekf_vislam/core/types.h"
+#include "ekf_vislam/core/vislam_options.h"
+
+#include <Eigen/Core>
+
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+namespace ekf_vislam {
+
+/// What one feed call did.
+struct FeedResult {
+  bool accepted = true;           ///< false: the whole message was rejected (see message)
+  std::string message;            ///< one line when something was rejected or repaired
+  int observations_updated = 0;   ///< used in the EKF update
+  int observations_rejected = 0;  ///< dropped, for any reason (see stats for reasons)
+  int landmarks_initialized = 0;
+  int landmarks_marginalized = 0;
+};
+
+class VislamEstimator {
+ public:
+  explicit VislamEstimator(const VislamOptions& options);
+
+  const VislamOptions& options() const { return options_; }
+
+  /// Sets the stereo calibration. Invalid calibration is refused (returns false, *error says
+  /// why); the previous calibration, if any, stays. Prediction never needs calibration.
+  bool setCalibration(const StereoCalibration& calibration, std::string* error = nullptr);
+  bool hasCalibration() const { return has_calibration_; }
+  const StereoCalibration& calibration() const { return camera_.calibration(); }
+
+  FeedResult feedTwist(const TwistData& twist);
+  FeedResult feedFeatures(const FeatureFrame& frame);
+
+  /// Back to the state before the first message (pose identity, prior covariance, empty map).
+  /// Calibration and statistics are kept.
+  void reset();
+
+  /// True once the first twist has set the time origin.
+  bool initialized() const { return initialized_; }
+  /// Filter time (stamp of the last processed measurement), seconds.
+  double time() const { return time_; }
+
+  Eigen::Isometry3d worldTImu() const;
+  /// Covariance of [position; rotation] of world_T_imu, errors expressed in world axes
+  /// (delta p_world, delta theta_world), ROS order (x, y, z, rot x, rot y, rot z).
+  Matrix6d poseCovarianceWorld() const;
+  /// Latest twist with the estimated bias removed, and the covariance of [v; w] (measurement
+  /// noise density over the last step plus bias covariance).
+  TwistData correctedTwist() const;
+  Matrix6d correctedTwistCovariance() const;
+  /// Estimated bias [v; w] (zeros for components not estimated).
+  Vector6d twistBias() const;
+
+  /// Every landmark ever initialized (active ones carry their current estimate).
+  const std::vector<LandmarkEstimate>& landmarks() const { return map_; }
+  size_t activeLandmarkCount() const { return active_.size(); }
+  /// Dimension of the filter state (6 + bias + 3 x active landmarks).
+  int stateDimension() const { return dim_; }
+  const EstimatorStats& stats() const { return stats_; }
+
+  /// Full covariance of the state (tests and consistency checks), order: pose, bias, landmarks.
+  Eigen::MatrixXd stateCovariance() const { return sigma_.topLeftCorner(dim_, dim_); }
+
+ private:
+  struct ActiveLandmark {
+    int state_index = 0;   ///< first row of its block in the state
+    size_t map_index = 0;  ///< entry in map_
+  };
+  struct Candidate;  // one observation being processed
+
+  void initializeState();
+  void predict(double dt, const TwistData& twist, double noise_scale);
+  void processFrame(const FeatureFrame& frame, FeedResult* result);
+  void update(std::vector<Candidate>* candidates, FeedResult* result);
+  void initializeLandmark(const Candidate& candidate, double stamp, FeedResult* result);
+  void marginalize(const std::vector<uint32_t>& ids, FeedResult* result);
+  void removeStateBlock(int index, int size);
+  void ensureCapacity(int dim);
+  void syncActiveToMap();
+  void enforceHealth(FeedResult* result);
+  void resetLandmarksKeepPose();
+
+  VislamOptions options_;
+  StereoCamera camera_;
+  bool has_calibration_ = false;
+
+  bool initialized_ = false;
+  double time_ = 0.0;
+  double last_twist_stamp_ = 0.0;
+  TwistData held_twist_;
+
+  // State.
+  Eigen::Matrix4d imu_T_world_ = Eigen::Matrix4d::Identity();
+  Vector6d bias_ = Vector6d::Zero();
+  int bias_dim_ = 0;        ///< 0, 3 (gyro) or 6 (velocity + gyro)
+  int dim_ = 0;             ///< active state dimension
+  Eigen::VectorXd p_world_;  ///< landmark means, aligned with the covariance rows (size dim_)
+  Eigen::MatrixXd sigma_;   ///< capacity >= dim_; only the top-left dim_ x dim_ block is live
+  std::unordered_map<uint32_t, ActiveLandmark> active_;
+  std::vector<LandmarkEstimate> map_;
+  int consecutive_rejected_frames_ = 0;
+
+  EstimatorStats stats_;
+};
+
+}  // namespace ekf_vislam

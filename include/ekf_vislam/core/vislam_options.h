@@ -1,0 +1,84 @@
+// Every tunable of the estimator in one struct, filled by one parser from a ParameterSource.
+// Keys and documentation: config/default.yaml. No ROS.
+#pragma once
+
+#include "ekf_vislam/core/parameter_source.h"
+
+#include <string>
+
+namespace ekf_vislam {
+
+enum class EstimatorMode {
+  kDeadReckoning,  ///< prediction only; features ignored
+  kMapping,        ///< landmarks updated on the predicted poses; the pose is not corrected
+  kSlam,           ///< joint pose + landmark update
+};
+
+/// "deadreckoning", "mapping", "slam".
+const char* modeName(EstimatorMode mode);
+bool parseMode(const std::string& name, EstimatorMode* mode);
+
+/// What to do when twist messages stop for longer than limits/max_twist_gap.
+enum class GapPolicy {
+  kPredict,  ///< predict across the gap with the last twist and process noise x gap_noise_scale
+  kReset,    ///< reset the filter (pose restarts at identity, map is kept)
+};
+
+/// What to do when the filter diverges (health/ checks).
+enum class DivergencePolicy {
+  kResetLandmarks,  ///< marginalize every active landmark, re-inflate the pose covariance
+  kResetFilter,     ///< restart the filter at the current pose estimate with the prior covariance
+};
+
+struct VislamOptions {
+  EstimatorMode mode = EstimatorMode::kSlam;
+
+  // noise/
+  double pixel_sigma = 2.0;               ///< px, std of each image coordinate
+  bool merge_stereo_rows = true;          ///< observe [uL, (vL+vR)/2, uR] (3 rows) instead of 4
+  double linear_velocity_noise = 0.15;    ///< m/s/sqrt(Hz): W_v = sigma^2 * tau
+  double angular_velocity_noise = 0.015;  ///< rad/s/sqrt(Hz): W_w = sigma^2 * tau
+
+  // prior/
+  double prior_position_sigma = 1e-3;  ///< m, initial pose uncertainty
+  double prior_rotation_sigma = 1e-3;  ///< rad
+
+  // bias/
+  bool estimate_gyro_bias = true;
+  double gyro_bias_prior_sigma = 0.02;     ///< rad/s
+  double gyro_bias_random_walk = 1e-4;     ///< rad/s/sqrt(s)
+  bool estimate_velocity_bias = false;
+  double velocity_bias_prior_sigma = 0.1;  ///< m/s
+  double velocity_bias_random_walk = 1e-3; ///< m/s/sqrt(s)
+
+  // landmarks/
+  double min_disparity_px = 1.0;      ///< smaller (or negative) disparity: not initialized
+  double min_depth = 1.0;             ///< m
+  double max_depth = 80.0;            ///< m
+  double gating_probability = 0.95;   ///< chi-square gate (per observation)
+  bool keep_all_landmarks_in_state = false;  ///< never marginalize (exact, O(N^2) memory)
+
+  // limits/ (input sanity)
+  double max_linear_speed = 100.0;      ///< m/s; faster twists are rejected
+  double max_angular_speed = 10.0;      ///< rad/s
+  double max_twist_gap = 1.0;           ///< s; longer gaps follow gap_policy
+  GapPolicy gap_policy = GapPolicy::kPredict;
+  double gap_noise_scale = 10.0;        ///< process noise multiplier across a gap
+  double max_row_difference_px = 5.0;   ///< |vL - vR| beyond: rejected (rectified pair)
+  int max_features_per_frame = 2000;    ///< 0 = unlimited; extra features of a frame dropped
+
+  // health/
+  double max_position_sigma = 1000.0;   ///< m; pose sigma beyond: divergence
+  int max_rejected_frames = 20;         ///< consecutive frames with most observations gated
+  double rejected_fraction = 0.8;       ///< "most" above
+  DivergencePolicy divergence_policy = DivergencePolicy::kResetLandmarks;
+
+  /// Empty when consistent; otherwise one line naming the bad key.
+  std::string validate() const;
+};
+
+/// Fills `options` from `source`: absent keys keep their current values; unknown enum names or
+/// values of the wrong type make it return false with a message naming the key.
+bool parseVislamOptions(const ParameterSource& source, VislamOptions* options, std::string* error);
+
+}  // namespace ekf_vislam

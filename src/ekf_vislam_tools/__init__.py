@@ -1,0 +1,1 @@
+"""Python tools of ekf_vislam: dataset loading, simulation, trajectories and evaluation."""

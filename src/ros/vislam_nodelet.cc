@@ -1,0 +1,1 @@
+#include <nodelet/nodelet.h>

@@ -4,7 +4,7 @@ export PATH=/usr/bin:/bin:${PATH}
 export ROS_HOSTNAME=${ROS_HOSTNAME:-localhost}
 export ROS_MASTER_URI=${ROS_MASTER_URI:-http://localhost:11311}
 export ROSCONSOLE_STDOUT_LINE_BUFFERED=1
-_ekf_vislam_ws=${EKF_VISLAM_WS:-${_ekf_vislam_repo}/.ws}
+_ekf_vislam_ws=${EKF_VISLAM_WS:-${_ekf_vislam_repo}/build}
 if [ -f "${_ekf_vislam_ws}/devel/setup.bash" ]; then
   # shellcheck disable=SC1091
   source "${_ekf_vislam_ws}/devel/setup.bash"

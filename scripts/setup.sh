@@ -1,13 +1,13 @@
 #!/usr/bin/env bash
 # Idempotent set-up: installs the Debian packages ekf_vislam needs (when missing) and builds the
-# catkin workspace in a git-ignored folder of the repository (default <repo>/.ws, override with
+# catkin workspace in a git-ignored folder of the repository (default <repo>/build, override with
 # EKF_VISLAM_WS). Finishes in seconds when everything is installed and built.
 #   scripts/setup.sh            install + build
 #   scripts/setup.sh --tests    also build the test executables
 set -eo pipefail
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin:${PATH}
 REPO=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-WS=${EKF_VISLAM_WS:-${REPO}/.ws}
+WS=${EKF_VISLAM_WS:-${REPO}/build}
 BUILD_TESTS=0
 [[ "${1:-}" == "--tests" ]] && BUILD_TESTS=1
 

@@ -1,1 +1,63 @@
-// stub, replaced by the implementation
+#include "ekf_vislam/core/measurement_sequencer.h"
+
+#include <algorithm>
+
+namespace ekf_vislam {
+namespace {
+
+// Strict order: by stamp, twist before frame at equal stamps.
+bool before(const Measurement& a, const Measurement& b) {
+  const double ta = stampOf(a), tb = stampOf(b);
+  if (ta != tb) return ta < tb;
+  return std::holds_alternative<TwistData>(a) && !std::holds_alternative<TwistData>(b);
+}
+
+}  // namespace
+
+void MeasurementSequencer::push(Measurement measurement) {
+  const double stamp = stampOf(measurement);
+  const bool is_twist = std::holds_alternative<TwistData>(measurement);
+  if (stamp < released_until_) ++late_;
+  if (is_twist) {
+    newest_twist_ = std::max(newest_twist_, stamp);
+  } else {
+    newest_frame_ = std::max(newest_frame_, stamp);
+  }
+  // Insert after every element that is not after it (stable for equal keys).
+  auto it = std::upper_bound(buffer_.begin(), buffer_.end(), measurement, before);
+  buffer_.insert(it, std::move(measurement));
+}
+
+std::vector<Measurement> MeasurementSequencer::popReady() {
+  std::vector<Measurement> ready;
+  const double both_seen = std::min(newest_twist_, newest_frame_);
+  const double newest = std::max(newest_twist_, newest_frame_);
+  while (!buffer_.empty()) {
+    const double stamp = stampOf(buffer_.front());
+    // Both streams have reached this stamp: nothing earlier can still arrive (each stream is
+    // in order), and the equal-stamp tie is already resolved by the buffer order.
+    const bool covered = stamp <= both_seen;
+    const bool timed_out = newest - stamp > options_.max_delay;
+    const bool overfull = buffer_.size() > options_.max_buffered;
+    if (!(covered || timed_out || overfull)) break;
+    released_until_ = std::max(released_until_, stamp);
+    ready.push_back(std::move(buffer_.front()));
+    buffer_.pop_front();
+  }
+  return ready;
+}
+
+std::vector<Measurement> MeasurementSequencer::flush() {
+  std::vector<Measurement> all(std::make_move_iterator(buffer_.begin()),
+                               std::make_move_iterator(buffer_.end()));
+  buffer_.clear();
+  if (!all.empty()) released_until_ = std::max(released_until_, stampOf(all.back()));
+  return all;
+}
+
+void MeasurementSequencer::clear() {
+  buffer_.clear();
+  newest_twist_ = newest_frame_ = released_until_ = -1e300;
+}
+
+}  // namespace ekf_vislam

@@ -1,1 +1,674 @@
-// stub, replaced by the implementation
+#include "ekf_vislam/core/vislam_estimator.h"
+
+#include "ekf_vislam/core/chi_square.h"
+#include "ekf_vislam/core/se3.h"
+
+#include <Eigen/Cholesky>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <unordered_set>
+
+namespace ekf_vislam {
+
+struct VislamEstimator::Candidate {
+  StereoFeature feature;
+  size_t block = 0;  ///< state block (update candidates)
+  /// Restart of a landmark: overwrite this map entry instead of adding one.
+  size_t reuse_map_index = std::numeric_limits<size_t>::max();
+  Eigen::VectorXd residual;
+  Eigen::MatrixXd H_pose;      ///< rows x 6
+  Eigen::MatrixXd H_landmark;  ///< rows x 3
+};
+
+namespace {
+
+bool allFinite(const StereoFeature& f) {
+  return std::isfinite(f.u_left) && std::isfinite(f.v_left) && std::isfinite(f.u_right) &&
+         std::isfinite(f.v_right);
+}
+
+// Rows of the stereo observation used by the update: [uL, (vL + vR) / 2, uR] or all four.
+Eigen::MatrixXd observationSelector(bool merge_rows) {
+  if (!merge_rows) return Eigen::Matrix4d::Identity();
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(3, 4);
+  M(0, 0) = 1.0;
+  M(1, 1) = 0.5;
+  M(1, 3) = 0.5;
+  M(2, 2) = 1.0;
+  return M;
+}
+
+}  // namespace
+
+VislamEstimator::VislamEstimator(const VislamOptions& options) : options_(options) {
+  rows_per_observation_ = options_.merge_stereo_rows ? 3 : 4;
+  gate_threshold_ = chiSquareQuantile(options_.gating_probability, rows_per_observation_);
+  if (options_.estimate_velocity_bias) bias_components_.insert(bias_components_.end(), {0, 1, 2});
+  if (options_.estimate_gyro_bias) bias_components_.insert(bias_components_.end(), {3, 4, 5});
+  bias_dim_ = static_cast<int>(bias_components_.size());
+  initializeState();
+}
+
+bool VislamEstimator::setCalibration(const StereoCalibration& calibration, std::string* error) {
+  const std::string why = calibration.validate();
+  if (!why.empty()) {
+    if (error != nullptr) *error = "invalid calibration: " + why;
+    return false;
+  }
+  camera_ = StereoCamera(calibration);
+  has_calibration_ = true;
+  return true;
+}
+
+void VislamEstimator::setPriorCovariance() {
+  sigma_.topLeftCorner(dim_, dim_).setZero();
+  const double p2 = options_.prior_position_sigma * options_.prior_position_sigma;
+  const double r2 = options_.prior_rotation_sigma * options_.prior_rotation_sigma;
+  sigma_.diagonal().head<3>().setConstant(p2);
+  sigma_.diagonal().segment<3>(3).setConstant(r2);
+  for (int i = 0; i < bias_dim_; ++i) {
+    const double s = bias_components_[i] < 3 ? options_.velocity_bias_prior_sigma
+                                             : options_.gyro_bias_prior_sigma;
+    sigma_(kPoseDim + i, kPoseDim + i) = s * s;
+  }
+}
+
+void VislamEstimator::initializeState() {
+  initialized_ = false;
+  time_ = 0.0;
+  last_twist_stamp_ = 0.0;
+  held_twist_ = TwistData();
+  imu_T_world_.setIdentity();
+  bias_ = Eigen::VectorXd::Zero(bias_dim_);
+  dim_ = kPoseDim + bias_dim_;
+  const int capacity = std::max(64, dim_);
+  sigma_ = Eigen::MatrixXd::Zero(capacity, capacity);
+  p_world_ = Eigen::VectorXd::Zero(capacity);
+  setPriorCovariance();
+  blocks_.clear();
+  tracking_.clear();
+  map_.clear();
+  consecutive_rejected_frames_ = 0;
+}
+
+void VislamEstimator::reset() { initializeState(); }
+
+void VislamEstimator::ensureCapacity(int dim) {
+  const int capacity = static_cast<int>(sigma_.rows());
+  if (dim <= capacity) return;
+  const int new_capacity = std::max(dim, 2 * capacity);
+  Eigen::MatrixXd grown = Eigen::MatrixXd::Zero(new_capacity, new_capacity);
+  grown.topLeftCorner(dim_, dim_) = sigma_.topLeftCorner(dim_, dim_);
+  sigma_.swap(grown);
+  Eigen::VectorXd grown_mean = Eigen::VectorXd::Zero(new_capacity);
+  grown_mean.head(dim_) = p_world_.head(dim_);
+  p_world_.swap(grown_mean);
+}
+
+Vector6d VislamEstimator::biasVector() const {
+  Vector6d b = Vector6d::Zero();
+  for (int i = 0; i < bias_dim_; ++i) b(bias_components_[i]) = bias_(i);
+  return b;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Prediction
+// ---------------------------------------------------------------------------------------------
+
+FeedResult VislamEstimator::feedTwist(const TwistData& twist) {
+  FeedResult result;
+  auto reject = [&](Counter counter, const std::string& why) {
+    stats_.increment(counter);
+    result.accepted = false;
+    result.message = why;
+    return result;
+  };
+  if (!std::isfinite(twist.stamp) || !twist.v_imu.allFinite() || !twist.w_imu.allFinite()) {
+    return reject(Counter::kTwistNonFinite, "twist with NaN/Inf rejected");
+  }
+  if (twist.v_imu.norm() > options_.max_linear_speed ||
+      twist.w_imu.norm() > options_.max_angular_speed) {
+    std::ostringstream why;
+    why << "implausible twist rejected (|v| = " << twist.v_imu.norm()
+        << " m/s, |w| = " << twist.w_imu.norm() << " rad/s; limits/max_linear_speed = "
+        << options_.max_linear_speed << ", limits/max_angular_speed = "
+        << options_.max_angular_speed << ")";
+    return reject(Counter::kTwistImplausible, why.str());
+  }
+  if (!initialized_) {
+    initialized_ = true;
+    time_ = last_twist_stamp_ = twist.stamp;
+    held_twist_ = twist;
+    stats_.increment(Counter::kTwistUsed);
+    return result;
+  }
+  if (twist.stamp <= last_twist_stamp_) {
+    std::ostringstream why;
+    why << "twist stamp " << std::fixed << twist.stamp << " not after the previous twist ("
+        << last_twist_stamp_ << "): " << (twist.stamp == last_twist_stamp_ ? "duplicate" : "time went backwards");
+    return reject(Counter::kTwistNotIncreasing, why.str());
+  }
+  last_twist_dt_ = twist.stamp - last_twist_stamp_;
+  last_twist_stamp_ = twist.stamp;
+  if (twist.stamp < time_) {
+    // A feature frame after this stamp was already processed: keep it for the next interval.
+    held_twist_ = twist;
+    stats_.increment(Counter::kTwistLate);
+    result.message = "twist older than the filter time: held without prediction";
+    return result;
+  }
+  if (!advanceTo(twist.stamp, twist, &result)) return result;
+  held_twist_ = twist;
+  stats_.increment(Counter::kTwistUsed);
+  return result;
+}
+
+bool VislamEstimator::advanceTo(double stamp, const TwistData& twist, FeedResult* result) {
+  const double dt = stamp - time_;
+  if (dt <= 0.0) return true;
+  double noise_scale = 1.0;
+  if (dt > options_.max_twist_gap) {
+    stats_.increment(Counter::kTwistGap);
+    std::ostringstream why;
+    why << "no twist for " << dt << " s (limits/max_twist_gap = " << options_.max_twist_gap
+        << " s): ";
+    if (options_.gap_policy == GapPolicy::kReset) {
+      why << "filter reset (map kept)";
+      removeBlocks(std::vector<bool>(blocks_.size(), true));
+      imu_T_world_.setIdentity();
+      bias_.setZero();
+      setPriorCovariance();
+      time_ = stamp;
+      result->message = why.str();
+      return true;
+    }
+    why << "predicting across with process noise x " << options_.gap_noise_scale;
+    result->message = why.str();
+    noise_scale = options_.gap_noise_scale;
+  }
+  predict(dt, twist, noise_scale);
+  time_ = stamp;
+  return true;
+}
+
+void VislamEstimator::predict(double dt, const TwistData& twist, double noise_scale) {
+  Vector6d u;
+  u << twist.v_imu, twist.w_imu;
+  u -= biasVector();
+  const Vector6d xi = -dt * u;
+  const Eigen::Matrix4d motion = se3::exp(xi);
+  imu_T_world_ = motion * imu_T_world_;
+  se3::normalizeRotation(&imu_T_world_);
+
+  // F acts on the pose rows only: [Ad(exp(xi)) | dt J_l(xi) on the bias columns].
+  const int pb = kPoseDim + bias_dim_;
+  Eigen::MatrixXd F(kPoseDim, pb);
+  F.leftCols<kPoseDim>() = se3::adjoint(motion);
+  if (bias_dim_ > 0) {
+    const Matrix6d J = dt * se3::leftJacobian(xi);
+    for (int i = 0; i < bias_dim_; ++i) F.col(kPoseDim + i) = J.col(bias_components_[i]);
+  }
+  auto S = sigma_.topLeftCorner(dim_, dim_);
+  const Eigen::MatrixXd top = F * S.topRows(pb);
+  S.topRows<kPoseDim>() = top;
+  const Eigen::MatrixXd left = S.leftCols(pb) * F.transpose();
+  S.leftCols<kPoseDim>() = left;
+
+  const double qv = options_.linear_velocity_noise * options_.linear_velocity_noise;
+  const double qw = options_.angular_velocity_noise * options_.angular_velocity_noise;
+  S.diagonal().head<3>().array() += noise_scale * dt * qv;
+  S.diagonal().segment<3>(3).array() += noise_scale * dt * qw;
+  for (int i = 0; i < bias_dim_; ++i) {
+    const double rw = bias_components_[i] < 3 ? options_.velocity_bias_random_walk
+                                              : options_.gyro_bias_random_walk;
+    S(kPoseDim + i, kPoseDim + i) += dt * rw * rw;
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Feature frames
+// ---------------------------------------------------------------------------------------------
+
+FeedResult VislamEstimator::feedFeatures(const FeatureFrame& frame) {
+  FeedResult result;
+  auto reject = [&](Counter counter, const std::string& why) {
+    stats_.increment(counter);
+    result.accepted = false;
+    result.message = why;
+    result.observations_rejected = static_cast<int>(frame.features.size());
+    return result;
+  };
+  if (!std::isfinite(frame.stamp)) {
+    return reject(Counter::kFrameNonFiniteStamp, "feature frame with NaN/Inf stamp rejected");
+  }
+  if (!initialized_) {
+    return reject(Counter::kFrameBeforeTwist, "feature frame before the first twist rejected");
+  }
+  if (!has_calibration_) {
+    return reject(Counter::kFrameNoCalibration,
+                  "feature frame rejected: no valid stereo calibration yet");
+  }
+  if (frame.stamp < time_) {
+    std::ostringstream why;
+    why << "feature frame " << std::fixed << frame.stamp << " older than the filter time " << time_
+        << ": rejected";
+    return reject(Counter::kFrameStale, why.str());
+  }
+  if (!advanceTo(frame.stamp, held_twist_, &result)) return result;
+  stats_.increment(Counter::kFrameUsed);
+  if (frame.features.empty()) stats_.increment(Counter::kFrameEmpty);
+  if (options_.mode == EstimatorMode::kDeadReckoning) {
+    stats_.increment(Counter::kObsIgnoredDeadReckoning, frame.features.size());
+    return result;
+  }
+  processFrame(frame, &result);
+  return result;
+}
+
+void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result) {
+  size_t count = frame.features.size();
+  if (options_.max_features_per_frame > 0 &&
+      count > static_cast<size_t>(options_.max_features_per_frame)) {
+    stats_.increment(Counter::kFrameCapped);
+    std::ostringstream why;
+    why << "frame with " << count << " features capped to limits/max_features_per_frame = "
+        << options_.max_features_per_frame;
+    result->message = why.str();
+    result->observations_rejected += static_cast<int>(count) - options_.max_features_per_frame;
+    count = options_.max_features_per_frame;
+  }
+
+  // 1. Screen every feature; collect the ids present (even rejected ones keep their track alive).
+  std::unordered_set<uint32_t> present;
+  present.reserve(2 * count);
+  std::vector<Candidate> updates, initializations;
+  updates.reserve(count);
+  auto rejectObservation = [&](Counter counter) {
+    stats_.increment(counter);
+    ++result->observations_rejected;
+  };
+  for (size_t i = 0; i < count; ++i) {
+    const StereoFeature& f = frame.features[i];
+    if (!present.insert(f.id).second) {
+      rejectObservation(Counter::kObsDuplicateId);
+      continue;
+    }
+    if (!allFinite(f)) {
+      rejectObservation(Counter::kObsNonFinite);
+    } else if (!camera_.inImage(f.u_left, f.v_left) || !camera_.inImage(f.u_right, f.v_right)) {
+      rejectObservation(Counter::kObsOutsideImage);
+    } else if (std::fabs(f.v_left - f.v_right) > options_.max_row_difference_px) {
+      rejectObservation(Counter::kObsRowMismatch);
+    } else if (f.u_left - f.u_right < options_.min_disparity_px) {
+      rejectObservation(Counter::kObsDisparity);
+    } else {
+      Candidate c;
+      c.feature = f;
+      auto it = tracking_.find(f.id);
+      if (it != tracking_.end()) {
+        c.block = it->second;
+        updates.push_back(std::move(c));
+      } else {
+        initializations.push_back(std::move(c));
+      }
+    }
+  }
+
+  // 2. Tracks that ended leave the state (before the update: a smaller state is cheaper).
+  std::vector<bool> ended(blocks_.size(), false);
+  bool any_ended = false;
+  for (const auto& [id, block] : tracking_) {
+    if (!present.count(id)) {
+      ended[block] = true;
+      any_ended = true;
+    }
+  }
+  if (any_ended) {
+    if (options_.keep_all_landmarks_in_state) {
+      for (size_t k = 0; k < blocks_.size(); ++k) {
+        if (ended[k]) {
+          tracking_.erase(map_[blocks_[k].map_index].id);
+          blocks_[k].tracking = false;
+        }
+      }
+    } else {
+      std::vector<size_t> update_map_index;
+      for (const Candidate& c : updates) update_map_index.push_back(blocks_[c.block].map_index);
+      const size_t before = blocks_.size();
+      removeBlocks(ended);
+      result->landmarks_marginalized += static_cast<int>(before - blocks_.size());
+      for (size_t i = 0; i < updates.size(); ++i) {
+        updates[i].block = tracking_.at(map_[update_map_index[i]].id);
+      }
+    }
+  }
+
+  // 3. Joint update with the re-observed landmarks; 4. new landmarks from the corrected pose.
+  std::vector<Candidate> reinitialize;
+  const int candidates = static_cast<int>(updates.size());
+  const uint64_t gated_before = stats_.get(Counter::kObsGated);
+  if (!updates.empty()) update(&updates, &reinitialize, result);
+  const int gated = static_cast<int>(stats_.get(Counter::kObsGated) - gated_before);
+  for (const Candidate& c : reinitialize) initializeLandmark(c, frame.stamp, result);
+  for (const Candidate& c : initializations) initializeLandmark(c, frame.stamp, result);
+  syncBlocksToMap();
+  checkHealth(candidates, gated, result);
+}
+
+void VislamEstimator::update(std::vector<Candidate>* candidates,
+                             std::vector<Candidate>* reinitialize, FeedResult* result) {
+  const int r = rows_per_observation_;
+  const Eigen::MatrixXd M = observationSelector(options_.merge_stereo_rows);
+  const double pixel_var = options_.pixel_sigma * options_.pixel_sigma;
+  const bool correct_pose = options_.mode == EstimatorMode::kSlam;
+  auto S = sigma_.topLeftCorner(dim_, dim_);
+
+  // Predict each observation, gate it against its own innovation covariance.
+  std::vector<Candidate*> accepted;
+  std::vector<size_t> remove_for_reinit;
+  accepted.reserve(candidates->size());
+  for (Candidate& c : *candidates) {
+    const int row = landmarkRow(c.block);
+    const Eigen::Vector3d p_world = p_world_.segment<3>(row);
+    Eigen::Vector4d z_pred;
+    Matrix46d H_pose;
+    Matrix43d H_landmark;
+    if (!camera_.project(imu_T_world_, p_world, &z_pred, &H_pose, &H_landmark,
+                         options_.min_depth * 0.5)) {
+      stats_.increment(Counter::kObsBehindCamera);
+      ++result->observations_rejected;
+      continue;
+    }
+    const Eigen::Vector4d z(c.feature.u_left, c.feature.v_left, c.feature.u_right,
+                            c.feature.v_right);
+    c.residual = M * (z - z_pred);
+    c.H_pose = correct_pose ? Eigen::MatrixXd(M * H_pose) : Eigen::MatrixXd::Zero(r, kPoseDim);
+    c.H_landmark = M * H_landmark;
+    // S_i = H_i Sigma_[pose, landmark] H_i^T + R.
+    Eigen::MatrixXd Hi(r, 9);
+    Hi << c.H_pose, c.H_landmark;
+    Eigen::Matrix<double, 9, 9> sub;
+    sub.topLeftCorner<6, 6>() = S.topLeftCorner<6, 6>();
+    sub.topRightCorner<6, 3>() = S.block<6, 3>(0, row);
+    sub.bottomLeftCorner<3, 6>() = S.block<3, 6>(row, 0);
+    sub.bottomRightCorner<3, 3>() = S.block<3, 3>(row, row);
+    Eigen::MatrixXd Si = Hi * sub * Hi.transpose();
+    Si.diagonal().array() += pixel_var;
+    const double d2 = c.residual.dot(Si.ldlt().solve(c.residual));
+    if (!(d2 <= gate_threshold_)) {
+      stats_.increment(Counter::kObsGated);
+      ++result->observations_rejected;
+      // A landmark known from one observation only may have been started by an outlier:
+      // restart it from this observation instead of gating its whole track away.
+      if (map_[blocks_[c.block].map_index].observations <= 1) {
+        remove_for_reinit.push_back(c.block);
+        reinitialize->push_back(c);
+        reinitialize->back().reuse_map_index = blocks_[c.block].map_index;
+      }
+      continue;
+    }
+    accepted.push_back(&c);
+  }
+
+  if (!accepted.empty()) {
+    const int n = static_cast<int>(accepted.size());
+    const int m = r * n;
+    // P H^T (dim x m), using the sparsity of H: each observation touches pose + one landmark.
+    Eigen::MatrixXd PHt(dim_, m);
+    for (int k = 0; k < n; ++k) {
+      const Candidate& c = *accepted[k];
+      const int row = landmarkRow(c.block);
+      PHt.middleCols(k * r, r).noalias() = S.middleCols(row, 3) * c.H_landmark.transpose();
+      if (correct_pose) PHt.middleCols(k * r, r).noalias() += S.leftCols<6>() * c.H_pose.transpose();
+    }
+    // Innovation covariance H P H^T + R (m x m).
+    Eigen::MatrixXd innovation_cov(m, m);
+    Eigen::VectorXd residual(m);
+    for (int k = 0; k < n; ++k) {
+      const Candidate& c = *accepted[k];
+      const int row = landmarkRow(c.block);
+      innovation_cov.middleRows(k * r, r).noalias() = c.H_landmark * PHt.middleRows(row, 3);
+      if (correct_pose) innovation_cov.middleRows(k * r, r).noalias() += c.H_pose * PHt.topRows<6>();
+      residual.segment(k * r, r) = c.residual;
+    }
+    innovation_cov.diagonal().array() += pixel_var;
+    Eigen::LLT<Eigen::MatrixXd> llt(innovation_cov);
+    if (llt.info() != Eigen::Success) {
+      stats_.increment(Counter::kUpdateNonFinite);
+      result->message = "innovation covariance not positive definite: update skipped";
+    } else {
+      // B = L^-1 (P H^T)^T; dx = B^T L^-1 r; Sigma -= B^T B (symmetric by construction).
+      const Eigen::MatrixXd B = llt.matrixL().solve(PHt.transpose());
+      const Eigen::VectorXd w = llt.matrixL().solve(residual);
+      const Eigen::VectorXd dx = B.transpose() * w;
+      if (!dx.allFinite() || !B.allFinite()) {
+        stats_.increment(Counter::kUpdateNonFinite);
+        result->message = "update produced non-finite numbers: discarded";
+      } else {
+        S.selfadjointView<Eigen::Lower>().rankUpdate(B.transpose(), -1.0);
+        for (int j = 1; j < dim_; ++j) S.col(j).head(j) = S.row(j).head(j).transpose();
+        if (correct_pose) {
+          imu_T_world_ = se3::exp(dx.head<6>()) * imu_T_world_;
+          se3::normalizeRotation(&imu_T_world_);
+        }
+        if (bias_dim_ > 0) bias_ += dx.segment(kPoseDim, bias_dim_);
+        const int base = kPoseDim + bias_dim_;
+        p_world_.segment(base, dim_ - base) += dx.segment(base, dim_ - base);
+        for (const Candidate* c : accepted) ++map_[blocks_[c->block].map_index].observations;
+        stats_.increment(Counter::kObservationUpdate, n);
+        result->observations_updated += n;
+        // Guard: the diagonal must stay positive.
+        if (!(S.diagonal().array() > 0.0).all()) {
+          stats_.increment(Counter::kCovarianceRepaired);
+          S.diagonal() = S.diagonal().cwiseMax(1e-12);
+        }
+      }
+    }
+  }
+
+  if (!remove_for_reinit.empty()) {
+    std::vector<bool> remove(blocks_.size(), false);
+    for (size_t b : remove_for_reinit) remove[b] = true;
+    removeBlocks(remove, /*count_as_marginalized=*/false);
+    stats_.increment(Counter::kLandmarkReinitialized, remove_for_reinit.size());
+  }
+}
+
+bool VislamEstimator::initializeLandmark(const Candidate& c, double stamp, FeedResult* result) {
+  const StereoFeature& f = c.feature;
+  const double v = options_.merge_stereo_rows ? 0.5 * (f.v_left + f.v_right) : f.v_left;
+  Eigen::Vector3d p_cam;
+  Eigen::Matrix3d J_uvu;
+  if (!camera_.triangulate(f.u_left, v, f.u_right, &p_cam, &J_uvu)) {
+    stats_.increment(Counter::kObsDisparity);
+    ++result->observations_rejected;
+    return false;
+  }
+  if (p_cam.z() < options_.min_depth || p_cam.z() > options_.max_depth) {
+    stats_.increment(Counter::kObsDepth);
+    ++result->observations_rejected;
+    return false;
+  }
+  const Eigen::Matrix4d& imu_T_cam = camera_.imuTCam();
+  const Eigen::Vector3d p_imu = imu_T_cam.topLeftCorner<3, 3>() * p_cam + imu_T_cam.topRightCorner<3, 1>();
+  const Eigen::Matrix3d R_world_imu = imu_T_world_.topLeftCorner<3, 3>().transpose();
+  const Eigen::Vector3d p_world =
+      R_world_imu * (p_imu - imu_T_world_.topRightCorner<3, 1>());
+
+  const double pixel_var = options_.pixel_sigma * options_.pixel_sigma;
+  const Eigen::Matrix3d J_z = R_world_imu * imu_T_cam.topLeftCorner<3, 3>() * J_uvu;
+  Eigen::Matrix3d sigma_ll = pixel_var * J_z * J_z.transpose();
+
+  const int row = dim_;
+  ensureCapacity(dim_ + 3);
+  auto S = sigma_.topLeftCorner(dim_ + 3, dim_ + 3);
+  if (options_.mode == EstimatorMode::kSlam) {
+    // p_world = U^-1 exp(-dxi^) p_imu  =>  d p_world / d dxi = [-R^T, R^T p_imu^].
+    Eigen::Matrix<double, 3, 6> J_pose;
+    J_pose.leftCols<3>() = -R_world_imu;
+    J_pose.rightCols<3>() = R_world_imu * se3::hat(p_imu);
+    const Eigen::MatrixXd cross = J_pose * S.topLeftCorner(6, dim_);  // 3 x dim
+    S.block(row, 0, 3, dim_) = cross;
+    S.block(0, row, dim_, 3) = cross.transpose();
+    sigma_ll += J_pose * S.topLeftCorner<6, 6>() * J_pose.transpose();
+  } else {
+    S.block(row, 0, 3, dim_).setZero();
+    S.block(0, row, dim_, 3).setZero();
+  }
+  S.block<3, 3>(row, row) = sigma_ll;
+  p_world_.segment<3>(row) = p_world;
+  dim_ += 3;
+
+  const bool reuse = c.reuse_map_index < map_.size();
+  LandmarkEstimate& estimate = reuse ? map_[c.reuse_map_index] : map_.emplace_back();
+  estimate.id = f.id;
+  estimate.p_world = p_world;
+  estimate.covariance = sigma_ll;
+  estimate.observations = 1;
+  estimate.active = true;
+  estimate.first_stamp = estimate.last_stamp = stamp;
+  blocks_.push_back(StateBlock{reuse ? c.reuse_map_index : map_.size() - 1, true});
+  tracking_[f.id] = blocks_.size() - 1;
+  stats_.increment(Counter::kLandmarkInitialized);
+  stats_.increment(Counter::kObservationInitialized);
+  ++result->landmarks_initialized;
+  return true;
+}
+
+void VislamEstimator::syncBlocksToMap() {
+  const auto S = sigma_.topLeftCorner(dim_, dim_);
+  for (size_t k = 0; k < blocks_.size(); ++k) {
+    LandmarkEstimate& l = map_[blocks_[k].map_index];
+    const int row = landmarkRow(k);
+    l.p_world = p_world_.segment<3>(row);
+    l.covariance = S.block<3, 3>(row, row);
+    l.active = true;
+    if (blocks_[k].tracking) l.last_stamp = time_;
+  }
+}
+
+void VislamEstimator::removeBlocks(const std::vector<bool>& remove, bool count_as_marginalized) {
+  syncBlocksToMap();
+  std::vector<int> keep_rows;
+  keep_rows.reserve(dim_);
+  for (int i = 0; i < kPoseDim + bias_dim_; ++i) keep_rows.push_back(i);
+  std::vector<StateBlock> kept_blocks;
+  for (size_t k = 0; k < blocks_.size(); ++k) {
+    if (remove[k]) {
+      LandmarkEstimate& l = map_[blocks_[k].map_index];
+      l.active = false;
+      tracking_.erase(l.id);
+      if (count_as_marginalized) stats_.increment(Counter::kLandmarkMarginalized);
+      continue;
+    }
+    const int row = landmarkRow(k);
+    for (int i = 0; i < 3; ++i) keep_rows.push_back(row + i);
+    kept_blocks.push_back(blocks_[k]);
+  }
+  // Compact in place: new indices never exceed old ones, so ascending copies are safe.
+  const int new_dim = static_cast<int>(keep_rows.size());
+  for (int c = 0; c < new_dim; ++c) {
+    if (keep_rows[c] != c) sigma_.col(c).head(dim_) = sigma_.col(keep_rows[c]).head(dim_);
+  }
+  for (int c = 0; c < new_dim; ++c) {
+    for (int r = 0; r < new_dim; ++r) {
+      if (keep_rows[r] != r) sigma_(r, c) = sigma_(keep_rows[r], c);
+    }
+  }
+  for (int r = 0; r < new_dim; ++r) p_world_(r) = p_world_(keep_rows[r]);
+  dim_ = new_dim;
+  blocks_.swap(kept_blocks);
+  tracking_.clear();
+  for (size_t k = 0; k < blocks_.size(); ++k) {
+    if (blocks_[k].tracking) tracking_[map_[blocks_[k].map_index].id] = k;
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Health
+// ---------------------------------------------------------------------------------------------
+
+void VislamEstimator::checkHealth(int candidates, int gated, FeedResult* result) {
+  if (candidates >= 10 && gated > options_.rejected_fraction * candidates) {
+    ++consecutive_rejected_frames_;
+  } else {
+    consecutive_rejected_frames_ = 0;
+  }
+  const double position_sigma =
+      std::sqrt(sigma_.diagonal().head<3>().maxCoeff());
+  if (!std::isfinite(position_sigma) || position_sigma > options_.max_position_sigma) {
+    std::ostringstream why;
+    why << "pose covariance blew up (position sigma " << position_sigma << " m > health/max_position_sigma)";
+    recoverFromDivergence(why.str(), result);
+  } else if (consecutive_rejected_frames_ >= options_.max_rejected_frames) {
+    std::ostringstream why;
+    why << consecutive_rejected_frames_ << " consecutive frames with most observations gated";
+    recoverFromDivergence(why.str(), result);
+  }
+}
+
+void VislamEstimator::recoverFromDivergence(const std::string& why, FeedResult* result) {
+  stats_.increment(Counter::kDivergenceRecovery);
+  consecutive_rejected_frames_ = 0;
+  removeBlocks(std::vector<bool>(blocks_.size(), true));
+  if (options_.divergence_policy == DivergencePolicy::kResetFilter) {
+    bias_.setZero();
+    setPriorCovariance();
+    result->message = "divergence: " + why + "; filter restarted at the current pose";
+  } else {
+    // Keep the pose and bias estimates; their covariance must stay finite and bounded.
+    if (!sigma_.topLeftCorner(dim_, dim_).allFinite() ||
+        std::sqrt(sigma_.diagonal().head<3>().maxCoeff()) > options_.max_position_sigma) {
+      setPriorCovariance();
+    }
+    result->message = "divergence: " + why + "; landmarks dropped from the state";
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Outputs
+// ---------------------------------------------------------------------------------------------
+
+Eigen::Isometry3d VislamEstimator::worldTImu() const {
+  return Eigen::Isometry3d(se3::inverse(imu_T_world_));
+}
+
+Matrix6d VislamEstimator::poseCovarianceWorld() const {
+  const Eigen::Matrix3d R = imu_T_world_.topLeftCorner<3, 3>().transpose();  // world_R_imu
+  Matrix6d M = Matrix6d::Zero();
+  M.topLeftCorner<3, 3>() = R;
+  M.bottomRightCorner<3, 3>() = R;
+  const Matrix6d pose = sigma_.topLeftCorner<6, 6>();
+  return M * pose * M.transpose();
+}
+
+TwistData VislamEstimator::correctedTwist() const {
+  TwistData t = held_twist_;
+  const Vector6d b = biasVector();
+  t.v_imu -= b.head<3>();
+  t.w_imu -= b.tail<3>();
+  return t;
+}
+
+Matrix6d VislamEstimator::correctedTwistCovariance() const {
+  Matrix6d cov = Matrix6d::Zero();
+  const double dt = std::max(1e-3, last_twist_dt_);
+  cov.diagonal().head<3>().setConstant(options_.linear_velocity_noise *
+                                       options_.linear_velocity_noise / dt);
+  cov.diagonal().tail<3>().setConstant(options_.angular_velocity_noise *
+                                       options_.angular_velocity_noise / dt);
+  for (int i = 0; i < bias_dim_; ++i) {
+    for (int j = 0; j < bias_dim_; ++j) {
+      cov(bias_components_[i], bias_components_[j]) +=
+          sigma_(kPoseDim + i, kPoseDim + j);
+    }
+  }
+  return cov;
+}
+
+Vector6d VislamEstimator::twistBias() const { return biasVector(); }
+
+}  // namespace ekf_vislam

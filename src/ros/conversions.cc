@@ -1,1 +1,208 @@
-// stub
+#include "ekf_vislam/ros/conversions.h"
+
+#include <tf2_eigen/tf2_eigen.h>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace ekf_vislam {
+namespace ros_conversions {
+
+namespace {
+
+ros::Time toRosTime(double stamp) {
+  ros::Time time;
+  if (std::isfinite(stamp) && stamp >= 0.0 && stamp < 4294967295.0) time.fromSec(stamp);
+  return time;
+}
+
+bool allZero(const boost::array<double, 12>& p) {
+  for (double value : p) {
+    if (value != 0.0) return false;
+  }
+  return true;
+}
+
+struct Intrinsics {
+  double fx, fy, cx, cy, tx;  // tx = P[0,3]
+};
+
+Intrinsics intrinsicsOf(const sensor_msgs::CameraInfo& info) {
+  if (!allZero(info.P)) return {info.P[0], info.P[5], info.P[2], info.P[6], info.P[3]};
+  return {info.K[0], info.K[4], info.K[2], info.K[5], 0.0};
+}
+
+}  // namespace
+
+TwistData toTwistData(const geometry_msgs::TwistStamped& msg) {
+  TwistData twist;
+  twist.stamp = msg.header.stamp.toSec();
+  twist.v_imu << msg.twist.linear.x, msg.twist.linear.y, msg.twist.linear.z;
+  twist.w_imu << msg.twist.angular.x, msg.twist.angular.y, msg.twist.angular.z;
+  return twist;
+}
+
+geometry_msgs::TwistStamped toTwistMsg(const TwistData& twist, const std::string& frame_id) {
+  geometry_msgs::TwistStamped msg;
+  msg.header.stamp = toRosTime(twist.stamp);
+  msg.header.frame_id = frame_id;
+  msg.twist.linear.x = twist.v_imu.x();
+  msg.twist.linear.y = twist.v_imu.y();
+  msg.twist.linear.z = twist.v_imu.z();
+  msg.twist.angular.x = twist.w_imu.x();
+  msg.twist.angular.y = twist.w_imu.y();
+  msg.twist.angular.z = twist.w_imu.z();
+  return msg;
+}
+
+FeatureFrame toFeatureFrame(const ekf_vislam::StereoFeatureArray& msg) {
+  FeatureFrame frame;
+  frame.stamp = msg.header.stamp.toSec();
+  frame.features.reserve(msg.features.size());
+  for (const auto& f : msg.features) {
+    StereoFeature feature;
+    feature.id = f.id;
+    feature.u_left = f.u_left;
+    feature.v_left = f.v_left;
+    feature.u_right = f.u_right;
+    feature.v_right = f.v_right;
+    frame.features.push_back(feature);
+  }
+  return frame;
+}
+
+ekf_vislam::StereoFeatureArray toFeatureArrayMsg(const FeatureFrame& frame,
+                                                 const std::string& frame_id) {
+  ekf_vislam::StereoFeatureArray msg;
+  msg.header.stamp = toRosTime(frame.stamp);
+  msg.header.frame_id = frame_id;
+  msg.features.reserve(frame.features.size());
+  for (const StereoFeature& feature : frame.features) {
+    ekf_vislam::StereoFeatureMsg f;
+    f.id = feature.id;
+    f.u_left = static_cast<float>(feature.u_left);
+    f.v_left = static_cast<float>(feature.v_left);
+    f.u_right = static_cast<float>(feature.u_right);
+    f.v_right = static_cast<float>(feature.v_right);
+    msg.features.push_back(f);
+  }
+  return msg;
+}
+
+bool calibrationFromCameraInfo(const sensor_msgs::CameraInfo& left,
+                               const sensor_msgs::CameraInfo& right,
+                               StereoCalibration* calibration, std::string* error,
+                               double tolerance_px) {
+  const Intrinsics l = intrinsicsOf(left);
+  const Intrinsics r = intrinsicsOf(right);
+  std::ostringstream why;
+  auto finitePositive = [](double v) { return std::isfinite(v) && v > 0.0; };
+  if (!finitePositive(l.fx) || !finitePositive(l.fy) || !finitePositive(r.fx) ||
+      !finitePositive(r.fy)) {
+    why << "camera_info focal lengths must be finite and positive (left fx=" << l.fx
+        << " fy=" << l.fy << ", right fx=" << r.fx << " fy=" << r.fy << ")";
+  } else if (!std::isfinite(l.cx) || !std::isfinite(l.cy) || !std::isfinite(r.cx) ||
+             !std::isfinite(r.cy) || !std::isfinite(r.tx)) {
+    why << "camera_info principal point or P[0,3] is not finite";
+  } else if (std::abs(l.fx - r.fx) > tolerance_px || std::abs(l.fy - r.fy) > tolerance_px ||
+             std::abs(l.cx - r.cx) > tolerance_px || std::abs(l.cy - r.cy) > tolerance_px) {
+    why << "left and right camera_info intrinsics disagree (left fx fy cx cy = " << l.fx << " "
+        << l.fy << " " << l.cx << " " << l.cy << ", right = " << r.fx << " " << r.fy << " "
+        << r.cx << " " << r.cy << "): the stereo pair must be rectified";
+  } else if (!(-r.tx / r.fx > 0.0)) {
+    why << "stereo baseline -P_right[0,3]/fx_right must be positive (P_right[0,3]=" << r.tx
+        << ")";
+  }
+  if (!why.str().empty()) {
+    if (error) *error = why.str();
+    return false;
+  }
+  calibration->fx = l.fx;
+  calibration->fy = l.fy;
+  calibration->cx = l.cx;
+  calibration->cy = l.cy;
+  calibration->baseline = -r.tx / r.fx;
+  calibration->image_width = static_cast<int>(left.width);
+  calibration->image_height = static_cast<int>(left.height);
+  return true;
+}
+
+void cameraInfoFromCalibration(const StereoCalibration& calibration,
+                               sensor_msgs::CameraInfo* left, sensor_msgs::CameraInfo* right) {
+  for (sensor_msgs::CameraInfo* info : {left, right}) {
+    *info = sensor_msgs::CameraInfo();
+    info->width = static_cast<uint32_t>(std::max(0, calibration.image_width));
+    info->height = static_cast<uint32_t>(std::max(0, calibration.image_height));
+    info->distortion_model = "plumb_bob";
+    info->D.assign(5, 0.0);
+    info->K = {calibration.fx, 0.0, calibration.cx, 0.0, calibration.fy, calibration.cy,
+               0.0, 0.0, 1.0};
+    info->R = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0};
+    info->P = {calibration.fx, 0.0, calibration.cx, 0.0, 0.0, calibration.fy, calibration.cy,
+               0.0, 0.0, 0.0, 1.0, 0.0};
+  }
+  right->P[3] = -calibration.fx * calibration.baseline;
+}
+
+Eigen::Isometry3d toIsometry(const geometry_msgs::Transform& msg) {
+  Eigen::Quaterniond q(msg.rotation.w, msg.rotation.x, msg.rotation.y, msg.rotation.z);
+  const double norm = q.norm();
+  if (norm == 0.0) {
+    q = Eigen::Quaterniond::Identity();
+  } else {
+    q.coeffs() /= norm;  // NaN stays NaN
+  }
+  Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();
+  transform.linear() = q.toRotationMatrix();
+  transform.translation() << msg.translation.x, msg.translation.y, msg.translation.z;
+  return transform;
+}
+
+geometry_msgs::Transform toTransformMsg(const Eigen::Isometry3d& transform) {
+  return tf2::eigenToTransform(transform).transform;
+}
+
+geometry_msgs::Pose toPoseMsg(const Eigen::Isometry3d& transform) {
+  return tf2::toMsg(transform);
+}
+
+void toCovarianceMsg(const Eigen::Matrix<double, 6, 6>& covariance,
+                     boost::array<double, 36>* out) {
+  for (int r = 0; r < 6; ++r) {
+    for (int c = 0; c < 6; ++c) (*out)[6 * r + c] = covariance(r, c);
+  }
+}
+
+Eigen::Matrix<double, 6, 6> fromCovarianceMsg(const boost::array<double, 36>& msg) {
+  Eigen::Matrix<double, 6, 6> covariance;
+  for (int r = 0; r < 6; ++r) {
+    for (int c = 0; c < 6; ++c) covariance(r, c) = msg[6 * r + c];
+  }
+  return covariance;
+}
+
+bool toOdometryMsg(double stamp, const std::string& world_frame, const std::string& imu_frame,
+                   const Eigen::Isometry3d& world_T_imu,
+                   const Eigen::Matrix<double, 6, 6>& pose_covariance_world,
+                   const TwistData& twist_imu, const Eigen::Matrix<double, 6, 6>& twist_covariance,
+                   nav_msgs::Odometry* out) {
+  if (!std::isfinite(stamp) || !world_T_imu.matrix().allFinite() ||
+      !pose_covariance_world.allFinite() || !twist_imu.v_imu.allFinite() ||
+      !twist_imu.w_imu.allFinite() || !twist_covariance.allFinite()) {
+    return false;
+  }
+  nav_msgs::Odometry msg;
+  msg.header.stamp = toRosTime(stamp);
+  msg.header.frame_id = world_frame;
+  msg.child_frame_id = imu_frame;
+  msg.pose.pose = toPoseMsg(world_T_imu);
+  toCovarianceMsg(pose_covariance_world, &msg.pose.covariance);
+  msg.twist.twist = toTwistMsg(twist_imu, imu_frame).twist;
+  toCovarianceMsg(twist_covariance, &msg.twist.covariance);
+  *out = msg;
+  return true;
+}
+
+}  // namespace ros_conversions
+}  // namespace ekf_vislam

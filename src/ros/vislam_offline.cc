@@ -1,1 +1,251 @@
-int main() { return 0; }
+// Offline runner: a bag in, trajectory.tum + landmarks.csv + stats.json out. No roscore.
+//
+//   rosrun ekf_vislam vislam_offline --bag IN.bag --out DIR [--mode slam|mapping|deadreckoning]
+//       [--config FILE] [--imu-frame NAME] [--twist-topic T] [--features-topic T]
+//       [--left-info-topic T] [--right-info-topic T] [--tf-static-topic T]
+//
+// Feeds the estimator through the same conversions, MeasurementSequencer and EstimatorRunner as
+// the nodelet, so the nodelet's trajectory on the same bag is the same.
+#include "ekf_vislam/core/yaml_parameter_source.h"
+#include "ekf_vislam/ros/bag_reader.h"
+#include "ekf_vislam/ros/conversions.h"
+#include "ekf_vislam/ros/estimator_runner.h"
+#include "ekf_vislam/ros/vislam_ros_options.h"
+
+#ifdef EKF_VISLAM_HAVE_ROSLIB
+#include <ros/package.h>
+#endif
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <iostream>
+#include <map>
+#include <string>
+#include <sys/stat.h>
+#include <unistd.h>
+
+namespace {
+
+using namespace ekf_vislam;
+
+const char* kUsage =
+    "usage: vislam_offline --bag IN.bag --out DIR [--mode slam|mapping|deadreckoning]\n"
+    "                      [--config FILE] [--imu-frame NAME] [--twist-topic T]\n"
+    "                      [--features-topic T] [--left-info-topic T] [--right-info-topic T]\n"
+    "                      [--tf-static-topic T]\n"
+    "Runs the EKF on a bag without a roscore and writes DIR/trajectory.tum (world_T_imu after\n"
+    "every feature frame), DIR/landmarks.csv and DIR/stats.json. --mode overrides the config's\n"
+    "mode; the default config is config/default.yaml of the ekf_vislam package.\n";
+
+bool fileExists(const std::string& path) {
+  struct stat info;
+  return ::stat(path.c_str(), &info) == 0 && S_ISREG(info.st_mode);
+}
+
+std::string defaultConfigPath() {
+#ifdef EKF_VISLAM_HAVE_ROSLIB
+  if (std::getenv("ROS_PACKAGE_PATH") != nullptr) {
+    const std::string package = ros::package::getPath("ekf_vislam");
+    if (!package.empty() && fileExists(package + "/config/default.yaml")) {
+      return package + "/config/default.yaml";
+    }
+  }
+#endif
+#ifdef EKF_VISLAM_SOURCE_DIR
+  if (fileExists(std::string(EKF_VISLAM_SOURCE_DIR) + "/config/default.yaml")) {
+    return std::string(EKF_VISLAM_SOURCE_DIR) + "/config/default.yaml";
+  }
+#endif
+  return "";
+}
+
+int fail(const std::string& message) {
+  std::cerr << "vislam_offline: " << message << std::endl;
+  return 1;
+}
+
+class Progress {
+ public:
+  Progress() : enabled_(::isatty(STDERR_FILENO) == 1) {}
+  void update(double fraction) {
+    if (!enabled_) return;
+    const int percent = static_cast<int>(std::floor(100.0 * std::min(1.0, std::max(0.0, fraction))));
+    if (percent == last_) return;
+    last_ = percent;
+    const int width = 40;
+    const int filled = percent * width / 100;
+    std::fprintf(stderr, "\r[%s%s] %3d%%", std::string(filled, '#').c_str(),
+                 std::string(width - filled, ' ').c_str(), percent);
+    std::fflush(stderr);
+  }
+  void done() {
+    if (enabled_ && last_ >= 0) std::fprintf(stderr, "\r%60s\r", "");
+  }
+
+ private:
+  bool enabled_;
+  int last_ = -1;
+};
+
+int run(int argc, char** argv) {
+  std::map<std::string, std::string> args;
+  const std::map<std::string, std::string> known = {
+      {"--bag", ""},         {"--out", ""},           {"--mode", ""},
+      {"--config", ""},      {"--imu-frame", ""},     {"--twist-topic", ""},
+      {"--features-topic", ""}, {"--left-info-topic", ""}, {"--right-info-topic", ""},
+      {"--tf-static-topic", ""}};
+  for (int i = 1; i < argc; ++i) {
+    std::string flag = argv[i];
+    if (flag == "-h" || flag == "--help") {
+      std::cout << kUsage;
+      return 0;
+    }
+    std::string value;
+    const size_t eq = flag.find('=');
+    if (eq != std::string::npos) {
+      value = flag.substr(eq + 1);
+      flag = flag.substr(0, eq);
+    } else if (i + 1 < argc) {
+      value = argv[++i];
+    } else {
+      std::cerr << "vislam_offline: " << flag << " needs a value\n" << kUsage;
+      return 2;
+    }
+    if (known.count(flag) == 0) {
+      std::cerr << "vislam_offline: unknown option " << flag << "\n" << kUsage;
+      return 2;
+    }
+    args[flag] = value;
+  }
+  if (args["--bag"].empty() || args["--out"].empty()) {
+    std::cerr << "vislam_offline: --bag and --out are required\n" << kUsage;
+    return 2;
+  }
+
+  // Options: the same keys as the nodelet reads from the parameter server.
+  std::string config = args["--config"];
+  if (config.empty()) {
+    config = defaultConfigPath();
+    if (config.empty()) return fail("no --config given and config/default.yaml of ekf_vislam not found");
+  }
+  YamlParameterSource source(config);
+  if (!source.ok()) return fail("cannot read config " + config + ": " + source.error());
+  VislamOptions options;
+  VislamRosOptions ros_options;
+  std::string error;
+  if (!parseVislamOptions(source, &options, &error)) return fail(error);
+  if (!parseVislamRosOptions(source, &ros_options, &error)) return fail(error);
+  if (!args["--mode"].empty() && !parseMode(args["--mode"], &options.mode)) {
+    return fail("unknown --mode " + args["--mode"] + " (slam, mapping or deadreckoning)");
+  }
+  const std::string why = options.validate();
+  if (!why.empty()) return fail(config + ": " + why);
+  if (!args["--imu-frame"].empty()) ros_options.imu_frame = args["--imu-frame"];
+
+  BagTopics topics;
+  if (!args["--twist-topic"].empty()) topics.twist = args["--twist-topic"];
+  if (!args["--features-topic"].empty()) topics.features = args["--features-topic"];
+  if (!args["--left-info-topic"].empty()) topics.left_info = args["--left-info-topic"];
+  if (!args["--right-info-topic"].empty()) topics.right_info = args["--right-info-topic"];
+  if (!args["--tf-static-topic"].empty()) topics.tf_static = args["--tf-static-topic"];
+
+  BagReader bag;
+  if (!bag.open(args["--bag"], topics, &error)) return fail(error);
+  const bool needs_features = options.mode != EstimatorMode::kDeadReckoning;
+  if (bag.messageCount(topics.twist) == 0) {
+    return fail("bag " + args["--bag"] + " has no messages on " + topics.twist);
+  }
+  if (needs_features && bag.messageCount(topics.features) == 0) {
+    return fail("bag " + args["--bag"] + " has no messages on " + topics.features);
+  }
+
+  // Calibration: camera_info pair + /tf_static, or the ros/calibration override.
+  BagCalibrationData data;
+  if (!bag.readCalibrationData(&data, &error)) return fail(error);
+  StereoCalibration calibration;
+  std::string calibration_error;
+  const CalibrationOverride& override_ = ros_options.calibration;
+  bool calibrated = true;
+  if (!override_.has_intrinsics) {
+    if (!data.has_left_info || !data.has_right_info) {
+      calibration_error = "bag has no messages on " +
+                          (data.has_left_info ? topics.right_info : topics.left_info);
+      calibrated = false;
+    } else if (!ros_conversions::calibrationFromCameraInfo(data.left_info, data.right_info,
+                                                           &calibration, &calibration_error)) {
+      calibrated = false;
+    }
+  }
+  if (calibrated && !override_.has_extrinsic) {
+    Eigen::Isometry3d imu_T_cam;
+    if (data.camera_frame.empty()) {
+      calibration_error = "no camera frame id (features or camera_info header.frame_id)";
+      calibrated = false;
+    } else if (!lookupStaticTransform(data.static_transforms, ros_options.imu_frame,
+                                      data.camera_frame, &imu_T_cam, &calibration_error)) {
+      calibration_error += " (from " + topics.tf_static + ")";
+      calibrated = false;
+    } else {
+      calibration.cam_T_imu = imu_T_cam.inverse();
+    }
+  }
+  EstimatorRunner runner(options, {ros_options.sequencer_max_delay,
+                                   static_cast<size_t>(ros_options.sequencer_max_buffered)});
+  if (calibrated) {
+    override_.applyTo(&calibration);
+    if (!runner.estimator().setCalibration(calibration, &calibration_error)) {
+      return fail("invalid calibration: " + calibration_error);
+    }
+  } else if (needs_features) {
+    return fail("no calibration: " + calibration_error);
+  }
+
+  // Run.
+  runner.startClock();
+  Progress progress;
+  bool ok = bag.forEachMeasurement(
+      [&](Measurement&& measurement, double fraction) {
+        runner.push(std::move(measurement));
+        runner.processReady();
+        progress.update(fraction);
+      },
+      &error);
+  progress.done();
+  if (!ok) return fail(error);
+  runner.flush();
+
+  if (!runner.save(args["--out"], &error)) return fail(error);
+  const RunSummary summary = runner.summary();
+  const ProcessingTimes& times = runner.times();
+  const Eigen::Vector3d p = runner.estimator().worldTImu().translation();
+  std::fprintf(stderr,
+               "vislam_offline: %s, %lu frames, %lu twists, %zu landmarks, %lu observations "
+               "used, %lu rejected, %.2f ms/frame (p99 %.2f), %.1f s wall, final position "
+               "(%.2f, %.2f, %.2f) m -> %s\n",
+               summary.mode.c_str(), static_cast<unsigned long>(summary.frames),
+               static_cast<unsigned long>(summary.twists), summary.landmarks_total,
+               static_cast<unsigned long>(
+                   runner.estimator().stats().get(Counter::kObservationUpdate) +
+                   runner.estimator().stats().get(Counter::kObservationInitialized)),
+               static_cast<unsigned long>(runner.estimator().stats().observationsRejected()),
+               times.mean(), times.percentile(0.99), summary.wall_s, p.x(), p.y(), p.z(),
+               args["--out"].c_str());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "vislam_offline: " << e.what() << std::endl;
+    return 1;
+  } catch (...) {
+    std::cerr << "vislam_offline: unexpected error" << std::endl;
+    return 1;
+  }
+}

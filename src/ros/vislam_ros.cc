@@ -1,1 +1,535 @@
-// stub
+#include "ekf_vislam/ros/vislam_ros.h"
+
+#include "ekf_vislam/ros/conversions.h"
+#include "ekf_vislam/ros/ros_parameter_source.h"
+
+#include <Eigen/Eigenvalues>
+#include <geometry_msgs/TransformStamped.h>
+#include <nav_msgs/Odometry.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace ekf_vislam {
+
+namespace {
+
+ros::Time rosTime(double stamp) {
+  ros::Time time;
+  if (std::isfinite(stamp) && stamp >= 0.0 && stamp < 4294967295.0) time.fromSec(stamp);
+  return time;
+}
+
+std_msgs::ColorRGBA color(float r, float g, float b, float a) {
+  std_msgs::ColorRGBA c;
+  c.r = r;
+  c.g = g;
+  c.b = b;
+  c.a = a;
+  return c;
+}
+
+// Green at or below `good`, yellow halfway (log scale), red at or above `bad`.
+std_msgs::ColorRGBA sigmaColor(double sigma, double good, double bad) {
+  double t = std::log(std::max(sigma, 1e-12) / good) / std::log(bad / good);
+  if (!std::isfinite(t)) t = 1.0;
+  t = std::min(1.0, std::max(0.0, t));
+  return color(static_cast<float>(std::min(1.0, 2.0 * t)),
+               static_cast<float>(std::min(1.0, 2.0 * (1.0 - t))), 0.0f, 1.0f);
+}
+
+}  // namespace
+
+VislamRos::VislamRos(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string& name)
+    : nh_(nh), pnh_(pnh), name_(name) {
+  RosParameterSource source(pnh_);
+  std::string error;
+  if (!parseVislamOptions(source, &options_, &error) ||
+      !parseVislamRosOptions(source, &ros_options_, &error)) {
+    ROS_FATAL("%s: invalid parameters: %s", name_.c_str(), error.c_str());
+    throw std::runtime_error("invalid parameters: " + error);
+  }
+  const std::string why = options_.validate();
+  if (!why.empty()) {
+    ROS_FATAL("%s: invalid parameters: %s", name_.c_str(), why.c_str());
+    throw std::runtime_error("invalid parameters: " + why);
+  }
+  ROS_INFO("%s: effective options (from %s):\n%s\n%s", name_.c_str(), source.describe().c_str(),
+           describeOptions(options_).c_str(), describeOptions(ros_options_).c_str());
+
+  runner_ = std::make_unique<EstimatorRunner>(
+      options_, MeasurementSequencer::Options{
+                    ros_options_.sequencer_max_delay,
+                    static_cast<size_t>(ros_options_.sequencer_max_buffered)});
+  if (ros_options_.calibration.has_intrinsics && ros_options_.calibration.has_extrinsic) {
+    tryCalibrate();
+  }
+
+  path_.header.frame_id = ros_options_.world_frame;
+  const ros::WallTime now = ros::WallTime::now();
+  last_input_ = last_twist_ = last_features_ = last_diag_ = now;
+
+  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_);
+  odometry_pub_ = pnh_.advertise<nav_msgs::Odometry>("odometry", 100);
+  path_pub_ = pnh_.advertise<nav_msgs::Path>("path", 1, true);
+  landmarks_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("landmarks", 1, true);
+  reset_srv_ = pnh_.advertiseService("reset", &VislamRos::resetService, this);
+  save_srv_ = pnh_.advertiseService("save", &VislamRos::saveService, this);
+
+  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
+  diagnostics_->setHardwareID("ekf_vislam");
+  diagnostics_->add("estimator", this, &VislamRos::produceDiagnostics);
+
+  const int queue = ros_options_.queue_size;
+  const ros::TransportHints hints = ros::TransportHints().tcpNoDelay();
+  twist_sub_ = nh_.subscribe("imu/twist", queue, &VislamRos::twistCallback, this, hints);
+  features_sub_ = nh_.subscribe("stereo/features", queue, &VislamRos::featuresCallback, this, hints);
+  left_info_sub_ = nh_.subscribe("stereo/left/camera_info", 10, &VislamRos::leftInfoCallback, this);
+  right_info_sub_ =
+      nh_.subscribe("stereo/right/camera_info", 10, &VislamRos::rightInfoCallback, this);
+
+  flush_timer_ = nh_.createWallTimer(
+      ros::WallDuration(std::max(0.02, ros_options_.flush_timeout / 5.0)), &VislamRos::flushTimer,
+      this);
+  if (ros_options_.landmark_marker_rate > 0.0 || ros_options_.path_rate > 0.0) {
+    const double rate = std::max(ros_options_.landmark_marker_rate, ros_options_.path_rate);
+    landmark_timer_ =
+        nh_.createWallTimer(ros::WallDuration(1.0 / rate), &VislamRos::visualizationTimer, this);
+  }
+  diagnostics_timer_ = nh_.createWallTimer(ros::WallDuration(ros_options_.diagnostic_period),
+                                           &VislamRos::diagnosticsTimer, this);
+  ROS_INFO("%s: listening on %s and %s, publishing %s", name_.c_str(),
+           twist_sub_.getTopic().c_str(), features_sub_.getTopic().c_str(),
+           odometry_pub_.getTopic().c_str());
+}
+
+VislamRos::~VislamRos() { shutdown(); }
+
+void VislamRos::shutdown() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (shut_down_) return;
+  shut_down_ = true;
+  publishing_ = false;
+  flush_timer_.stop();
+  landmark_timer_.stop();
+  diagnostics_timer_.stop();
+  twist_sub_.shutdown();
+  features_sub_.shutdown();
+  left_info_sub_.shutdown();
+  right_info_sub_.shutdown();
+  tryCalibrate();
+  runner_->flush([this](const EstimatorRunner::Processed& p) { onProcessed(p); });
+  if (!ros_options_.output_dir.empty()) {
+    std::string message;
+    if (saveLocked(&message)) {
+      ROS_INFO("%s: %s", name_.c_str(), message.c_str());
+    } else {
+      ROS_ERROR("%s: %s", name_.c_str(), message.c_str());
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Inputs
+// ---------------------------------------------------------------------------------------------
+
+void VislamRos::twistCallback(const geometry_msgs::TwistStamped::ConstPtr& msg) {
+  if (!msg->header.frame_id.empty() && msg->header.frame_id != ros_options_.imu_frame) {
+    ROS_WARN_ONCE("%s: imu/twist header.frame_id is '%s', expected ros/imu_frame '%s'; the twist "
+                  "is used as the IMU body-frame twist anyway",
+                  name_.c_str(), msg->header.frame_id.c_str(), ros_options_.imu_frame.c_str());
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (shut_down_) return;
+  ++twists_received_;
+  last_twist_ = ros::WallTime::now();
+  push(Measurement(ros_conversions::toTwistData(*msg)));
+}
+
+void VislamRos::featuresCallback(const ekf_vislam::StereoFeatureArray::ConstPtr& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (shut_down_) return;
+  ++frames_received_;
+  last_features_ = ros::WallTime::now();
+  if (camera_frame_.empty() && !msg->header.frame_id.empty()) {
+    camera_frame_ = msg->header.frame_id;
+  }
+  push(Measurement(ros_conversions::toFeatureFrame(*msg)));
+}
+
+void VislamRos::leftInfoCallback(const sensor_msgs::CameraInfo::ConstPtr& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  left_info_ = msg;
+  tryCalibrate();
+}
+
+void VislamRos::rightInfoCallback(const sensor_msgs::CameraInfo::ConstPtr& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  right_info_ = msg;
+  tryCalibrate();
+}
+
+void VislamRos::push(Measurement measurement) {
+  last_input_ = ros::WallTime::now();
+  runner_->push(std::move(measurement));
+  process(false);
+}
+
+void VislamRos::process(bool flush) {
+  if (!runner_->estimator().hasCalibration()) tryCalibrate();
+  const auto observer = [this](const EstimatorRunner::Processed& p) { onProcessed(p); };
+  if (flush) {
+    runner_->flush(observer);
+  } else {
+    runner_->processReady(observer);
+  }
+}
+
+void VislamRos::tryCalibrate() {
+  VislamEstimator& estimator = runner_->estimator();
+  if (estimator.hasCalibration()) return;
+  const CalibrationOverride& override_ = ros_options_.calibration;
+  StereoCalibration calibration;
+  std::string error;
+  if (!override_.has_intrinsics) {
+    if (!left_info_ || !right_info_) {
+      calibration_status_ = "waiting for camera_info (left and right)";
+      return;
+    }
+    if (!ros_conversions::calibrationFromCameraInfo(*left_info_, *right_info_, &calibration,
+                                                    &error)) {
+      calibration_status_ = "camera_info refused: " + error;
+      if (error != rejected_calibration_) {
+        ROS_ERROR("%s: camera_info refused: %s", name_.c_str(), error.c_str());
+        rejected_calibration_ = error;
+      }
+      return;
+    }
+  }
+  if (!override_.has_extrinsic) {
+    std::string camera_frame = camera_frame_;
+    if (camera_frame.empty() && left_info_) camera_frame = left_info_->header.frame_id;
+    if (camera_frame.empty()) {
+      calibration_status_ = "waiting for the camera frame id (stereo/features header.frame_id)";
+      return;
+    }
+    std::string tf_error;
+    if (!tf_buffer_.canTransform(ros_options_.imu_frame, camera_frame, ros::Time(0),
+                                 &tf_error)) {
+      calibration_status_ = "waiting for tf " + ros_options_.imu_frame + " -> " + camera_frame;
+      return;
+    }
+    try {
+      const geometry_msgs::TransformStamped imu_T_cam =
+          tf_buffer_.lookupTransform(ros_options_.imu_frame, camera_frame, ros::Time(0));
+      calibration.cam_T_imu = ros_conversions::toIsometry(imu_T_cam.transform).inverse();
+    } catch (const tf2::TransformException& e) {
+      calibration_status_ = std::string("tf lookup failed: ") + e.what();
+      return;
+    }
+  }
+  override_.applyTo(&calibration);
+  if (!estimator.setCalibration(calibration, &error)) {
+    calibration_status_ = "calibration refused: " + error;
+    if (error != rejected_calibration_) {
+      ROS_ERROR("%s: calibration refused: %s", name_.c_str(), error.c_str());
+      rejected_calibration_ = error;
+    }
+    return;
+  }
+  calibration_status_ = "ok";
+  const Eigen::Vector3d t = calibration.cam_T_imu.translation();
+  ROS_INFO("%s: calibration set: fx=%.3f fy=%.3f cx=%.3f cy=%.3f baseline=%.4f m, image %dx%d, "
+           "cam_T_imu translation (%.4f, %.4f, %.4f) m",
+           name_.c_str(), calibration.fx, calibration.fy, calibration.cx, calibration.cy,
+           calibration.baseline, calibration.image_width, calibration.image_height, t.x(), t.y(),
+           t.z());
+}
+
+void VislamRos::onProcessed(const EstimatorRunner::Processed& processed) {
+  const VislamEstimator& estimator = runner_->estimator();
+  if (processed.is_frame && processed.without_calibration) {
+    ROS_WARN_THROTTLE(5.0, "%s: no valid calibration yet (%s): feature frames are skipped, "
+                      "prediction continues (%lu frames so far)",
+                      name_.c_str(), calibration_status_.c_str(),
+                      static_cast<unsigned long>(runner_->framesWithoutCalibration()));
+  } else if (!processed.result.accepted) {
+    ROS_WARN_THROTTLE(5.0, "%s: %s rejected: %s", name_.c_str(),
+                      processed.is_frame ? "feature frame" : "twist",
+                      processed.result.message.c_str());
+  } else if (!processed.result.message.empty()) {
+    ROS_DEBUG("%s: %s", name_.c_str(), processed.result.message.c_str());
+  }
+  if (processed.is_frame) {
+    last_update_ms_ = processed.processing_ms;
+    ++last_processed_count_;
+  }
+  if (!processed.result.accepted || !estimator.initialized()) return;
+  last_stamp_ = estimator.time();
+  if (publishing_) publishOdometry(last_stamp_);
+  if (processed.is_frame && !runner_->trajectory().empty()) {
+    geometry_msgs::PoseStamped pose;
+    pose.header.frame_id = ros_options_.world_frame;
+    pose.header.stamp = rosTime(runner_->trajectory().back().stamp);
+    pose.pose = ros_conversions::toPoseMsg(runner_->trajectory().back().world_T_imu);
+    path_.poses.push_back(pose);
+    path_.header.stamp = pose.header.stamp;
+    path_dirty_ = true;
+    landmarks_dirty_ = true;
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Outputs
+// ---------------------------------------------------------------------------------------------
+
+void VislamRos::publishOdometry(double stamp) {
+  const VislamEstimator& estimator = runner_->estimator();
+  nav_msgs::Odometry odometry;
+  const Eigen::Isometry3d world_T_imu = estimator.worldTImu();
+  if (!ros_conversions::toOdometryMsg(stamp, ros_options_.world_frame, ros_options_.imu_frame,
+                                      world_T_imu, estimator.poseCovarianceWorld(),
+                                      estimator.correctedTwist(),
+                                      estimator.correctedTwistCovariance(), &odometry)) {
+    ++odometry_non_finite_;
+    ROS_ERROR_THROTTLE(5.0, "%s: estimate not finite: odometry not published (%lu times)",
+                       name_.c_str(), static_cast<unsigned long>(odometry_non_finite_));
+    return;
+  }
+  odometry_pub_.publish(odometry);
+  if (ros_options_.publish_tf) {
+    geometry_msgs::TransformStamped transform;
+    transform.header = odometry.header;
+    transform.child_frame_id = ros_options_.imu_frame;
+    transform.transform = ros_conversions::toTransformMsg(world_T_imu);
+    tf_broadcaster_.sendTransform(transform);
+  }
+}
+
+void VislamRos::publishPath() {
+  if (path_pub_.getNumSubscribers() > 0 || path_pub_.isLatched()) path_pub_.publish(path_);
+  path_dirty_ = false;
+}
+
+void VislamRos::publishLandmarks() {
+  landmarks_dirty_ = false;
+  const VislamEstimator& estimator = runner_->estimator();
+  const std::vector<LandmarkEstimate>& landmarks = estimator.landmarks();
+  visualization_msgs::MarkerArray array;
+
+  visualization_msgs::Marker map;
+  map.header.frame_id = ros_options_.world_frame;
+  map.header.stamp = rosTime(last_stamp_);
+  map.ns = "landmarks";
+  map.id = 0;
+  map.type = visualization_msgs::Marker::POINTS;
+  map.pose.orientation.w = 1.0;
+  map.scale.x = map.scale.y = 0.25;
+  map.color = color(0.0f, 1.0f, 0.0f, 1.0f);
+  visualization_msgs::Marker active = map;
+  active.ns = "active_landmarks";
+  active.scale.x = active.scale.y = 0.6;
+  active.color = color(0.1f, 0.6f, 1.0f, 1.0f);
+
+  map.points.reserve(landmarks.size());
+  map.colors.reserve(landmarks.size());
+  std::vector<const LandmarkEstimate*> active_landmarks;
+  for (const LandmarkEstimate& landmark : landmarks) {
+    if (!landmark.p_world.allFinite() || !landmark.covariance.allFinite()) continue;
+    geometry_msgs::Point point;
+    point.x = landmark.p_world.x();
+    point.y = landmark.p_world.y();
+    point.z = landmark.p_world.z();
+    const double sigma = std::sqrt(std::max(0.0, landmark.covariance.diagonal().maxCoeff()));
+    map.points.push_back(point);
+    map.colors.push_back(
+        sigmaColor(sigma, ros_options_.landmark_sigma_good, ros_options_.landmark_sigma_bad));
+    if (landmark.active) {
+      active.points.push_back(point);
+      active_landmarks.push_back(&landmark);
+    }
+  }
+  for (visualization_msgs::Marker* marker : {&map, &active}) {
+    marker->action = marker->points.empty() ? visualization_msgs::Marker::DELETE
+                                            : visualization_msgs::Marker::ADD;
+    array.markers.push_back(*marker);
+  }
+
+  size_t ellipsoids = 0;
+  if (ros_options_.covariance_ellipsoids) {
+    for (const LandmarkEstimate* landmark : active_landmarks) {
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(landmark->covariance);
+      if (solver.info() != Eigen::Success) continue;
+      Eigen::Matrix3d axes = solver.eigenvectors();
+      if (axes.determinant() < 0.0) axes.col(2) *= -1.0;
+      const Eigen::Quaterniond q(axes);
+      visualization_msgs::Marker sphere;
+      sphere.header = map.header;
+      sphere.ns = "landmark_covariance";
+      sphere.id = static_cast<int>(ellipsoids++);
+      sphere.type = visualization_msgs::Marker::SPHERE;
+      sphere.action = visualization_msgs::Marker::ADD;
+      sphere.pose.position.x = landmark->p_world.x();
+      sphere.pose.position.y = landmark->p_world.y();
+      sphere.pose.position.z = landmark->p_world.z();
+      sphere.pose.orientation.x = q.x();
+      sphere.pose.orientation.y = q.y();
+      sphere.pose.orientation.z = q.z();
+      sphere.pose.orientation.w = q.w();
+      const Eigen::Vector3d size =
+          2.0 * ros_options_.ellipsoid_sigma_scale *
+          solver.eigenvalues().cwiseMax(1e-8).cwiseSqrt();
+      sphere.scale.x = size.x();
+      sphere.scale.y = size.y();
+      sphere.scale.z = size.z();
+      sphere.color = color(1.0f, 0.6f, 0.0f, 0.35f);
+      array.markers.push_back(sphere);
+    }
+  }
+  for (size_t id = ellipsoids; id < previous_ellipsoids_; ++id) {
+    visualization_msgs::Marker gone;
+    gone.header = map.header;
+    gone.ns = "landmark_covariance";
+    gone.id = static_cast<int>(id);
+    gone.action = visualization_msgs::Marker::DELETE;
+    array.markers.push_back(gone);
+  }
+  previous_ellipsoids_ = ellipsoids;
+  landmarks_pub_.publish(array);
+}
+
+void VislamRos::clearVisualization() {
+  visualization_msgs::MarkerArray array;
+  visualization_msgs::Marker clear;
+  clear.header.frame_id = ros_options_.world_frame;
+  clear.action = visualization_msgs::Marker::DELETEALL;
+  array.markers.push_back(clear);
+  landmarks_pub_.publish(array);
+  previous_ellipsoids_ = 0;
+  path_pub_.publish(path_);
+}
+
+void VislamRos::flushTimer(const ros::WallTimerEvent&) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (shut_down_ || runner_->buffered() == 0) return;
+  if ((ros::WallTime::now() - last_input_).toSec() < ros_options_.flush_timeout) return;
+  process(true);
+}
+
+void VislamRos::visualizationTimer(const ros::WallTimerEvent&) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (shut_down_) return;
+  const ros::WallTime now = ros::WallTime::now();
+  if (ros_options_.landmark_marker_rate > 0.0 && landmarks_dirty_ &&
+      (now - last_landmarks_publish_).toSec() >= 0.999 / ros_options_.landmark_marker_rate) {
+    last_landmarks_publish_ = now;
+    publishLandmarks();
+  }
+  if (ros_options_.path_rate > 0.0 && path_dirty_ &&
+      (now - last_path_publish_).toSec() >= 0.999 / ros_options_.path_rate) {
+    last_path_publish_ = now;
+    publishPath();
+  }
+}
+
+void VislamRos::diagnosticsTimer(const ros::WallTimerEvent&) { diagnostics_->force_update(); }
+
+void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const VislamEstimator& estimator = runner_->estimator();
+  const EstimatorStats& stats = estimator.stats();
+  const ros::WallTime now = ros::WallTime::now();
+  const double dt = std::max(1e-3, (now - last_diag_).toSec());
+  const double twist_rate = static_cast<double>(twists_received_ - twists_at_last_diag_) / dt;
+  const double feature_rate = static_cast<double>(frames_received_ - frames_at_last_diag_) / dt;
+  twists_at_last_diag_ = twists_received_;
+  frames_at_last_diag_ = frames_received_;
+  last_diag_ = now;
+  const uint64_t divergence = stats.get(Counter::kDivergenceRecovery) +
+                              stats.get(Counter::kUpdateNonFinite);
+  diverging_ = divergence > divergence_at_last_diag_;
+  divergence_at_last_diag_ = divergence;
+
+  const double since_twist = (now - last_twist_).toSec();
+  const double since_features = (now - last_features_).toSec();
+  const bool calibrated = estimator.hasCalibration();
+  if (diverging_) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR,
+                   "divergence detected (recovery applied)");
+  } else if (twists_received_ == 0) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no imu/twist received yet");
+  } else if (since_twist > ros_options_.input_timeout) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "imu/twist stopped");
+  } else if (options_.mode != EstimatorMode::kDeadReckoning && !calibrated) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   "no calibration: " + calibration_status_);
+  } else if (options_.mode != EstimatorMode::kDeadReckoning &&
+             since_features > ros_options_.input_timeout) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "stereo/features stopped");
+  } else {
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "running");
+  }
+  status.add("mode", modeName(options_.mode));
+  status.add("calibration", calibration_status_);
+  status.add("twist_rate_hz", twist_rate);
+  status.add("feature_rate_hz", feature_rate);
+  status.add("twists_received", twists_received_);
+  status.add("frames_received", frames_received_);
+  status.add("update_ms_last", last_update_ms_);
+  status.add("update_ms_p99", runner_->times().percentile(0.99));
+  status.add("active_landmarks", estimator.activeLandmarkCount());
+  status.add("total_landmarks", estimator.landmarks().size());
+  status.add("state_dimension", estimator.stateDimension());
+  status.add("observations_rejected", stats.observationsRejected());
+  for (int i = 0; i < static_cast<int>(Counter::kCount); ++i) {
+    status.add(counterName(static_cast<Counter>(i)), stats.get(static_cast<Counter>(i)));
+  }
+  status.add("frames_without_calibration", runner_->framesWithoutCalibration());
+  status.add("odometry_non_finite", odometry_non_finite_);
+  status.add("sequencer_late", runner_->sequencerLate());
+  status.add("sequencer_buffered", runner_->buffered());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Services
+// ---------------------------------------------------------------------------------------------
+
+bool VislamRos::resetService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  runner_->reset();
+  path_.poses.clear();
+  path_dirty_ = false;
+  landmarks_dirty_ = false;
+  if (publishing_) clearVisualization();
+  ROS_INFO("%s: reset: pose back at identity, map cleared", name_.c_str());
+  response.success = true;
+  response.message = "estimator reset";
+  return true;
+}
+
+bool VislamRos::saveService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::string message;
+  response.success = saveLocked(&message);
+  response.message = message;
+  return true;
+}
+
+bool VislamRos::saveLocked(std::string* message) {
+  if (ros_options_.output_dir.empty()) {
+    *message = "parameter ros/output_dir is not set: nothing saved";
+    return false;
+  }
+  std::string error;
+  if (!runner_->save(ros_options_.output_dir, &error)) {
+    *message = "save failed: " + error;
+    return false;
+  }
+  *message = "saved " + std::to_string(runner_->trajectory().size()) + " poses and " +
+             std::to_string(runner_->estimator().landmarks().size()) + " landmarks to " +
+             ros_options_.output_dir;
+  return true;
+}
+
+}  // namespace ekf_vislam

@@ -36,9 +36,10 @@ enum class Counter : int {
   kObsDuplicateId,           ///< id repeated within one frame: all but the first dropped
   kObsGated,                 ///< Mahalanobis distance beyond the chi-square gate
   kObsBehindCamera,          ///< predicted point not in front of the camera
-  kObsMappingOnly,           ///< dead reckoning mode: observations not used
+  kObsIgnoredDeadReckoning,  ///< dead reckoning mode: observations not used
   // Landmark life cycle
   kLandmarkInitialized,
+  kLandmarkReinitialized,    ///< a landmark whose first observation was gated out restarted
   kLandmarkMarginalized,
   // Filter health
   kCovarianceRepaired,       ///< covariance lost symmetry/positivity and was repaired

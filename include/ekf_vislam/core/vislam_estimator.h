@@ -71,7 +71,7 @@ class VislamEstimator {
 
   /// Every landmark ever initialized (active ones carry their current estimate).
   const std::vector<LandmarkEstimate>& landmarks() const { return map_; }
-  size_t activeLandmarkCount() const { return active_.size(); }
+  size_t activeLandmarkCount() const { return blocks_.size(); }
   /// Dimension of the filter state (6 + bias + 3 x active landmarks).
   int stateDimension() const { return dim_; }
   const EstimatorStats& stats() const { return stats_; }
@@ -80,41 +80,54 @@ class VislamEstimator {
   Eigen::MatrixXd stateCovariance() const { return sigma_.topLeftCorner(dim_, dim_); }
 
  private:
-  struct ActiveLandmark {
-    int state_index = 0;   ///< first row of its block in the state
-    size_t map_index = 0;  ///< entry in map_
-  };
   struct Candidate;  // one observation being processed
+  /// A landmark block of the state: rows landmarkRow(k) .. +3 for block k.
+  struct StateBlock {
+    size_t map_index = 0;
+    bool tracking = true;  ///< false: its track ended but the block stays (keep_all_in_state)
+  };
 
   void initializeState();
+  bool advanceTo(double stamp, const TwistData& twist, FeedResult* result);
   void predict(double dt, const TwistData& twist, double noise_scale);
   void processFrame(const FeatureFrame& frame, FeedResult* result);
-  void update(std::vector<Candidate>* candidates, FeedResult* result);
-  void initializeLandmark(const Candidate& candidate, double stamp, FeedResult* result);
-  void marginalize(const std::vector<uint32_t>& ids, FeedResult* result);
-  void removeStateBlock(int index, int size);
+  void update(std::vector<Candidate>* candidates, std::vector<Candidate>* reinitialize,
+              FeedResult* result);
+  bool initializeLandmark(const Candidate& candidate, double stamp, FeedResult* result);
+  /// Removes the blocks whose flag is set (their final estimate stays in the map).
+  void removeBlocks(const std::vector<bool>& remove, bool count_as_marginalized = true);
   void ensureCapacity(int dim);
-  void syncActiveToMap();
-  void enforceHealth(FeedResult* result);
-  void resetLandmarksKeepPose();
+  void syncBlocksToMap();
+  void checkHealth(int candidates, int gated, FeedResult* result);
+  void recoverFromDivergence(const std::string& why, FeedResult* result);
+  void setPriorCovariance();
+  int landmarkRow(size_t block) const { return kPoseDim + bias_dim_ + 3 * static_cast<int>(block); }
+  Vector6d biasVector() const;
+
+  static constexpr int kPoseDim = 6;
 
   VislamOptions options_;
   StereoCamera camera_;
   bool has_calibration_ = false;
+  int rows_per_observation_ = 3;
+  double gate_threshold_ = 0.0;
+  std::vector<int> bias_components_;  ///< entries of u = [v; w] whose bias is estimated
 
   bool initialized_ = false;
   double time_ = 0.0;
   double last_twist_stamp_ = 0.0;
+  double last_twist_dt_ = 0.1;
   TwistData held_twist_;
 
   // State.
   Eigen::Matrix4d imu_T_world_ = Eigen::Matrix4d::Identity();
-  Vector6d bias_ = Vector6d::Zero();
-  int bias_dim_ = 0;        ///< 0, 3 (gyro) or 6 (velocity + gyro)
-  int dim_ = 0;             ///< active state dimension
-  Eigen::VectorXd p_world_;  ///< landmark means, aligned with the covariance rows (size dim_)
-  Eigen::MatrixXd sigma_;   ///< capacity >= dim_; only the top-left dim_ x dim_ block is live
-  std::unordered_map<uint32_t, ActiveLandmark> active_;
+  Eigen::VectorXd bias_;     ///< estimated bias components (size bias_dim_)
+  int bias_dim_ = 0;
+  int dim_ = 0;              ///< active state dimension
+  Eigen::VectorXd p_world_;  ///< landmark means at their state rows (capacity sized)
+  Eigen::MatrixXd sigma_;    ///< capacity >= dim_; only the top-left dim_ x dim_ block is live
+  std::vector<StateBlock> blocks_;
+  std::unordered_map<uint32_t, size_t> tracking_;  ///< tracked id -> block
   std::vector<LandmarkEstimate> map_;
   int consecutive_rejected_frames_ = 0;
 

@@ -1,1 +1,135 @@
-// stub
+#include "testing/synthetic_scenario.h"
+
+#include "ekf_vislam/core/se3.h"
+#include "ekf_vislam/core/stereo_camera.h"
+
+#include <cmath>
+#include <random>
+
+namespace ekf_vislam {
+namespace testing {
+
+StereoCalibration kittiLikeCalibration() {
+  StereoCalibration c;
+  c.fx = c.fy = 707.0912;
+  c.cx = 601.8873;
+  c.cy = 183.1104;
+  c.baseline = 0.5371506532679237;
+  c.image_width = 1241;
+  c.image_height = 376;
+  Eigen::Matrix3d R;
+  R << 0, -1, 0, 0, 0, -1, 1, 0, 0;
+  c.cam_T_imu.linear() = R;
+  c.cam_T_imu.translation() = Eigen::Vector3d(-0.3164, 0.7341, -1.1380);
+  return c;
+}
+
+Scenario makeScenario(const ScenarioOptions& o) {
+  std::mt19937 rng(o.seed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  Scenario s;
+  s.calibration = kittiLikeCalibration();
+  const StereoCamera camera(s.calibration);
+
+  // Trajectory: forward speed and yaw rate varying smoothly; index k+1 drives [t_k, t_k+1].
+  const double phase = 2.0 * M_PI * uniform(rng);
+  Eigen::Matrix4d T = Eigen::Matrix4d::Identity();
+  for (int k = 0; k < o.frames; ++k) {
+    const double t = k * o.dt;
+    TwistData truth;
+    truth.stamp = 1000.0 + t;
+    truth.v_imu = Eigen::Vector3d(7.5 + 1.5 * std::sin(0.3 * t + phase), 0.0, 0.05 * std::sin(t));
+    truth.w_imu = Eigen::Vector3d(0.01 * std::sin(1.3 * t), 0.01 * std::cos(0.9 * t),
+                                  0.18 * std::sin(2.0 * M_PI * t / 25.0 + phase));
+    if (k > 0) {
+      Vector6d xi;
+      xi << truth.v_imu, truth.w_imu;
+      T = T * se3::exp(o.dt * xi);
+    }
+    s.world_T_imu.push_back(T);
+    s.true_twists.push_back(truth);
+    TwistData measured = truth;
+    for (int i = 0; i < 3; ++i) {
+      measured.v_imu(i) += o.linear_velocity_noise * normal(rng);
+      measured.w_imu(i) += o.angular_velocity_noise * normal(rng) + o.gyro_bias(i);
+    }
+    s.twists.push_back(measured);
+  }
+  s.true_twists[0] = s.true_twists[1];
+  s.true_twists[0].stamp = 1000.0;
+
+  // Landmarks along both sides of the path.
+  std::vector<Eigen::Vector3d> points;
+  for (size_t k = 0; k < s.world_T_imu.size(); k += 1) {
+    for (int n = 0; n < 2; ++n) {
+      const double side = uniform(rng) < 0.5 ? -1.0 : 1.0;
+      const Eigen::Vector4d p_imu(40.0 * uniform(rng), side * (3.0 + 17.0 * uniform(rng)),
+                                  -1.5 + 6.5 * uniform(rng), 1.0);
+      points.push_back((s.world_T_imu[k] * p_imu).head<3>());
+    }
+  }
+
+  // Tracks: an id per contiguous run; a point is tracked at most once.
+  std::vector<int> state(points.size(), 0);  // 0 unused, 1 tracking, 2 done
+  std::vector<uint32_t> id_of(points.size(), 0);
+  uint32_t next_id = 0;
+  for (size_t k = 0; k < s.world_T_imu.size(); ++k) {
+    FeatureFrame frame;
+    frame.stamp = s.twists[k].stamp;
+    const Eigen::Matrix4d imu_T_world = se3::inverse(s.world_T_imu[k]);
+    int tracked = 0;
+    std::vector<std::pair<size_t, Eigen::Vector4d>> visible_new;
+    for (size_t i = 0; i < points.size(); ++i) {
+      if (state[i] == 2) continue;
+      Eigen::Vector4d z;
+      const Eigen::Vector4d p_cam = camera.camTImu() * imu_T_world * points[i].homogeneous();
+      const bool visible = camera.project(imu_T_world, points[i], &z) && p_cam.z() > 2.0 &&
+                           p_cam.z() < 50.0 && camera.inImage(z(0), z(1)) &&
+                           camera.inImage(z(2), z(3)) && z(0) - z(2) > 0.5;
+      if (state[i] == 1) {
+        if (!visible || uniform(rng) < 0.04) {
+          state[i] = 2;
+          continue;
+        }
+        ++tracked;
+        StereoFeature f;
+        f.id = id_of[i];
+        f.u_left = z(0) + o.pixel_sigma * normal(rng);
+        f.v_left = z(1) + o.pixel_sigma * normal(rng);
+        f.u_right = z(2) + o.pixel_sigma * normal(rng);
+        f.v_right = z(3) + o.pixel_sigma * normal(rng);
+        frame.features.push_back(f);
+      } else if (visible) {
+        visible_new.emplace_back(i, z);
+      }
+    }
+    for (const auto& [i, z] : visible_new) {
+      if (tracked >= o.target_observations) break;
+      if (uniform(rng) > 0.5) continue;
+      state[i] = 1;
+      id_of[i] = next_id++;
+      s.p_world[id_of[i]] = points[i];
+      ++tracked;
+      StereoFeature f;
+      f.id = id_of[i];
+      f.u_left = z(0) + o.pixel_sigma * normal(rng);
+      f.v_left = z(1) + o.pixel_sigma * normal(rng);
+      f.u_right = z(2) + o.pixel_sigma * normal(rng);
+      f.v_right = z(3) + o.pixel_sigma * normal(rng);
+      frame.features.push_back(f);
+    }
+    for (StereoFeature& f : frame.features) {
+      if (uniform(rng) < o.outlier_rate) {
+        f.u_left += (uniform(rng) < 0.5 ? -1 : 1) * (20.0 + 100.0 * uniform(rng));
+        f.v_left += (uniform(rng) < 0.5 ? -1 : 1) * (20.0 + 100.0 * uniform(rng));
+        f.v_right = f.v_left;
+      }
+    }
+    s.frames.push_back(frame);
+  }
+  return s;
+}
+
+}  // namespace testing
+}  // namespace ekf_vislam

@@ -1,0 +1,49 @@
+// Rectified stereo camera model: z = Ks pi(cam_T_imu * imu_T_world * m), its Jacobians, and
+// triangulation of a landmark from one stereo observation with its covariance. No ROS.
+#pragma once
+
+#include "ekf_vislam/core/types.h"
+
+#include <Eigen/Core>
+
+namespace ekf_vislam {
+
+using Matrix46d = Eigen::Matrix<double, 4, 6>;
+using Matrix43d = Eigen::Matrix<double, 4, 3>;
+
+class StereoCamera {
+ public:
+  StereoCamera() = default;
+  explicit StereoCamera(const StereoCalibration& calibration);
+
+  const StereoCalibration& calibration() const { return calibration_; }
+  /// Ks = [[fx, 0, cx, 0], [0, fy, cy, 0], [fx, 0, cx, -fx b], [0, fy, cy, 0]].
+  const Eigen::Matrix4d& Ks() const { return Ks_; }
+  const Eigen::Matrix4d& camTImu() const { return cam_T_imu_; }
+  const Eigen::Matrix4d& imuTCam() const { return imu_T_cam_; }
+
+  /// Predicted observation [uL, vL, uR, vR] of p_world seen from the pose imu_T_world, and (when
+  /// the pointers are given) the Jacobians with respect to the left perturbation of the pose
+  /// (imu_T_world = exp(dxi^) imu_T_world_mean; 4x6) and to p_world (4x3).
+  /// Returns false when the point is not in front of the camera (depth <= min_depth).
+  bool project(const Eigen::Matrix4d& imu_T_world, const Eigen::Vector3d& p_world,
+               Eigen::Vector4d* z, Matrix46d* H_pose = nullptr, Matrix43d* H_landmark = nullptr,
+               double min_depth = 1e-3) const;
+
+  /// Point in the left camera frame from (uL, v, uR) (v: the row, e.g. (vL + vR) / 2), and the
+  /// 3x3 Jacobian of that point with respect to (uL, v, uR). Returns false when the disparity
+  /// uL - uR is not positive.
+  bool triangulate(double u_left, double v, double u_right, Eigen::Vector3d* p_cam,
+                   Eigen::Matrix3d* J_p_cam_wrt_uvu = nullptr) const;
+
+  /// True when (u, v) lies inside the image (always true when the image size is unknown).
+  bool inImage(double u, double v, double margin_px = 0.0) const;
+
+ private:
+  StereoCalibration calibration_;
+  Eigen::Matrix4d Ks_ = Eigen::Matrix4d::Zero();
+  Eigen::Matrix4d cam_T_imu_ = Eigen::Matrix4d::Identity();
+  Eigen::Matrix4d imu_T_cam_ = Eigen::Matrix4d::Identity();
+};
+
+}  // namespace ekf_vislam

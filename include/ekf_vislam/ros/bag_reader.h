@@ -1,0 +1,73 @@
+// Reads the inputs of the offline runner from a bag with the C++ rosbag API (no roscore):
+// calibration messages (camera_info pair, /tf_static) and the twist/feature stream in bag order,
+// converted with the same functions as the nodelet (ros/conversions.h).
+#pragma once
+
+#include "ekf_vislam/core/measurement_sequencer.h"
+
+#include <Eigen/Geometry>
+#include <geometry_msgs/TransformStamped.h>
+#include <sensor_msgs/CameraInfo.h>
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace rosbag {
+class Bag;
+}
+
+namespace ekf_vislam {
+
+struct BagTopics {
+  std::string twist = "/imu/twist";
+  std::string features = "/stereo/features";
+  std::string left_info = "/stereo/left/camera_info";
+  std::string right_info = "/stereo/right/camera_info";
+  std::string tf_static = "/tf_static";
+};
+
+/// What the bag says about the calibration (first message of each camera_info topic).
+struct BagCalibrationData {
+  bool has_left_info = false;
+  bool has_right_info = false;
+  sensor_msgs::CameraInfo left_info;
+  sensor_msgs::CameraInfo right_info;
+  /// header.frame_id of the first feature message (left camera_info's when there is none).
+  std::string camera_frame;
+  std::vector<geometry_msgs::TransformStamped> static_transforms;
+};
+
+class BagReader {
+ public:
+  BagReader();
+  ~BagReader();
+
+  /// Opens the bag; false with a one-line message when it cannot be read.
+  bool open(const std::string& path, const BagTopics& topics, std::string* error);
+  /// Number of messages on a topic (0 when the bag has none).
+  uint32_t messageCount(const std::string& topic) const;
+  /// Data type of a topic ("" when absent).
+  std::string dataType(const std::string& topic) const;
+
+  bool readCalibrationData(BagCalibrationData* data, std::string* error);
+
+  /// Every twist and feature message in bag order, converted; `fraction` in [0, 1] is the
+  /// progress through the bag. False (with a message) on a message of the wrong type.
+  using Callback = std::function<void(Measurement&& measurement, double fraction)>;
+  bool forEachMeasurement(const Callback& callback, std::string* error);
+
+ private:
+  std::unique_ptr<rosbag::Bag> bag_;
+  BagTopics topics_;
+};
+
+/// Transform of camera_frame in imu_frame (imu_T_cam) from static transforms, chains allowed
+/// (tf2::BufferCore lookup, as the nodelet's tf2_ros::Buffer). False with a message otherwise.
+bool lookupStaticTransform(const std::vector<geometry_msgs::TransformStamped>& transforms,
+                           const std::string& target_frame, const std::string& source_frame,
+                           Eigen::Isometry3d* target_T_source, std::string* error);
+
+}  // namespace ekf_vislam

@@ -1,0 +1,66 @@
+// Message <-> core struct conversions: the only place where ROS messages meet the estimator types.
+// Pure functions (no node handle, no clock), unit-tested in src/ros/conversions_test.cc.
+#pragma once
+
+#include "ekf_vislam/core/types.h"
+#include "ekf_vislam/ros/stereo_feature_msgs.h"
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <boost/array.hpp>
+#include <geometry_msgs/Transform.h>
+#include <geometry_msgs/TwistStamped.h>
+#include <nav_msgs/Odometry.h>
+#include <sensor_msgs/CameraInfo.h>
+
+#include <string>
+
+namespace ekf_vislam {
+namespace ros_conversions {
+
+/// Twist message -> core twist (stamp in seconds). Non-finite values pass through unchanged:
+/// the estimator rejects and counts them.
+TwistData toTwistData(const geometry_msgs::TwistStamped& msg);
+geometry_msgs::TwistStamped toTwistMsg(const TwistData& twist, const std::string& frame_id);
+
+/// Feature message -> core frame (stamp in seconds, features in message order).
+FeatureFrame toFeatureFrame(const ekf_vislam::StereoFeatureArray& msg);
+ekf_vislam::StereoFeatureArray toFeatureArrayMsg(const FeatureFrame& frame,
+                                                 const std::string& frame_id);
+
+/// Rectified stereo intrinsics from the left/right camera_info pair: fx, fy, cx, cy from the left
+/// projection matrix P (K when P is all zero), image size from the left message, baseline
+/// b = -P_right[0,3] / fx_right. Refuses (false, *error says why) non-finite or non-positive focal
+/// lengths, left/right intrinsics that disagree (more than tolerance_px) and b <= 0. Leaves
+/// calibration->cam_T_imu unchanged (it comes from tf).
+bool calibrationFromCameraInfo(const sensor_msgs::CameraInfo& left,
+                               const sensor_msgs::CameraInfo& right,
+                               StereoCalibration* calibration, std::string* error,
+                               double tolerance_px = 1e-3);
+/// The camera_info pair describing `calibration` (for tests and tools).
+void cameraInfoFromCalibration(const StereoCalibration& calibration,
+                               sensor_msgs::CameraInfo* left, sensor_msgs::CameraInfo* right);
+
+/// geometry_msgs/Transform <-> Eigen. The quaternion is normalized (an all-zero quaternion gives
+/// the identity rotation; a non-finite one a non-finite matrix, which StereoCalibration::validate
+/// rejects).
+Eigen::Isometry3d toIsometry(const geometry_msgs::Transform& msg);
+geometry_msgs::Transform toTransformMsg(const Eigen::Isometry3d& transform);
+geometry_msgs::Pose toPoseMsg(const Eigen::Isometry3d& transform);
+
+/// 6x6 matrix <-> the row-major float64[36] of ROS covariance fields.
+void toCovarianceMsg(const Eigen::Matrix<double, 6, 6>& covariance, boost::array<double, 36>* out);
+Eigen::Matrix<double, 6, 6> fromCovarianceMsg(const boost::array<double, 36>& msg);
+
+/// Odometry of the IMU: header.frame_id = world_frame, child_frame_id = imu_frame, pose =
+/// world_T_imu with pose_covariance_world (ROS order x y z rx ry rz, world axes), twist = the IMU
+/// twist in the child frame with its covariance ([v; w]). Returns false and leaves *out
+/// untouched when any input is not finite (never publish NaN).
+bool toOdometryMsg(double stamp, const std::string& world_frame, const std::string& imu_frame,
+                   const Eigen::Isometry3d& world_T_imu,
+                   const Eigen::Matrix<double, 6, 6>& pose_covariance_world,
+                   const TwistData& twist_imu, const Eigen::Matrix<double, 6, 6>& twist_covariance,
+                   nav_msgs::Odometry* out);
+
+}  // namespace ros_conversions
+}  // namespace ekf_vislam

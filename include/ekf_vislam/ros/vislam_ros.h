@@ -1,0 +1,123 @@
+// The one ROS wrapper of the estimator, shared by the nodelet (ekf_vislam/VislamNodelet) and the
+// node (vislam_node). Owns an EstimatorRunner (estimator + measurement sequencer); the estimator
+// itself never sees ROS.
+//
+// Subscribes (relative names, remappable): imu/twist (geometry_msgs/TwistStamped),
+// stereo/features (ekf_vislam/StereoFeatureArray), stereo/left/camera_info and
+// stereo/right/camera_info (sensor_msgs/CameraInfo); imu_T_cam from tf (imu_frame -> the
+// features' header.frame_id).
+// Publishes (private names): odometry (nav_msgs/Odometry), path (nav_msgs/Path), landmarks
+// (visualization_msgs/MarkerArray), tf world_frame -> imu_frame, /diagnostics.
+// Services (private): reset, save (std_srvs/Trigger).
+// Parameters (private): the core options (config/default.yaml) and the ros/ section.
+#pragma once
+
+#include "ekf_vislam/core/types.h"
+#include "ekf_vislam/ros/estimator_runner.h"
+#include "ekf_vislam/ros/stereo_feature_msgs.h"
+#include "ekf_vislam/ros/vislam_ros_options.h"
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <geometry_msgs/TwistStamped.h>
+#include <nav_msgs/Path.h>
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <std_srvs/Trigger.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <memory>
+#include <mutex>
+#include <string>
+
+namespace ekf_vislam {
+
+class VislamRos {
+ public:
+  /// nh: namespace of the inputs; pnh: private namespace (parameters, outputs, services).
+  /// Throws std::runtime_error when the parameters are invalid (logged with ROS_FATAL first).
+  VislamRos(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string& name);
+  ~VislamRos();
+
+  /// Processes what is still buffered and saves to ros/output_dir when set. Idempotent.
+  void shutdown();
+
+ private:
+  // Inputs.
+  void twistCallback(const geometry_msgs::TwistStamped::ConstPtr& msg);
+  void featuresCallback(const ekf_vislam::StereoFeatureArray::ConstPtr& msg);
+  void leftInfoCallback(const sensor_msgs::CameraInfo::ConstPtr& msg);
+  void rightInfoCallback(const sensor_msgs::CameraInfo::ConstPtr& msg);
+  void push(Measurement measurement);  // locked
+  void process(bool flush);            // locked
+  void onProcessed(const EstimatorRunner::Processed& processed);
+  void tryCalibrate();  // locked
+
+  // Outputs.
+  void publishOdometry(double stamp);
+  void publishPath();
+  void publishLandmarks();
+  void clearVisualization();
+  void flushTimer(const ros::WallTimerEvent&);
+  void visualizationTimer(const ros::WallTimerEvent&);
+  void diagnosticsTimer(const ros::WallTimerEvent&);
+  void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
+
+  bool resetService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response);
+  bool saveService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response);
+  bool saveLocked(std::string* message);
+
+  ros::NodeHandle nh_;
+  ros::NodeHandle pnh_;
+  std::string name_;
+  VislamOptions options_;
+  VislamRosOptions ros_options_;
+
+  std::mutex mutex_;
+  std::unique_ptr<EstimatorRunner> runner_;
+  bool shut_down_ = false;
+  bool publishing_ = true;
+
+  // Calibration.
+  sensor_msgs::CameraInfo::ConstPtr left_info_;
+  sensor_msgs::CameraInfo::ConstPtr right_info_;
+  std::string camera_frame_;
+  std::string calibration_status_ = "waiting for camera_info and tf";
+  std::string rejected_calibration_;  ///< last refused calibration message (logged once each)
+
+  // Counters and rates (wall clock).
+  ros::WallTime last_input_;
+  ros::WallTime last_twist_;
+  ros::WallTime last_features_;
+  uint64_t twists_received_ = 0;
+  uint64_t frames_received_ = 0;
+  uint64_t twists_at_last_diag_ = 0;
+  uint64_t frames_at_last_diag_ = 0;
+  ros::WallTime last_diag_;
+  uint64_t odometry_non_finite_ = 0;
+  uint64_t divergence_at_last_diag_ = 0;
+  bool diverging_ = false;
+  double last_update_ms_ = 0.0;
+  int last_processed_count_ = 0;
+
+  // Publishing.
+  ros::Subscriber twist_sub_, features_sub_, left_info_sub_, right_info_sub_;
+  ros::Publisher odometry_pub_, path_pub_, landmarks_pub_;
+  ros::ServiceServer reset_srv_, save_srv_;
+  ros::WallTimer flush_timer_, landmark_timer_, diagnostics_timer_;
+  ros::WallTime last_landmarks_publish_;
+  ros::WallTime last_path_publish_;
+  tf2_ros::Buffer tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  tf2_ros::TransformBroadcaster tf_broadcaster_;
+  nav_msgs::Path path_;
+  bool path_dirty_ = false;
+  bool landmarks_dirty_ = false;
+  size_t previous_ellipsoids_ = 0;
+  double last_stamp_ = 0.0;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+};
+
+}  // namespace ekf_vislam

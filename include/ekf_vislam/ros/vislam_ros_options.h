@@ -1,0 +1,57 @@
+// Settings of the ROS layer (nodelet/node and the offline bag runner) under the "ros/" key
+// prefix of the same parameter source the core options come from (config/default.yaml, section
+// "ros:"). No ROS include: parsed from a YAML file or from the parameter server alike.
+#pragma once
+
+#include "ekf_vislam/core/parameter_source.h"
+#include "ekf_vislam/core/types.h"
+#include "ekf_vislam/core/vislam_options.h"
+
+#include <string>
+
+namespace ekf_vislam {
+
+/// Optional calibration given as parameters instead of camera_info / tf.
+struct CalibrationOverride {
+  /// ros/calibration/{fx, fy, cx, cy, baseline} (all five or none; image_width/height optional).
+  bool has_intrinsics = false;
+  /// ros/calibration/cam_T_imu: 16 numbers, row-major (list or space-separated string).
+  bool has_extrinsic = false;
+  StereoCalibration calibration;  ///< the values given (intrinsics and/or cam_T_imu)
+
+  /// Applies the override to a calibration built from the messages.
+  void applyTo(StereoCalibration* calibration) const;
+};
+
+struct VislamRosOptions {
+  std::string world_frame = "world";   ///< ros/world_frame
+  std::string imu_frame = "imu";       ///< ros/imu_frame
+  bool publish_tf = true;              ///< ros/publish_tf: world -> imu
+  double landmark_marker_rate = 2.0;   ///< ros/landmark_marker_rate, Hz (0 = never)
+  bool covariance_ellipsoids = false;  ///< ros/covariance_ellipsoids (active landmarks)
+  double ellipsoid_sigma_scale = 3.0;  ///< ros/ellipsoid_sigma_scale: ellipsoid half-axes in sigma
+  double landmark_sigma_good = 0.1;    ///< ros/landmark_sigma_good, m: green at or below
+  double landmark_sigma_bad = 5.0;     ///< ros/landmark_sigma_bad, m: red at or above
+  double path_rate = 2.0;              ///< ros/path_rate, Hz (0 = never)
+  double diagnostic_period = 1.0;      ///< ros/diagnostic_period, s
+  double input_timeout = 1.0;          ///< ros/input_timeout, wall s: diagnostics WARN after
+  double flush_timeout = 0.5;          ///< ros/flush_timeout, wall s without input: flush
+  double sequencer_max_delay = 0.5;    ///< ros/sequencer_max_delay, s of stamp time
+  int sequencer_max_buffered = 2000;   ///< ros/sequencer_max_buffered, messages
+  int queue_size = 2000;               ///< ros/queue_size of every subscriber
+  std::string output_dir;              ///< ros/output_dir: save target ("" = no saving)
+  CalibrationOverride calibration;     ///< ros/calibration/...
+
+  std::string validate() const;
+};
+
+/// Fills `options` from the "ros/" keys of `source`; absent keys keep their values. False with a
+/// message naming the key for values of the wrong type or out of range.
+bool parseVislamRosOptions(const ParameterSource& source, VislamRosOptions* options,
+                           std::string* error);
+
+/// One multi-line, human-readable listing of the effective options (logged at start).
+std::string describeOptions(const VislamOptions& options);
+std::string describeOptions(const VislamRosOptions& options);
+
+}  // namespace ekf_vislam

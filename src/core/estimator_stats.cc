@@ -1,0 +1,52 @@
+#include "ekf_vislam/core/estimator_stats.h"
+
+namespace ekf_vislam {
+
+const char* counterName(Counter counter) {
+  switch (counter) {
+    case Counter::kTwistUsed: return "twist_used";
+    case Counter::kTwistNonFinite: return "twist_non_finite";
+    case Counter::kTwistImplausible: return "twist_implausible";
+    case Counter::kTwistNotIncreasing: return "twist_time_not_increasing";
+    case Counter::kTwistLate: return "twist_late";
+    case Counter::kTwistGap: return "twist_gap";
+    case Counter::kFrameUsed: return "frame_used";
+    case Counter::kFrameEmpty: return "frame_empty";
+    case Counter::kFrameStale: return "frame_stale";
+    case Counter::kFrameNoCalibration: return "frame_no_calibration";
+    case Counter::kFrameBeforeTwist: return "frame_before_twist";
+    case Counter::kFrameCapped: return "frame_capped";
+    case Counter::kFrameNonFiniteStamp: return "frame_non_finite_stamp";
+    case Counter::kObservationUpdate: return "observation_update";
+    case Counter::kObservationInitialized: return "observation_initialized";
+    case Counter::kObsNonFinite: return "observation_non_finite";
+    case Counter::kObsDisparity: return "observation_disparity";
+    case Counter::kObsDepth: return "observation_depth";
+    case Counter::kObsOutsideImage: return "observation_outside_image";
+    case Counter::kObsRowMismatch: return "observation_row_mismatch";
+    case Counter::kObsDuplicateId: return "observation_duplicate_id";
+    case Counter::kObsGated: return "observation_gated";
+    case Counter::kObsBehindCamera: return "observation_behind_camera";
+    case Counter::kObsIgnoredDeadReckoning: return "observation_ignored_deadreckoning";
+    case Counter::kLandmarkInitialized: return "landmark_initialized";
+    case Counter::kLandmarkReinitialized: return "landmark_reinitialized";
+    case Counter::kLandmarkMarginalized: return "landmark_marginalized";
+    case Counter::kCovarianceRepaired: return "covariance_repaired";
+    case Counter::kDivergenceRecovery: return "divergence_recovery";
+    case Counter::kUpdateNonFinite: return "update_non_finite";
+    case Counter::kCount: break;
+  }
+  return "unknown";
+}
+
+uint64_t EstimatorStats::observationsRejected() const {
+  uint64_t sum = 0;
+  for (Counter c : {Counter::kObsNonFinite, Counter::kObsDisparity, Counter::kObsDepth,
+                    Counter::kObsOutsideImage, Counter::kObsRowMismatch, Counter::kObsDuplicateId,
+                    Counter::kObsGated, Counter::kObsBehindCamera}) {
+    sum += get(c);
+  }
+  return sum;
+}
+
+}  // namespace ekf_vislam

@@ -1,0 +1,45 @@
+// A small synthetic drive for the core's unit tests (the product's simulator is the Python
+// scripts/simulate_dataset.py; this one keeps the C++ tests free of files and Python).
+#pragma once
+
+#include "ekf_vislam/core/types.h"
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <map>
+#include <vector>
+
+namespace ekf_vislam {
+namespace testing {
+
+struct ScenarioOptions {
+  int frames = 300;
+  double dt = 0.1;
+  double pixel_sigma = 1.0;
+  double linear_velocity_noise = 0.5;   ///< per sample, m/s
+  double angular_velocity_noise = 0.05;  ///< per sample, rad/s
+  Eigen::Vector3d gyro_bias = Eigen::Vector3d(0.006, -0.008, 0.007);
+  double outlier_rate = 0.0;
+  int target_observations = 70;
+  uint32_t seed = 1;
+};
+
+struct Scenario {
+  StereoCalibration calibration;
+  std::vector<TwistData> twists;                    ///< measured, one per frame
+  std::vector<TwistData> true_twists;               ///< noiseless, bias-free
+  std::vector<FeatureFrame> frames;                 ///< one per frame, same stamps
+  std::vector<Eigen::Matrix4d> world_T_imu;         ///< ground truth per frame
+  std::map<uint32_t, Eigen::Vector3d> p_world;      ///< ground truth landmark of each id
+};
+
+/// KITTI-like stereo rig driving a curvy road with landmarks on both sides. Twist k+1 drives
+/// [t_k, t_k+1] (the estimator's convention). Deterministic from the seed.
+Scenario makeScenario(const ScenarioOptions& options);
+
+/// KITTI-like calibration (fx 707, baseline 0.537 m, image 1241x376).
+StereoCalibration kittiLikeCalibration();
+
+}  // namespace testing
+}  // namespace ekf_vislam

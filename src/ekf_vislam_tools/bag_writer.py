@@ -1,0 +1,266 @@
+"""ROS messages of a `Dataset` (the estimator's inputs and optional ground truth) and bag writing.
+
+`iter_messages` yields the messages in bag order; `write_bag` writes them to a bag through a
+temporary file, and the live player of dataset_to_bag.py publishes the same stream.
+
+Topics and frames (message time = header stamp = dataset time stamp):
+
+- ``/tf_static`` (tf2_msgs/TFMessage, latched, once at the first stamp): imu -> camera_left
+  (imu_T_cam = inverse(cam_T_imu)) and camera_left -> camera_right (+b along x);
+- per frame, in this order: ``/imu/twist`` (geometry_msgs/TwistStamped, frame ``imu``),
+  ``/stereo/left/camera_info`` and ``/stereo/right/camera_info`` (sensor_msgs/CameraInfo,
+  rectified), ``/stereo/features`` (ekf_vislam/StereoFeatureArray, frame ``camera_left``, the
+  observed features of the frame, id = column index of the features array);
+- with ground truth: ``/groundtruth/odometry`` (nav_msgs/Odometry, frame ``world``, child
+  ``imu``), re-anchored so that the first pose is the identity, interleaved in time order.
+"""
+import heapq
+import math
+import os
+
+import numpy as np
+import rosbag
+import rospy
+from geometry_msgs.msg import TransformStamped, TwistStamped
+from nav_msgs.msg import Odometry
+from sensor_msgs.msg import CameraInfo
+from tf2_msgs.msg import TFMessage
+
+from ekf_vislam.msg import StereoFeature, StereoFeatureArray
+from ekf_vislam_tools import se3, trajectory
+
+TOPIC_TF_STATIC = '/tf_static'
+TOPIC_TWIST = '/imu/twist'
+TOPIC_LEFT_INFO = '/stereo/left/camera_info'
+TOPIC_RIGHT_INFO = '/stereo/right/camera_info'
+TOPIC_FEATURES = '/stereo/features'
+TOPIC_GROUNDTRUTH = '/groundtruth/odometry'
+
+FRAME_WORLD = 'world'
+FRAME_IMU = 'imu'
+FRAME_CAMERA_LEFT = 'camera_left'
+FRAME_CAMERA_RIGHT = 'camera_right'
+
+DEFAULT_CALLERID = '/dataset_to_bag'
+
+#: Message class of every topic `iter_messages` yields.
+TOPIC_TYPES = {
+    TOPIC_TF_STATIC: TFMessage,
+    TOPIC_TWIST: TwistStamped,
+    TOPIC_LEFT_INFO: CameraInfo,
+    TOPIC_RIGHT_INFO: CameraInfo,
+    TOPIC_FEATURES: StereoFeatureArray,
+    TOPIC_GROUNDTRUTH: Odometry,
+}
+
+
+def to_ros_time(seconds):
+    """float seconds -> rospy.Time, rounded to the nearest nanosecond."""
+    secs = int(math.floor(seconds))
+    nsecs = int(round((seconds - secs) * 1e9))
+    if nsecs >= 1000000000:
+        secs, nsecs = secs + 1, nsecs - 1000000000
+    return rospy.Time(secs, nsecs)
+
+
+# ---------------------------------------------------------------------------------------------
+# Message builders
+# ---------------------------------------------------------------------------------------------
+def _set_pose(pose, T):
+    """Fill a geometry_msgs Pose (position/orientation) or Transform (translation/rotation)."""
+    q = se3.rotation_to_quaternion(T[:3, :3])
+    position = pose.position if hasattr(pose, 'position') else pose.translation
+    orientation = pose.orientation if hasattr(pose, 'orientation') else pose.rotation
+    position.x, position.y, position.z = (float(x) for x in T[:3, 3])
+    orientation.x, orientation.y, orientation.z, orientation.w = (float(x) for x in q)
+
+
+def tf_static_msg(dataset, stamp):
+    """/tf_static: imu -> camera_left (imu_T_cam) and camera_left -> camera_right (+b along x)."""
+    imu_T_cam = se3.inverse(dataset.cam_T_imu)
+    left_T_right = np.eye(4)
+    left_T_right[0, 3] = dataset.b
+    msg = TFMessage()
+    for parent, child, parent_T_child in ((FRAME_IMU, FRAME_CAMERA_LEFT, imu_T_cam),
+                                          (FRAME_CAMERA_LEFT, FRAME_CAMERA_RIGHT, left_T_right)):
+        tf = TransformStamped()
+        tf.header.stamp = stamp
+        tf.header.frame_id = parent
+        tf.child_frame_id = child
+        _set_pose(tf.transform, parent_T_child)
+        msg.transforms.append(tf)
+    return msg
+
+
+def tf_static_connection_header(msg, callerid=DEFAULT_CALLERID):
+    """Connection header that marks /tf_static as latched in a bag (as rosbag record does)."""
+    return {'callerid': callerid, 'topic': TOPIC_TF_STATIC, 'type': 'tf2_msgs/TFMessage',
+            'md5sum': msg._md5sum, 'message_definition': msg._full_text, 'latching': '1'}
+
+
+def twist_msg(dataset, k, stamp):
+    msg = TwistStamped()
+    msg.header.stamp = stamp
+    msg.header.frame_id = FRAME_IMU
+    msg.twist.linear.x, msg.twist.linear.y, msg.twist.linear.z = (float(x) for x in dataset.v[:, k])
+    msg.twist.angular.x, msg.twist.angular.y, msg.twist.angular.z = (
+        float(x) for x in dataset.w[:, k])
+    return msg
+
+
+def camera_info_msgs(dataset, stamp):
+    """(left, right) rectified CameraInfo: R = I, no distortion, right P[0,3] = -fx b."""
+    K = dataset.K
+    width, height = dataset.image_size if dataset.image_size is not None else (0, 0)
+    msgs = []
+    for frame_id, tx in ((FRAME_CAMERA_LEFT, 0.0), (FRAME_CAMERA_RIGHT, -K[0, 0] * dataset.b)):
+        msg = CameraInfo()
+        msg.header.stamp = stamp
+        msg.header.frame_id = frame_id
+        msg.width, msg.height = width, height
+        msg.distortion_model = 'plumb_bob'
+        msg.D = [0.0] * 5
+        msg.K = [float(x) for x in K.reshape(-1)]
+        msg.R = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
+        msg.P = [float(K[0, 0]), 0.0, float(K[0, 2]), float(tx),
+                 0.0, float(K[1, 1]), float(K[1, 2]), 0.0,
+                 0.0, 0.0, 1.0, 0.0]
+        msgs.append(msg)
+    return tuple(msgs)
+
+
+def features_msg(dataset, k, stamp, ids):
+    """StereoFeatureArray of frame k holding the features `ids` (column indices, observed)."""
+    msg = StereoFeatureArray()
+    msg.header.stamp = stamp
+    msg.header.frame_id = FRAME_CAMERA_LEFT
+    z = dataset.features[:, ids, k]
+    msg.features = [StereoFeature(id=int(j), u_left=float(z[0, i]), v_left=float(z[1, i]),
+                                  u_right=float(z[2, i]), v_right=float(z[3, i]))
+                    for i, j in enumerate(ids)]
+    return msg
+
+
+def odometry_msg(world_T_imu, stamp):
+    msg = Odometry()
+    msg.header.stamp = stamp
+    msg.header.frame_id = FRAME_WORLD
+    msg.child_frame_id = FRAME_IMU
+    _set_pose(msg.pose.pose, world_T_imu)
+    return msg
+
+
+# ---------------------------------------------------------------------------------------------
+# Ground truth
+# ---------------------------------------------------------------------------------------------
+def load_groundtruth(path, dataset):
+    """Ground truth for a dataset -> (t[N], world_T_imu[N,4,4]) with the first pose = identity.
+
+    A TUM file holds world_T_imu with its own times; a KITTI poses file (world_T_cam0) is turned
+    into world_T_imu with the dataset's frame times and cam_T_imu. Re-anchoring makes the world
+    frame the IMU frame at the first ground-truth pose, as in the estimator. Problems raise
+    `trajectory.TrajectoryError`.
+    """
+    try:
+        t, world_T_imu = trajectory.read_groundtruth(path, dataset.t, dataset.cam_T_imu)
+    except (OSError, UnicodeDecodeError) as exc:
+        raise trajectory.TrajectoryError('%s: cannot read ground truth (%s)'
+                                         % (path, getattr(exc, 'strerror', None) or exc))
+    if len(t) == 0:
+        raise trajectory.TrajectoryError('%s: no poses' % path)
+    steps = np.diff(t)
+    if np.any(steps <= 0):
+        raise trajectory.TrajectoryError('%s: time stamps not strictly increasing at pose %d'
+                                         % (path, int(np.argmax(steps <= 0)) + 1))
+    if t[0] < 0:
+        raise trajectory.TrajectoryError('%s: negative time stamp' % path)
+    first_T_world = se3.inverse(world_T_imu[0])
+    return t, np.einsum('ij,njk->nik', first_T_world, world_T_imu)
+
+
+# ---------------------------------------------------------------------------------------------
+# Message stream and bag
+# ---------------------------------------------------------------------------------------------
+def _frame_messages(dataset):
+    observed = dataset.observed()
+    for k in range(dataset.num_frames):
+        stamp = to_ros_time(dataset.t[k])
+        left, right = camera_info_msgs(dataset, stamp)
+        yield stamp, 0, TOPIC_TWIST, twist_msg(dataset, k, stamp)
+        yield stamp, 0, TOPIC_LEFT_INFO, left
+        yield stamp, 0, TOPIC_RIGHT_INFO, right
+        yield stamp, 0, TOPIC_FEATURES, features_msg(dataset, k, stamp,
+                                                     np.flatnonzero(observed[:, k]))
+
+
+def _groundtruth_messages(groundtruth):
+    t, world_T_imu = groundtruth
+    for tk, T in zip(t, world_T_imu):
+        stamp = to_ros_time(tk)
+        yield stamp, 1, TOPIC_GROUNDTRUTH, odometry_msg(T, stamp)
+
+
+def iter_messages(dataset, groundtruth=None):
+    """Yield (topic, msg, stamp) in bag order: /tf_static, then per frame twist, left and right
+    camera_info, features; ground truth (t, world_T_imu) interleaved by time (after the frame's
+    messages at equal stamps)."""
+    first = to_ros_time(dataset.t[0])
+    yield TOPIC_TF_STATIC, tf_static_msg(dataset, first), first
+    streams = [_frame_messages(dataset)]
+    if groundtruth is not None:
+        streams.append(_groundtruth_messages(groundtruth))
+    for stamp, _, topic, msg in heapq.merge(*streams, key=lambda item: (item[0], item[1])):
+        yield topic, msg, stamp
+
+
+class BagSummary(object):
+    """What was written: counts per kind and the bag path."""
+
+    def __init__(self, path):
+        self.path = path
+        self.frames = 0
+        self.feature_messages = 0
+        self.observations = 0
+        self.groundtruth_poses = 0
+
+    def __str__(self):
+        text = ('%d frames, %d feature messages, %d observations'
+                % (self.frames, self.feature_messages, self.observations))
+        if self.groundtruth_poses:
+            text += ', %d ground-truth poses' % self.groundtruth_poses
+        return text + ' -> %s' % self.path
+
+
+def write_bag(dataset, out_path, groundtruth=None, progress=None, callerid=DEFAULT_CALLERID):
+    """Write the dataset (and optional ground truth) to `out_path` -> BagSummary.
+
+    Writes `<out_path>.tmp-<pid>` and renames it on success; on any error (or KeyboardInterrupt)
+    the temporary file is removed and the exception propagates, so no half bag is left.
+    progress(frames_done, frames_total) is called after each frame when given.
+    """
+    tmp_path = '%s.tmp-%d' % (out_path, os.getpid())
+    summary = BagSummary(out_path)
+    try:
+        with rosbag.Bag(tmp_path, 'w') as bag:
+            for topic, msg, stamp in iter_messages(dataset, groundtruth):
+                if topic == TOPIC_TF_STATIC:
+                    bag.write(topic, msg, stamp,
+                              connection_header=tf_static_connection_header(msg, callerid))
+                    continue
+                bag.write(topic, msg, stamp)
+                if topic == TOPIC_FEATURES:
+                    summary.feature_messages += 1
+                    summary.observations += len(msg.features)
+                    summary.frames += 1
+                    if progress is not None:
+                        progress(summary.frames, dataset.num_frames)
+                elif topic == TOPIC_GROUNDTRUTH:
+                    summary.groundtruth_poses += 1
+        os.replace(tmp_path, out_path)
+    except BaseException:
+        try:
+            os.remove(tmp_path)
+        except OSError:
+            pass
+        raise
+    return summary

@@ -1,0 +1,444 @@
+"""A KITTI-like stereo visual-inertial driving simulator writing course datasets (2019 layout).
+
+`simulate(seed, **options)` returns a dict of arrays (the dataset, the true poses and twists,
+the noiseless observations and the landmarks); `write_outputs(result, prefix)` writes
+``PREFIX.npz`` (2019 layout, with a correct cam_T_imu and the keys
+``cam_T_imu_translation_correct = True`` and ``image_size``), ``PREFIX_groundtruth.tum``
+(world_T_imu per frame, first pose = identity) and ``PREFIX_landmarks.csv`` (``id,x,y,z``, world).
+
+Conventions (those of the estimator): body/IMU frame x forward, y left, z up; the twist stored at
+index k+1 is the constant body twist over [t_k, t_k+1]:
+
+    world_T_imu[k+1] = world_T_imu[k] @ twist_exp(v_true[:, k+1], w_true[:, k+1], t[k+1] - t[k])
+
+and index 0 holds the same as index 1. Everything is deterministic from the seed: independent
+random streams (trajectory, landmarks, tracking, noise, gyro offset) are spawned from
+``numpy.random.SeedSequence(seed)``, so changing a noise option leaves the geometry unchanged.
+"""
+import math
+
+import numpy as np
+from scipy.interpolate import PchipInterpolator
+from scipy.spatial import cKDTree
+
+from ekf_vislam_tools import se3, trajectory
+from ekf_vislam_tools.dataset import TRANSLATION_CORRECT_KEY, UNOBSERVED, observed_mask
+
+# KITTI odometry sequence 07 calibration (rectified gray cameras, IMU -> cam0).
+KITTI_K = np.array([[707.0912, 0.0, 601.8873],
+                    [0.0, 707.0912, 183.1104],
+                    [0.0, 0.0, 1.0]])
+KITTI_BASELINE = 0.5371506532679237
+KITTI_IMAGE_SIZE = (1241, 376)
+KITTI_CAM_T_IMU = np.array([[0.0, -1.0, 0.0, -0.3164],
+                            [0.0, 0.0, -1.0, 0.7341],
+                            [1.0, 0.0, 0.0, -1.1380],
+                            [0.0, 0.0, 0.0, 1.0]])
+
+DEFAULT_OPTIONS = {
+    # Drive
+    'frames': 800,             # number of frames (ignored when length_m is given)
+    'length_m': None,          # drive this many metres instead of a number of frames
+    'rate_hz': 10.0,           # frame rate
+    'time_jitter': 0.001,      # frame interval jitter, uniform +-, s
+    'start_time': 1.3e9,       # first time stamp, s
+    'speed_min': 5.0,          # forward speed range, m/s
+    'speed_max': 10.0,
+    'max_yaw_rate': 0.3,       # peak yaw rate of the sharpest turns, rad/s
+    # Scene and tracking
+    'landmark_density': 5.0,   # landmarks per metre of road (both sides together)
+    'target_obs': 70,          # observations per frame the tracker aims at (varies +-25 %)
+    'track_loss': 0.05,        # per-frame probability that a track is lost while still visible
+    'min_depth': 2.0,          # observable depth range, m
+    'max_depth': 60.0,
+    'min_disparity': 0.5,      # px
+    # Noise
+    'pixel_noise': 1.0,        # std of each pixel coordinate, px
+    'outlier_rate': 0.03,      # fraction of observations replaced by gross outliers
+    'velocity_noise': 0.5,     # std of each linear velocity component, m/s
+    'gyro_noise': 0.05,        # std of each angular velocity component, rad/s
+    'gyro_bias': None,         # constant gyro offset: None = drawn from the seed, a scalar or 3
+}
+
+_STREAMS = ('trajectory', 'landmarks', 'tracking', 'noise', 'gyro_bias')
+
+
+def simulate(seed, **options):
+    """Simulate a drive -> dict of arrays.
+
+    Dataset: 't' (T,), 'features' (4,M,T) with -1 where unobserved, 'linear_velocity' and
+    'rotational_velocity' (3,T) as measured, 'K', 'b', 'cam_T_imu' (correct), 'image_size'.
+    Truth: 'world_T_imu' (T,4,4) with the first pose the identity, 'v_true', 'w_true' (3,T),
+    'features_true' (4,M,T, noiseless), 'outlier_mask' (M,T), 'landmarks' (M,3) world position of
+    each feature id, 'landmark_points' (L,3) all physical points, 'point_of_id' (M,),
+    'gyro_bias' (3,), 'path_length' (m), 'options' (the options used).
+    """
+    unknown = set(options) - set(DEFAULT_OPTIONS)
+    if unknown:
+        raise TypeError('simulate(): unknown options %s' % ', '.join(sorted(unknown)))
+    opts = dict(DEFAULT_OPTIONS)
+    opts.update({k: v for k, v in options.items() if v is not None})
+    _check_options(opts)
+    rngs = {name: np.random.default_rng(child) for name, child in
+            zip(_STREAMS, np.random.SeedSequence(seed).spawn(len(_STREAMS)))}
+
+    t, v_true, w_true, world_T_imu = _drive(rngs['trajectory'], opts)
+    positions = world_T_imu[:, :3, 3]
+    path_length = float(np.sum(np.linalg.norm(np.diff(positions, axis=0), axis=1)))
+    points = _landmark_points(rngs['landmarks'], world_T_imu, opts)
+    obs_frame, obs_point, obs_id, z_true = _track(rngs['tracking'], points, world_T_imu, opts)
+
+    num_ids = int(obs_id.max()) + 1 if obs_id.size else 0
+    point_of_id = np.zeros(num_ids, dtype=np.int64)
+    point_of_id[obs_id] = obs_point
+    features_true = np.full((4, num_ids, len(t)), UNOBSERVED)
+    features_true[:, obs_id, obs_frame] = z_true.T
+    z_meas, is_outlier = _measure_pixels(rngs['noise'], z_true, opts)
+    features = np.full_like(features_true, UNOBSERVED)
+    features[:, obs_id, obs_frame] = z_meas.T
+    outlier_mask = np.zeros((num_ids, len(t)), dtype=bool)
+    outlier_mask[obs_id[is_outlier], obs_frame[is_outlier]] = True
+
+    gyro_bias = _gyro_bias(rngs['gyro_bias'], opts['gyro_bias'])
+    noise = rngs['noise']
+    linear_velocity = v_true + noise.normal(0.0, opts['velocity_noise'], v_true.shape)
+    rotational_velocity = (w_true + noise.normal(0.0, opts['gyro_noise'], w_true.shape)
+                           + gyro_bias[:, None])
+
+    return {
+        't': t, 'features': features, 'linear_velocity': linear_velocity,
+        'rotational_velocity': rotational_velocity, 'K': KITTI_K.copy(), 'b': KITTI_BASELINE,
+        'cam_T_imu': KITTI_CAM_T_IMU.copy(), 'image_size': np.array(KITTI_IMAGE_SIZE),
+        'world_T_imu': world_T_imu, 'v_true': v_true, 'w_true': w_true,
+        'features_true': features_true, 'outlier_mask': outlier_mask,
+        'landmarks': points[point_of_id], 'landmark_points': points, 'point_of_id': point_of_id,
+        'gyro_bias': gyro_bias, 'path_length': path_length, 'options': opts,
+    }
+
+
+def _check_options(opts):
+    positive = ('frames', 'rate_hz', 'speed_min', 'speed_max', 'max_yaw_rate',
+                'landmark_density', 'target_obs', 'min_depth', 'max_depth')
+    for name in positive:
+        if not opts[name] > 0:
+            raise ValueError('%s must be positive, got %r' % (name, opts[name]))
+    if opts['length_m'] is not None and not opts['length_m'] > 0:
+        raise ValueError('length_m must be positive, got %r' % opts['length_m'])
+    for name in ('pixel_noise', 'velocity_noise', 'gyro_noise', 'time_jitter', 'min_disparity'):
+        if not opts[name] >= 0:
+            raise ValueError('%s must not be negative, got %r' % (name, opts[name]))
+    for name in ('outlier_rate', 'track_loss'):
+        if not 0 <= opts[name] < 1:
+            raise ValueError('%s must be in [0, 1), got %r' % (name, opts[name]))
+    if opts['speed_max'] - opts['speed_min'] < 1.0:
+        raise ValueError('speed_max must exceed speed_min by at least 1 m/s')
+    if opts['max_depth'] <= opts['min_depth']:
+        raise ValueError('max_depth must exceed min_depth')
+    if opts['time_jitter'] >= 0.25 / opts['rate_hz']:
+        raise ValueError('time_jitter must be well below the frame interval')
+
+
+# ---------------------------------------------------------------------------------------------
+# Trajectory
+# ---------------------------------------------------------------------------------------------
+def _smooth_signal(rng, periods, count=3):
+    """A smooth zero-mean function f(tau) in [-1, 1] (sum of sinusoids) and its derivative."""
+    freq = 1.0 / rng.uniform(periods[0], periods[1], count)
+    phase = rng.uniform(0.0, 2.0 * np.pi, count)
+    amp = rng.uniform(0.5, 1.0, count)
+    amp /= amp.sum()
+
+    def value(tau):
+        return np.sum(amp[:, None] * np.sin(2 * np.pi * freq[:, None] * tau + phase[:, None]), 0)
+
+    def rate(tau):
+        return np.sum(amp[:, None] * 2 * np.pi * freq[:, None]
+                      * np.cos(2 * np.pi * freq[:, None] * tau + phase[:, None]), 0)
+    return value, rate
+
+
+def _yaw_rate_profile(rng, duration, max_yaw_rate):
+    """Straight stretches with a slight road curvature, separated by smooth turns (sin^2 bumps
+    of yaw rate, 20-100 deg each, peak yaw rate up to max_yaw_rate)."""
+    turns = []
+    tau = rng.uniform(3.0, 8.0)                       # start straight
+    while tau < duration:
+        peak = rng.uniform(0.4, 1.0) * max_yaw_rate * rng.choice([-1.0, 1.0])
+        angle = np.radians(rng.uniform(20.0, 100.0))
+        length = 2.0 * angle / abs(peak)
+        turns.append((tau, length, peak))
+        tau += length + rng.uniform(4.0, 12.0)        # straight stretch
+    curvature, _ = _smooth_signal(rng, (20.0, 60.0))
+
+    def yaw_rate(tau):
+        rate = 0.01 * curvature(tau)
+        for start, length, peak in turns:
+            inside = (tau >= start) & (tau <= start + length)
+            rate = rate + np.where(inside, peak * np.sin(np.pi * (tau - start) / length) ** 2, 0.0)
+        return rate
+    return yaw_rate
+
+
+def _frame_times(rng, num, opts):
+    dt = 1.0 / opts['rate_hz'] + rng.uniform(-opts['time_jitter'], opts['time_jitter'], num - 1)
+    return opts['start_time'] + np.concatenate([[0.0], np.cumsum(dt)])
+
+
+def _drive(rng, opts):
+    """Frame times, true body twists (3,T) and world_T_imu (T,4,4) of a car-like drive."""
+    dt = 1.0 / opts['rate_hz']
+    if opts['length_m'] is not None:     # enough frames at the lowest speed, cut below
+        num = int(math.ceil(opts['length_m'] / (opts['speed_min'] * dt))) + 2
+    else:
+        num = int(opts['frames'])
+    t = _frame_times(rng, num, opts)
+    duration = t[-1] - t[0]
+
+    # Forward speed: monotone cubic through random knots every 6 s, inside the speed range.
+    margin = 0.1 * (opts['speed_max'] - opts['speed_min'])
+    knots = np.arange(-6.0, duration + 12.0, 6.0)
+    speed = PchipInterpolator(knots, rng.uniform(opts['speed_min'] + margin,
+                                                 opts['speed_max'] - margin, knots.size))
+    yaw_rate = _yaw_rate_profile(rng, duration, opts['max_yaw_rate'])
+    roll, roll_rate = _smooth_signal(rng, (8.0, 30.0))
+    pitch, pitch_rate = _smooth_signal(rng, (10.0, 40.0))
+    lateral, _ = _smooth_signal(rng, (5.0, 20.0))
+    vertical, _ = _smooth_signal(rng, (3.0, 15.0))
+    roll_amp, pitch_amp = np.radians(1.0), np.radians(1.5)
+
+    # Twist k+1 drives [t_k, t_k+1]: evaluate the profiles at the interval midpoints.
+    tau = 0.5 * (t[:-1] + t[1:]) - t[0]
+    phi, theta = roll_amp * roll(tau), pitch_amp * pitch(tau)
+    dphi, dtheta, dpsi = roll_amp * roll_rate(tau), pitch_amp * pitch_rate(tau), yaw_rate(tau)
+    # Body angular velocity from ZYX Euler angle rates (keeps roll and pitch bounded).
+    w = np.stack([dphi - dpsi * np.sin(theta),
+                  dtheta * np.cos(phi) + dpsi * np.cos(theta) * np.sin(phi),
+                  dpsi * np.cos(theta) * np.cos(phi) - dtheta * np.sin(phi)])
+    v = np.stack([speed(tau), 0.05 * lateral(tau), 0.03 * vertical(tau)])
+    v_true = np.concatenate([v[:, :1], v], axis=1)
+    w_true = np.concatenate([w[:, :1], w], axis=1)
+
+    world_T_imu = np.empty((num, 4, 4))
+    world_T_imu[0] = np.eye(4)
+    for k in range(num - 1):
+        world_T_imu[k + 1] = world_T_imu[k] @ se3.twist_exp(v_true[:, k + 1], w_true[:, k + 1],
+                                                            t[k + 1] - t[k])
+
+    if opts['length_m'] is not None:
+        travelled = np.concatenate([[0.0], np.cumsum(
+            np.linalg.norm(np.diff(world_T_imu[:, :3, 3], axis=0), axis=1))])
+        num = int(np.searchsorted(travelled, opts['length_m'])) + 1
+        num = max(2, min(num, len(t)))
+        t, v_true, w_true, world_T_imu = t[:num], v_true[:, :num], w_true[:, :num], world_T_imu[:num]
+    return t, v_true, w_true, world_T_imu
+
+
+# ---------------------------------------------------------------------------------------------
+# Scene
+# ---------------------------------------------------------------------------------------------
+def _landmark_points(rng, world_T_imu, opts):
+    """Points on both sides of the road: lateral 3-25 m, height -1.5..6 m relative to the IMU,
+    uniformly along the path (and max_depth beyond its ends); none within 3 m of the road."""
+    positions = world_T_imu[:, :3, 3]
+    heading = world_T_imu[:, :3, 0].copy()
+    heading[:, 2] = 0.0
+    heading /= np.linalg.norm(heading, axis=1, keepdims=True)
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(positions, axis=0), axis=1))])
+
+    extra = opts['max_depth'] + 10.0
+    # Extend the path straight beyond both ends so the first and last frames see a scene too.
+    steps = np.arange(1.0, extra + 1.0)
+    before = positions[0] - steps[::-1, None] * heading[0]
+    after = positions[-1] + steps[:, None] * heading[-1]
+    path = np.concatenate([before, positions, after])
+    path_heading = np.concatenate([np.repeat(heading[:1], steps.size, 0), heading,
+                                   np.repeat(heading[-1:], steps.size, 0)])
+    path_arc = np.concatenate([-steps[::-1], arc, arc[-1] + steps])
+
+    count = int(round(opts['landmark_density'] * (path_arc[-1] - path_arc[0])))
+    s = rng.uniform(path_arc[0], path_arc[-1], count)
+    side = rng.choice([-1.0, 1.0], count)
+    lateral = rng.uniform(3.0, 25.0, count)
+    height = rng.uniform(-1.5, 6.0, count)
+    base = np.stack([np.interp(s, path_arc, path[:, i]) for i in range(3)], axis=1)
+    direction = np.stack([np.interp(s, path_arc, path_heading[:, i]) for i in range(2)], axis=1)
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    left = np.stack([-direction[:, 1], direction[:, 0]], axis=1)
+    points = base.copy()
+    points[:, :2] += (side * lateral)[:, None] * left
+    points[:, 2] += height
+
+    # Inside a turn a point can land on another part of the road: drop those.
+    dense = np.concatenate([np.linspace(path[i], path[i + 1], 5, endpoint=False)
+                            for i in range(len(path) - 1)] + [path[-1:]])
+    distance, _ = cKDTree(dense[:, :2]).query(points[:, :2])
+    return points[distance >= 3.0]
+
+
+def project(points_world, world_T_imu, cam_T_imu=KITTI_CAM_T_IMU, K=KITTI_K, b=KITTI_BASELINE):
+    """Stereo projection of world points (N,3) at pose world_T_imu -> (z (N,4), depth (N,))."""
+    cam_T_world = cam_T_imu @ se3.inverse(world_T_imu)
+    q = points_world @ cam_T_world[:3, :3].T + cam_T_world[:3, 3]
+    depth = q[:, 2]
+    with np.errstate(divide='ignore', invalid='ignore'):
+        u = K[0, 0] * q[:, 0] / depth + K[0, 2]
+        v = K[1, 1] * q[:, 1] / depth + K[1, 2]
+        disparity = K[0, 0] * b / depth
+    return np.stack([u, v, u - disparity, v], axis=1), depth
+
+
+def _visible(z, depth, opts):
+    width, height = KITTI_IMAGE_SIZE
+    return ((depth >= opts['min_depth']) & (depth <= opts['max_depth'])
+            & (z[:, 0] - z[:, 2] > opts['min_disparity'])
+            & (z[:, 0] >= 0) & (z[:, 0] <= width - 1) & (z[:, 2] >= 0) & (z[:, 2] <= width - 1)
+            & (z[:, 1] >= 0) & (z[:, 1] <= height - 1))
+
+
+def _track(rng, points, world_T_imu, opts):
+    """Feature tracks over the frames -> (frame, point, id, z_true (n,4)) per observation.
+
+    A track continues while its point stays observable, except for a small per-frame loss; new
+    tracks start on observable untracked points (a new id every time) up to a per-frame target
+    that varies smoothly around target_obs. Each id is thus seen in one contiguous run.
+    """
+    num = len(world_T_imu)
+    wobble, _ = _smooth_signal(rng, (100.0, 400.0))
+    target = np.maximum(20, np.round(opts['target_obs'] * (1.0 + 0.25 * wobble(np.arange(num)))))
+    max_new = max(10, int(opts['target_obs']) // 2)
+    active_points = np.zeros(0, dtype=np.int64)
+    active_ids = np.zeros(0, dtype=np.int64)
+    next_id = 0
+    frames, pts, ids, zs = [], [], [], []
+    for k in range(num):
+        z, depth = project(points, world_T_imu[k])
+        visible = _visible(z, depth, opts)
+        was_active = np.zeros(len(points), dtype=bool)
+        was_active[active_points] = True
+        keep = visible[active_points] & (rng.random(active_points.size) >= opts['track_loss'])
+        active_points, active_ids = active_points[keep], active_ids[keep]
+        wanted = int(target[k]) - active_points.size
+        if k > 0:
+            wanted = min(wanted, max_new)
+        candidates = np.flatnonzero(visible & ~was_active)
+        new = min(max(wanted, 0), candidates.size)
+        if new:
+            started = rng.choice(candidates, new, replace=False)
+            active_points = np.concatenate([active_points, started])
+            active_ids = np.concatenate([active_ids, np.arange(next_id, next_id + new)])
+            next_id += new
+        frames.append(np.full(active_points.size, k))
+        pts.append(active_points)
+        ids.append(active_ids)
+        zs.append(z[active_points])
+    return (np.concatenate(frames), np.concatenate(pts), np.concatenate(ids),
+            np.concatenate(zs))
+
+
+# ---------------------------------------------------------------------------------------------
+# Measurements
+# ---------------------------------------------------------------------------------------------
+def _measure_pixels(rng, z_true, opts):
+    """Pixel noise on every coordinate, and gross outliers -> (z (n,4), is_outlier (n,)).
+
+    An outlier (probability outlier_rate) is a wrong match: a third get a negative disparity
+    (u_right 2-60 px right of u_left), the others random 20-200 px offsets on some coordinates;
+    outliers stay inside the image.
+    """
+    width, height = KITTI_IMAGE_SIZE
+    limits = np.array([width - 1, height - 1, width - 1, height - 1], float)
+    n = z_true.shape[0]
+    z = z_true + rng.normal(0.0, opts['pixel_noise'], z_true.shape)
+    is_outlier = rng.random(n) < opts['outlier_rate']
+    idx = np.flatnonzero(is_outlier)
+    negative = rng.random(idx.size) < 1.0 / 3.0
+
+    # Offsets of 20-200 px on a random non-empty subset of the four coordinates; flip the sign
+    # when that leaves the image, clip as a last resort.
+    shifted = idx[~negative]
+    pick = rng.random((shifted.size, 4)) < 0.5
+    pick[np.arange(shifted.size), rng.integers(0, 4, shifted.size)] = True
+    offset = rng.uniform(20.0, 200.0, (shifted.size, 4)) * rng.choice([-1.0, 1.0], (shifted.size, 4))
+    base = z[shifted]
+    moved = base + offset
+    outside = (moved < 0) | (moved > limits)
+    moved = np.where(outside, base - offset, moved)
+    z[shifted] = np.where(pick, np.clip(moved, 0.0, limits), base)
+
+    # Negative disparity: the right image point lies to the right of the left one.
+    flipped = idx[negative]
+    gap = rng.uniform(2.0, 60.0, flipped.size)
+    u_left, u_right = z[flipped, 0], z[flipped, 2]
+    fits = u_left + gap <= width - 1
+    z[flipped, 2] = np.where(fits, u_left + gap, u_right)
+    z[flipped, 0] = np.where(fits, u_left, u_right - gap)
+    return z, is_outlier
+
+
+def _gyro_bias(rng, option):
+    """Constant gyro offset (3,): from the option (scalar or 3 values), else each axis drawn
+    uniformly from +-[0.005, 0.01] rad/s."""
+    drawn = rng.uniform(0.005, 0.01, 3) * rng.choice([-1.0, 1.0], 3)
+    if option is None:
+        return drawn
+    bias = np.asarray(option, dtype=float).reshape(-1)
+    if bias.size == 1:
+        return np.repeat(bias, 3)
+    if bias.size != 3:
+        raise ValueError('gyro_bias: give one value or three, got %d' % bias.size)
+    return bias
+
+
+# ---------------------------------------------------------------------------------------------
+# Output
+# ---------------------------------------------------------------------------------------------
+def dataset_arrays(result):
+    """The npz content (2019 course layout + our marker and image size) of a simulation."""
+    return {
+        'time_stamps': result['t'][None, :],
+        'features': result['features'],
+        'linear_velocity': result['linear_velocity'],
+        'rotational_velocity': result['rotational_velocity'],
+        'K': result['K'],
+        'b': np.array(result['b']),
+        'cam_T_imu': result['cam_T_imu'],
+        TRANSLATION_CORRECT_KEY: np.array(True),
+        'image_size': np.asarray(result['image_size'], dtype=np.int64),
+    }
+
+
+def output_paths(prefix):
+    return {'npz': prefix + '.npz', 'groundtruth': prefix + '_groundtruth.tum',
+            'landmarks': prefix + '_landmarks.csv'}
+
+
+def write_outputs(result, prefix):
+    """Write PREFIX.npz, PREFIX_groundtruth.tum, PREFIX_landmarks.csv -> dict of the paths."""
+    paths = output_paths(prefix)
+    np.savez_compressed(paths['npz'], **dataset_arrays(result))
+    trajectory.write_tum(paths['groundtruth'], result['t'], result['world_T_imu'])
+    with open(paths['landmarks'], 'w') as f:
+        f.write('id,x,y,z\n')
+        for j, (x, y, z) in enumerate(result['landmarks']):
+            f.write('%d,%.9f,%.9f,%.9f\n' % (j, x, y, z))
+    return paths
+
+
+def statistics(features):
+    """Observation statistics of a (4,M,T) features array -> dict: obs_per_frame (T,),
+    track_lengths (M,), contiguous (every id seen in one run of frames)."""
+    observed = observed_mask(features)
+    track_lengths = observed.sum(axis=1)
+    starts = np.diff(observed.astype(np.int8), axis=1, prepend=0) == 1
+    return {'obs_per_frame': observed.sum(axis=0), 'track_lengths': track_lengths,
+            'contiguous': bool(np.all(starts.sum(axis=1) <= 1))}
+
+
+def summary(result):
+    """One line: frames, path length, ids, mean observations per frame, mean track length."""
+    stats = statistics(result['features'])
+    return ('%d frames, %.0f m, %d feature ids, %.1f observations/frame (min %d), '
+            'mean track %.1f frames, gyro offset (%.4f, %.4f, %.4f) rad/s'
+            % (len(result['t']), result['path_length'], result['features'].shape[1],
+               stats['obs_per_frame'].mean(), stats['obs_per_frame'].min(),
+               stats['track_lengths'].mean(), *result['gyro_bias']))

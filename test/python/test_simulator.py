@@ -1,0 +1,283 @@
+"""Tests of the simulator (ekf_vislam_tools.simulator) and its CLI scripts/simulate_dataset.py."""
+import csv
+import os
+import unittest
+
+import numpy as np
+
+import ekf_test_paths
+from ekf_vislam_tools import se3, simulator, trajectory
+from ekf_vislam_tools.dataset import load_dataset, observed_mask
+
+DATASET_KEYS = ('t', 'features', 'linear_velocity', 'rotational_velocity', 'K', 'cam_T_imu',
+                'image_size')
+TRUTH_KEYS = ('world_T_imu', 'v_true', 'w_true', 'features_true', 'outlier_mask', 'landmarks',
+              'gyro_bias')
+
+
+def integrate(t, v, w):
+    """world_T_imu from a twist sequence, convention T(k+1) = T(k) exp(tau u(k+1))."""
+    poses = [np.eye(4)]
+    for k in range(len(t) - 1):
+        poses.append(poses[-1] @ se3.twist_exp(v[:, k + 1], w[:, k + 1], t[k + 1] - t[k]))
+    return np.array(poses)
+
+
+def gross_errors(result, threshold_px=10.0):
+    """(M,T) True where an observation is off its noiseless value by more than threshold_px."""
+    observed = observed_mask(result['features'])
+    error = np.abs(result['features'] - result['features_true']).max(axis=0)
+    return observed & (error > threshold_px)
+
+
+class SimulatorTest(unittest.TestCase):
+    """The default 800-frame drive: statistics, geometry, noise."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.result = simulator.simulate(7)
+        cls.stats = simulator.statistics(cls.result['features'])
+        cls.observed = observed_mask(cls.result['features'])
+
+    def test_defaults_match_the_real_data_shape(self):
+        r = self.result
+        self.assertEqual(r['features'].shape[0], 4)
+        self.assertEqual(r['features'].shape[2], 800)
+        self.assertEqual(r['linear_velocity'].shape, (3, 800))
+        self.assertEqual(r['rotational_velocity'].shape, (3, 800))
+        np.testing.assert_array_equal(r['K'], simulator.KITTI_K)
+        self.assertAlmostEqual(r['b'], 0.5371506532679237)
+        np.testing.assert_array_equal(r['image_size'], [1241, 376])
+        np.testing.assert_allclose(r['cam_T_imu'][:3, :3],
+                                   [[0, -1, 0], [0, 0, -1], [1, 0, 0]])
+        np.testing.assert_allclose(r['cam_T_imu'][:3, 3], [-0.3164, 0.7341, -1.1380])
+
+    def test_observations_per_frame(self):
+        per_frame = self.stats['obs_per_frame']
+        self.assertTrue(55 <= per_frame.mean() <= 90, per_frame.mean())
+        self.assertGreater(per_frame.min(), 15)
+
+    def test_tracks(self):
+        lengths = self.stats['track_lengths']
+        self.assertTrue(np.all(lengths >= 1), 'an id that is never observed')
+        self.assertTrue(8 <= lengths.mean() <= 30, lengths.mean())
+        self.assertTrue(self.stats['contiguous'], 'an id seen in more than one run of frames')
+
+    def test_outliers(self):
+        r = self.result
+        rate = r['options']['outlier_rate']
+        gross = gross_errors(r)
+        fraction = gross.sum() / self.observed.sum()
+        self.assertAlmostEqual(fraction, rate, delta=0.3 * rate)
+        # Every gross error is a declared outlier (pixel noise alone never reaches 10 px).
+        self.assertFalse(np.any(gross & ~r['outlier_mask']))
+        disparity = r['features'][0] - r['features'][2]
+        negative = self.observed & (disparity < 0) & r['outlier_mask']
+        self.assertGreater(negative.sum(), 0.2 * r['outlier_mask'].sum())
+
+    def test_pixel_noise(self):
+        r = self.result
+        inlier = self.observed & ~r['outlier_mask']
+        residual = (r['features'] - r['features_true'])[:, inlier]
+        self.assertAlmostEqual(residual.std(), 1.0, delta=0.05)
+        self.assertAlmostEqual(residual.mean(), 0.0, delta=0.05)
+
+    def test_noiseless_observations_are_observable(self):
+        z = self.result['features_true'][:, self.observed]
+        width, height = self.result['image_size']
+        self.assertTrue(np.all(z[0] - z[2] > 0.5))
+        self.assertTrue(np.all((z[[0, 2]] >= 0) & (z[[0, 2]] <= width - 1)))
+        self.assertTrue(np.all((z[[1, 3]] >= 0) & (z[[1, 3]] <= height - 1)))
+        np.testing.assert_allclose(z[1], z[3])
+
+    def test_twist_noise_and_gyro_offset(self):
+        r = self.result
+        v_error = r['linear_velocity'] - r['v_true']
+        w_error = r['rotational_velocity'] - r['w_true']
+        np.testing.assert_allclose(v_error.std(axis=1), 0.5, rtol=0.1)
+        np.testing.assert_allclose(w_error.std(axis=1), 0.05, rtol=0.1)
+        self.assertTrue(np.all((np.abs(r['gyro_bias']) >= 0.005) & (np.abs(r['gyro_bias']) <= 0.01)))
+        np.testing.assert_allclose(w_error.mean(axis=1), r['gyro_bias'], atol=0.006)
+
+    def test_groundtruth_is_the_integrated_true_twist(self):
+        r = self.result
+        np.testing.assert_array_equal(r['v_true'][:, 0], r['v_true'][:, 1])
+        np.testing.assert_array_equal(r['w_true'][:, 0], r['w_true'][:, 1])
+        np.testing.assert_allclose(r['world_T_imu'][0], np.eye(4))
+        np.testing.assert_allclose(integrate(r['t'], r['v_true'], r['w_true']), r['world_T_imu'],
+                                   atol=1e-9)
+
+    def test_drive_is_car_like(self):
+        r = self.result
+        dt = np.diff(r['t'])
+        self.assertTrue(np.all(np.abs(dt - 0.1) <= 0.001 + 1e-9))
+        self.assertTrue(np.all((r['v_true'][0] >= 5) & (r['v_true'][0] <= 10)))
+        self.assertTrue(300 <= r['path_length'] <= 1000, r['path_length'])
+        yaw_rate = np.abs(r['w_true'][2])
+        self.assertTrue(0.15 <= yaw_rate.max() <= 0.32, yaw_rate.max())
+        self.assertGreater(np.mean(yaw_rate < 0.03), 0.3, 'no straight stretches')
+        turning = np.diff((yaw_rate > 0.1).astype(int)) == 1
+        self.assertGreaterEqual(turning.sum(), 3, 'fewer than three turns')
+        # Small roll/pitch: gravity direction (world z in the body) stays near body z.
+        up_in_body = r['world_T_imu'][:, 2, :3]
+        tilt = np.degrees(np.arccos(np.clip(up_in_body[:, 2], -1, 1)))
+        self.assertLess(tilt.max(), 6.0)
+        self.assertLess(np.abs(r['v_true'][1:]).max(), 0.2)
+
+    def test_landmarks_project_to_the_noiseless_observations(self):
+        r = self.result
+        ids, frames = np.nonzero(self.observed)
+        pick = np.random.default_rng(0).choice(ids.size, 2000, replace=False)
+        for j, k in zip(ids[pick], frames[pick]):
+            z, depth = simulator.project(r['landmarks'][j][None], r['world_T_imu'][k],
+                                         r['cam_T_imu'], r['K'], r['b'])
+            np.testing.assert_allclose(z[0], r['features_true'][:, j, k], atol=1e-6)
+            self.assertTrue(2.0 <= depth[0] <= 60.0)
+
+
+class DeterminismTest(unittest.TestCase):
+
+    def test_same_seed_same_arrays(self):
+        a = simulator.simulate(11, frames=120)
+        b = simulator.simulate(11, frames=120)
+        for key in DATASET_KEYS + TRUTH_KEYS:
+            np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+
+    def test_different_seed_different_arrays(self):
+        a = simulator.simulate(11, frames=120)
+        b = simulator.simulate(12, frames=120)
+        self.assertFalse(np.array_equal(a['linear_velocity'], b['linear_velocity']))
+        self.assertFalse(np.allclose(a['world_T_imu'][-1], b['world_T_imu'][-1]))
+        self.assertFalse(np.array_equal(a['features'].shape, b['features'].shape)
+                         and np.array_equal(a['features'], b['features']))
+
+    def test_noise_options_leave_the_geometry(self):
+        noisy = simulator.simulate(11, frames=120)
+        clean = simulator.simulate(11, frames=120, pixel_noise=0.0, outlier_rate=0.0,
+                                   velocity_noise=0.0, gyro_noise=0.0, gyro_bias=0.0)
+        np.testing.assert_array_equal(noisy['world_T_imu'], clean['world_T_imu'])
+        np.testing.assert_array_equal(noisy['features_true'], clean['features_true'])
+        np.testing.assert_array_equal(clean['features'], clean['features_true'])
+        np.testing.assert_array_equal(clean['linear_velocity'], clean['v_true'])
+        np.testing.assert_array_equal(clean['rotational_velocity'], clean['w_true'])
+
+    def test_length_option(self):
+        r = simulator.simulate(4, length_m=150.0)
+        self.assertAlmostEqual(r['path_length'], 150.0, delta=1.5)
+
+    def test_bad_options(self):
+        with self.assertRaises(ValueError):
+            simulator.simulate(1, outlier_rate=1.5)
+        with self.assertRaises(ValueError):
+            simulator.simulate(1, frames=0)
+        with self.assertRaises(TypeError):
+            simulator.simulate(1, no_such_option=3)
+
+
+class SimulateDatasetScriptTest(unittest.TestCase):
+    """The CLI: files, their formats and agreement with the in-process simulation."""
+
+    FRAMES = 150
+
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = ekf_test_paths.make_temp_dir()
+        cls.addClassCleanup(ekf_test_paths.remove_dir, cls.tmp)
+        cls.prefix = os.path.join(cls.tmp, 'sim')
+        cls.proc = ekf_test_paths.run_script('simulate_dataset.py', '--seed', 3, '--frames',
+                                             cls.FRAMES, '--out', cls.prefix)
+        cls.expected = simulator.simulate(3, frames=cls.FRAMES)
+
+    def test_exit_and_summary(self):
+        self.assertEqual(self.proc.returncode, 0, self.proc.stderr)
+        self.assertEqual(self.proc.stderr, '')
+        lines = self.proc.stdout.strip().splitlines()
+        self.assertEqual(len(lines), 1)
+        self.assertIn('%d frames' % self.FRAMES, lines[0])
+        self.assertIn('observations/frame', lines[0])
+        self.assertIn('mean track', lines[0])
+
+    def test_npz_layout(self):
+        with np.load(self.prefix + '.npz', allow_pickle=False) as npz:
+            self.assertEqual(set(npz.files), {
+                'time_stamps', 'features', 'linear_velocity', 'rotational_velocity', 'K', 'b',
+                'cam_T_imu', 'cam_T_imu_translation_correct', 'image_size'})
+            self.assertEqual(npz['time_stamps'].shape, (1, self.FRAMES))
+            self.assertTrue(bool(npz['cam_T_imu_translation_correct']))
+            np.testing.assert_array_equal(npz['image_size'], [1241, 376])
+            np.testing.assert_array_equal(npz['time_stamps'][0], self.expected['t'])
+            np.testing.assert_array_equal(npz['features'], self.expected['features'])
+            np.testing.assert_array_equal(npz['rotational_velocity'],
+                                          self.expected['rotational_velocity'])
+            np.testing.assert_array_equal(npz['cam_T_imu'], simulator.KITTI_CAM_T_IMU)
+
+    def test_npz_loads_without_extrinsic_fix(self):
+        dataset = load_dataset(self.prefix + '.npz')
+        self.assertFalse(dataset.extrinsic_fixed)
+        np.testing.assert_array_equal(dataset.cam_T_imu, simulator.KITTI_CAM_T_IMU)
+        self.assertEqual(dataset.image_size, (1241, 376))
+
+    def test_groundtruth_file(self):
+        t, world_T_imu = trajectory.read_tum(self.prefix + '_groundtruth.tum')
+        np.testing.assert_array_equal(t, self.expected['t'])
+        np.testing.assert_allclose(world_T_imu[0], np.eye(4), atol=1e-12)
+        np.testing.assert_allclose(world_T_imu, self.expected['world_T_imu'], atol=1e-6)
+
+    def test_landmarks_file(self):
+        with open(self.prefix + '_landmarks.csv') as f:
+            rows = list(csv.reader(f))
+        self.assertEqual(rows[0], ['id', 'x', 'y', 'z'])
+        ids = np.array([int(row[0]) for row in rows[1:]])
+        np.testing.assert_array_equal(ids, np.arange(self.expected['features'].shape[1]))
+        xyz = np.array([[float(x) for x in row[1:]] for row in rows[1:]])
+        np.testing.assert_allclose(xyz, self.expected['landmarks'], atol=1e-8)
+
+    def test_noiseless_files_reproject(self):
+        """landmarks.csv seen through the TUM poses gives the npz observations exactly."""
+        prefix = os.path.join(self.tmp, 'clean')
+        proc = ekf_test_paths.run_script('simulate_dataset.py', '--seed', 5, '--frames', 60,
+                                         '--pixel-noise', 0, '--outlier-rate', 0, '--out', prefix)
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        landmarks = np.loadtxt(prefix + '_landmarks.csv', delimiter=',', skiprows=1, ndmin=2)
+        _, world_T_imu = trajectory.read_tum(prefix + '_groundtruth.tum')
+        dataset = load_dataset(prefix + '.npz')
+        observed = dataset.observed()
+        self.assertGreater(observed.sum(), 1000)
+        for k in range(dataset.num_frames):
+            ids = np.flatnonzero(observed[:, k])
+            z, _ = simulator.project(landmarks[ids, 1:], world_T_imu[k], dataset.cam_T_imu,
+                                     dataset.K, dataset.b)
+            np.testing.assert_allclose(z.T, dataset.features[:, ids, k], atol=1e-3)
+
+    def test_same_seed_same_files(self):
+        prefix = os.path.join(self.tmp, 'again')
+        proc = ekf_test_paths.run_script('simulate_dataset.py', '--seed', 3, '--frames',
+                                         self.FRAMES, '--out', prefix + '.npz')
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        with np.load(self.prefix + '.npz') as a, np.load(prefix + '.npz') as b:
+            for key in a.files:
+                np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+        with open(self.prefix + '_groundtruth.tum') as a, open(prefix + '_groundtruth.tum') as b:
+            self.assertEqual(a.read(), b.read())
+
+    def test_length_m(self):
+        prefix = os.path.join(self.tmp, 'length')
+        proc = ekf_test_paths.run_script('simulate_dataset.py', '--seed', 2, '--length-m', 120,
+                                         '--out', prefix)
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        _, world_T_imu = trajectory.read_tum(prefix + '_groundtruth.tum')
+        steps = np.linalg.norm(np.diff(world_T_imu[:, :3, 3], axis=0), axis=1)
+        self.assertAlmostEqual(steps.sum(), 120.0, delta=1.5)
+
+    def test_bad_option_is_one_line(self):
+        proc = ekf_test_paths.run_script('simulate_dataset.py', '--seed', 1, '--outlier-rate',
+                                         1.5, '--out', os.path.join(self.tmp, 'bad'))
+        self.assertEqual(proc.returncode, 2)
+        self.assertEqual(len(proc.stderr.strip().splitlines()), 1, proc.stderr)
+        self.assertIn('outlier_rate', proc.stderr)
+        self.assertNotIn('Traceback', proc.stderr)
+        self.assertFalse(os.path.exists(os.path.join(self.tmp, 'bad.npz')))
+
+
+if __name__ == '__main__':
+    unittest.main()

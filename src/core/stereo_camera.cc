@@ -58,9 +58,10 @@ bool StereoCamera::project(const Eigen::Matrix4d& imu_T_world, const Eigen::Vect
   dpi_dq(1, 2) = -q(1) * inv_z * inv_z;
   dpi_dq(3, 2) = -q(3) * inv_z * inv_z;
   dpi_dq(3, 3) = inv_z;
-  const Eigen::Matrix4d A = Ks_ * dpi_dq * cam_T_imu_;
-  if (H_pose != nullptr) *H_pose = A * se3::odot(p_imu_h);
-  if (H_landmark != nullptr) *H_landmark = A.leftCols<3>() * imu_T_world.topLeftCorner<3, 3>();
+  // q = C U p_h with U = U_mean exp(-eps^): dq/deps = -C U p_h^odot.
+  const Eigen::Matrix4d A = Ks_ * dpi_dq * cam_T_imu_ * imu_T_world;
+  if (H_pose != nullptr) *H_pose = -A * se3::odot(p_world.homogeneous());
+  if (H_landmark != nullptr) *H_landmark = A.leftCols<3>();
   return true;
 }
 

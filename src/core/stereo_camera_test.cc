@@ -32,8 +32,9 @@ TEST_F(StereoCameraTest, ProjectionJacobiansMatchCentralDifferences) {
     Vector6d d = Vector6d::Zero();
     d(i) = h;
     Eigen::Vector4d zp, zm;
-    camera_.project(se3::exp(d) * imu_T_world_, p_world(), &zp);
-    camera_.project(se3::exp(-d) * imu_T_world_, p_world(), &zm);
+    // world_T_imu = exp(d^) world_T_imu_mean  <=>  imu_T_world = imu_T_world_mean exp(-d^).
+    camera_.project(imu_T_world_ * se3::exp(-d), p_world(), &zp);
+    camera_.project(imu_T_world_ * se3::exp(d), p_world(), &zm);
     numeric_pose.col(i) = (zp - zm) / (2 * h);
   }
   EXPECT_LT((H_pose - numeric_pose).norm(), 1e-5 * H_pose.norm());

@@ -203,24 +203,37 @@ void VislamEstimator::predict(double dt, const TwistData& twist, double noise_sc
   imu_T_world_ = motion * imu_T_world_;
   se3::normalizeRotation(&imu_T_world_);
 
-  // F acts on the pose rows only: [Ad(exp(xi)) | dt J_l(xi) on the bias columns].
-  const int pb = kPoseDim + bias_dim_;
-  Eigen::MatrixXd F(kPoseDim, pb);
-  F.leftCols<kPoseDim>() = se3::adjoint(motion);
-  if (bias_dim_ > 0) {
-    const Matrix6d J = dt * se3::leftJacobian(xi);
-    for (int i = 0; i < bias_dim_; ++i) F.col(kPoseDim + i) = J.col(bias_components_[i]);
-  }
+  // World-frame error: T' = exp(eps^) T_mean exp(dt (u - b)^), so eps' = eps + d with
+  // d = -dt Ad(T') J_l(xi) db + Ad(T') dt n (n: twist noise). A change d of the pose error moves
+  // the invariant landmark errors too: xi_i' = xi_i + p_i^ d_phi (the landmark is static,
+  // exp(phi^) p_mean is not). D maps d into the state: identity on the pose, [0, p_i^] on each
+  // landmark (SLAM mode; in mapping mode the landmarks do not depend on the pose).
+  const Matrix6d Ad = se3::adjoint(se3::inverse(imu_T_world_));  // Ad(world_T_imu after the step)
   auto S = sigma_.topLeftCorner(dim_, dim_);
-  const Eigen::MatrixXd top = F * S.topRows(pb);
-  S.topRows<kPoseDim>() = top;
-  const Eigen::MatrixXd left = S.leftCols(pb) * F.transpose();
-  S.leftCols<kPoseDim>() = left;
-
+  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(dim_, kPoseDim);
+  D.topLeftCorner<6, 6>().setIdentity();
+  if (options_.mode == EstimatorMode::kSlam) {
+    for (size_t k = 0; k < blocks_.size(); ++k) {
+      const int row = landmarkRow(k);
+      D.block<3, 3>(row, 3) = se3::hat(Eigen::Vector3d(p_world_.segment<3>(row)));
+    }
+  }
+  if (bias_dim_ > 0) {
+    // F = I + E on the bias columns, E = D G (dim x bias_dim).
+    const Matrix6d J = -dt * Ad * se3::leftJacobian(xi);
+    Eigen::MatrixXd G(kPoseDim, bias_dim_);
+    for (int i = 0; i < bias_dim_; ++i) G.col(i) = J.col(bias_components_[i]);
+    const Eigen::MatrixXd E = D * G;
+    const Eigen::MatrixXd E_sigma = E * S.middleRows(kPoseDim, bias_dim_);  // dim x dim
+    const Eigen::MatrixXd sigma_bb = S.block(kPoseDim, kPoseDim, bias_dim_, bias_dim_);
+    S += E_sigma + E_sigma.transpose() + E * sigma_bb * E.transpose();
+  }
   const double qv = options_.linear_velocity_noise * options_.linear_velocity_noise;
   const double qw = options_.angular_velocity_noise * options_.angular_velocity_noise;
-  S.diagonal().head<3>().array() += noise_scale * dt * qv;
-  S.diagonal().segment<3>(3).array() += noise_scale * dt * qw;
+  Vector6d q_body;
+  q_body << qv, qv, qv, qw, qw, qw;
+  const Matrix6d Q_world = (noise_scale * dt) * Ad * q_body.asDiagonal() * Ad.transpose();
+  S.noalias() += D * Q_world * D.transpose();
   for (int i = 0; i < bias_dim_; ++i) {
     const double rw = bias_components_[i] < 3 ? options_.velocity_bias_random_walk
                                               : options_.gyro_bias_random_walk;
@@ -374,9 +387,8 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
     const int row = landmarkRow(c.block);
     const Eigen::Vector3d p_world = p_world_.segment<3>(row);
     Eigen::Vector4d z_pred;
-    Matrix46d H_pose;
     Matrix43d H_landmark;
-    if (!camera_.project(imu_T_world_, p_world, &z_pred, &H_pose, &H_landmark,
+    if (!camera_.project(imu_T_world_, p_world, &z_pred, nullptr, &H_landmark,
                          options_.min_depth * 0.5)) {
       stats_.increment(Counter::kObsBehindCamera);
       ++result->observations_rejected;
@@ -385,8 +397,11 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
     const Eigen::Vector4d z(c.feature.u_left, c.feature.v_left, c.feature.u_right,
                             c.feature.v_right);
     c.residual = M * (z - z_pred);
-    c.H_pose = correct_pose ? Eigen::MatrixXd(M * H_pose) : Eigen::MatrixXd::Zero(r, kPoseDim);
+    // Invariant error: p_imu = R^T (p_mean + xi - rho - p) to first order, so the observation
+    // depends on rho through -H_landmark and not at all on phi.
     c.H_landmark = M * H_landmark;
+    c.H_pose = Eigen::MatrixXd::Zero(r, kPoseDim);
+    if (correct_pose) c.H_pose.leftCols<3>() = -c.H_landmark;
     // S_i = H_i Sigma_[pose, landmark] H_i^T + R.
     Eigen::MatrixXd Hi(r, 9);
     Hi << c.H_pose, c.H_landmark;
@@ -401,15 +416,22 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
     if (!(d2 <= gate_threshold_)) {
       stats_.increment(Counter::kObsGated);
       ++result->observations_rejected;
-      // A landmark known from one observation only may have been started by an outlier:
-      // restart it from this observation instead of gating its whole track away.
-      if (map_[blocks_[c.block].map_index].observations <= 1) {
+      // A landmark known from one observation may have been started by an outlier, and a track
+      // that keeps failing the gate has jumped (seen in the KITTI tracks): restart either from
+      // its current observation instead of gating the rest of its track away.
+      StateBlock& block = blocks_[c.block];
+      ++block.consecutive_gated;
+      const bool restart = map_[block.map_index].observations <= 1 ||
+                           (options_.reinitialize_after_gated > 0 &&
+                            block.consecutive_gated >= options_.reinitialize_after_gated);
+      if (restart) {
         remove_for_reinit.push_back(c.block);
         reinitialize->push_back(c);
-        reinitialize->back().reuse_map_index = blocks_[c.block].map_index;
+        reinitialize->back().reuse_map_index = block.map_index;
       }
       continue;
     }
+    blocks_[c.block].consecutive_gated = 0;
     accepted.push_back(&c);
   }
 
@@ -451,12 +473,20 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
         S.selfadjointView<Eigen::Lower>().rankUpdate(B.transpose(), -1.0);
         for (int j = 1; j < dim_; ++j) S.col(j).head(j) = S.row(j).head(j).transpose();
         if (correct_pose) {
-          imu_T_world_ = se3::exp(dx.head<6>()) * imu_T_world_;
+          // world_T_imu <- exp(eps^) world_T_imu  <=>  imu_T_world <- imu_T_world exp(-eps^).
+          imu_T_world_ = imu_T_world_ * se3::exp(-dx.head<6>());
           se3::normalizeRotation(&imu_T_world_);
         }
         if (bias_dim_ > 0) bias_ += dx.segment(kPoseDim, bias_dim_);
-        const int base = kPoseDim + bias_dim_;
-        p_world_.segment(base, dim_ - base) += dx.segment(base, dim_ - base);
+        // Landmarks: p <- exp(dphi^) p + J_l(dphi) dxi (the SE_K(3) exponential).
+        const Eigen::Vector3d dphi = correct_pose ? Eigen::Vector3d(dx.segment<3>(3))
+                                                  : Eigen::Vector3d::Zero();
+        const Eigen::Matrix3d R = se3::expSO3(dphi);
+        const Eigen::Matrix3d J = se3::leftJacobianSO3(dphi);
+        for (size_t k = 0; k < blocks_.size(); ++k) {
+          const int row = landmarkRow(k);
+          p_world_.segment<3>(row) = R * p_world_.segment<3>(row) + J * dx.segment<3>(row);
+        }
         for (const Candidate* c : accepted) ++map_[blocks_[c->block].map_index].observations;
         stats_.increment(Counter::kObservationUpdate, n);
         result->observations_updated += n;
@@ -506,14 +536,12 @@ bool VislamEstimator::initializeLandmark(const Candidate& c, double stamp, FeedR
   ensureCapacity(dim_ + 3);
   auto S = sigma_.topLeftCorner(dim_ + 3, dim_ + 3);
   if (options_.mode == EstimatorMode::kSlam) {
-    // p_world = U^-1 exp(-dxi^) p_imu  =>  d p_world / d dxi = [-R^T, R^T p_imu^].
-    Eigen::Matrix<double, 3, 6> J_pose;
-    J_pose.leftCols<3>() = -R_world_imu;
-    J_pose.rightCols<3>() = R_world_imu * se3::hat(p_imu);
-    const Eigen::MatrixXd cross = J_pose * S.topLeftCorner(6, dim_);  // 3 x dim
+    // Invariant error of the new landmark: xi = p_true - exp(phi^) p_mean = rho + R dp_imu to
+    // first order, so it is correlated with the state through rho only.
+    const Eigen::MatrixXd cross = S.topLeftCorner(3, dim_);  // Cov(rho, state)
     S.block(row, 0, 3, dim_) = cross;
     S.block(0, row, dim_, 3) = cross.transpose();
-    sigma_ll += J_pose * S.topLeftCorner<6, 6>() * J_pose.transpose();
+    sigma_ll += S.topLeftCorner<3, 3>();
   } else {
     S.block(row, 0, 3, dim_).setZero();
     S.block(0, row, dim_, 3).setZero();
@@ -526,7 +554,7 @@ bool VislamEstimator::initializeLandmark(const Candidate& c, double stamp, FeedR
   LandmarkEstimate& estimate = reuse ? map_[c.reuse_map_index] : map_.emplace_back();
   estimate.id = f.id;
   estimate.p_world = p_world;
-  estimate.covariance = sigma_ll;
+  estimate.covariance = landmarkCovariance(blocks_.size());
   estimate.observations = 1;
   estimate.active = true;
   estimate.first_stamp = estimate.last_stamp = stamp;
@@ -538,13 +566,27 @@ bool VislamEstimator::initializeLandmark(const Candidate& c, double stamp, FeedR
   return true;
 }
 
+Eigen::Matrix3d VislamEstimator::landmarkCovariance(size_t block) const {
+  const int row = landmarkRow(block);
+  if (options_.mode != EstimatorMode::kSlam) return sigma_.block<3, 3>(row, row);
+  // dp = xi - p^ phi.
+  Eigen::Matrix<double, 3, 6> M;
+  M.leftCols<3>() = -se3::hat(Eigen::Vector3d(p_world_.segment<3>(row)));
+  M.rightCols<3>().setIdentity();
+  Eigen::Matrix<double, 6, 6> joint;
+  joint.topLeftCorner<3, 3>() = sigma_.block<3, 3>(3, 3);
+  joint.topRightCorner<3, 3>() = sigma_.block<3, 3>(3, row);
+  joint.bottomLeftCorner<3, 3>() = sigma_.block<3, 3>(row, 3);
+  joint.bottomRightCorner<3, 3>() = sigma_.block<3, 3>(row, row);
+  return M * joint * M.transpose();
+}
+
 void VislamEstimator::syncBlocksToMap() {
-  const auto S = sigma_.topLeftCorner(dim_, dim_);
   for (size_t k = 0; k < blocks_.size(); ++k) {
     LandmarkEstimate& l = map_[blocks_[k].map_index];
     const int row = landmarkRow(k);
     l.p_world = p_world_.segment<3>(row);
-    l.covariance = S.block<3, 3>(row, row);
+    l.covariance = landmarkCovariance(k);
     l.active = true;
     if (blocks_[k].tracking) l.last_stamp = time_;
   }
@@ -578,7 +620,9 @@ void VislamEstimator::removeBlocks(const std::vector<bool>& remove, bool count_a
       if (keep_rows[r] != r) sigma_(r, c) = sigma_(keep_rows[r], c);
     }
   }
-  for (int r = 0; r < new_dim; ++r) p_world_(r) = p_world_(keep_rows[r]);
+  for (int r = 0; r < new_dim; ++r) {
+    p_world_(r) = p_world_(keep_rows[r]);
+  }
   dim_ = new_dim;
   blocks_.swap(kept_blocks);
   tracking_.clear();
@@ -637,10 +681,11 @@ Eigen::Isometry3d VislamEstimator::worldTImu() const {
 }
 
 Matrix6d VislamEstimator::poseCovarianceWorld() const {
-  const Eigen::Matrix3d R = imu_T_world_.topLeftCorner<3, 3>().transpose();  // world_R_imu
-  Matrix6d M = Matrix6d::Zero();
-  M.topLeftCorner<3, 3>() = R;
-  M.bottomRightCorner<3, 3>() = R;
+  // exp(eps^) T: position p + rho + phi x p, rotation exp(phi) R. In (delta p, delta theta):
+  // M = [[I, -p^], [0, I]].
+  const Eigen::Vector3d p = worldTImu().translation();
+  Matrix6d M = Matrix6d::Identity();
+  M.topRightCorner<3, 3>() = -se3::hat(p);
   const Matrix6d pose = sigma_.topLeftCorner<6, 6>();
   return M * pose * M.transpose();
 }

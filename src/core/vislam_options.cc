@@ -107,6 +107,8 @@ std::string VislamOptions::validate() const {
       why << "'landmarks/max_depth' must exceed 'landmarks/min_depth'";
     } else if (!(gating_probability > 0.0 && gating_probability < 1.0)) {
       why << "'landmarks/gating_probability' must be in (0, 1)";
+    } else if (reinitialize_after_gated < 0) {
+      why << "'landmarks/reinitialize_after_gated' must be >= 0";
     } else if (max_features_per_frame < 0) {
       why << "'limits/max_features_per_frame' must be >= 0";
     } else if (max_rejected_frames < 1) {
@@ -140,6 +142,7 @@ bool parseVislamOptions(const ParameterSource& source, VislamOptions* o, std::st
   r.number("landmarks/min_depth", &o->min_depth);
   r.number("landmarks/max_depth", &o->max_depth);
   r.number("landmarks/gating_probability", &o->gating_probability);
+  r.integer("landmarks/reinitialize_after_gated", &o->reinitialize_after_gated);
   r.flag("landmarks/keep_all_in_state", &o->keep_all_landmarks_in_state);
   r.number("limits/max_linear_speed", &o->max_linear_speed);
   r.number("limits/max_angular_speed", &o->max_angular_speed);

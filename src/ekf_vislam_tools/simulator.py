@@ -12,8 +12,9 @@ index k+1 is the constant body twist over [t_k, t_k+1]:
     world_T_imu[k+1] = world_T_imu[k] @ twist_exp(v_true[:, k+1], w_true[:, k+1], t[k+1] - t[k])
 
 and index 0 holds the same as index 1. Everything is deterministic from the seed: independent
-random streams (trajectory, landmarks, tracking, noise, gyro offset) are spawned from
-``numpy.random.SeedSequence(seed)``, so changing a noise option leaves the geometry unchanged.
+random streams (trajectory, landmarks, tracking, pixel noise, gyro offset, twist noise) are
+spawned from ``numpy.random.SeedSequence(seed)``, so changing a noise option leaves the geometry
+(and the other noises) unchanged.
 """
 import math
 
@@ -60,7 +61,7 @@ DEFAULT_OPTIONS = {
     'gyro_bias': None,         # constant gyro offset: None = drawn from the seed, a scalar or 3
 }
 
-_STREAMS = ('trajectory', 'landmarks', 'tracking', 'noise', 'gyro_bias')
+_STREAMS = ('trajectory', 'landmarks', 'tracking', 'noise', 'gyro_bias', 'twist_noise')
 
 
 def simulate(seed, **options):
@@ -83,8 +84,7 @@ def simulate(seed, **options):
             zip(_STREAMS, np.random.SeedSequence(seed).spawn(len(_STREAMS)))}
 
     t, v_true, w_true, world_T_imu = _drive(rngs['trajectory'], opts)
-    positions = world_T_imu[:, :3, 3]
-    path_length = float(np.sum(np.linalg.norm(np.diff(positions, axis=0), axis=1)))
+    path_length = float(travelled_distance(world_T_imu)[-1])
     points = _landmark_points(rngs['landmarks'], world_T_imu, opts)
     obs_frame, obs_point, obs_id, z_true = _track(rngs['tracking'], points, world_T_imu, opts)
 
@@ -100,7 +100,7 @@ def simulate(seed, **options):
     outlier_mask[obs_id[is_outlier], obs_frame[is_outlier]] = True
 
     gyro_bias = _gyro_bias(rngs['gyro_bias'], opts['gyro_bias'])
-    noise = rngs['noise']
+    noise = rngs['twist_noise']
     linear_velocity = v_true + noise.normal(0.0, opts['velocity_noise'], v_true.shape)
     rotational_velocity = (w_true + noise.normal(0.0, opts['gyro_noise'], w_true.shape)
                            + gyro_bias[:, None])
@@ -179,6 +179,12 @@ def _yaw_rate_profile(rng, duration, max_yaw_rate):
     return yaw_rate
 
 
+def travelled_distance(world_T_imu):
+    """(T,) distance along the path from the first pose to each pose, m."""
+    steps = np.linalg.norm(np.diff(world_T_imu[:, :3, 3], axis=0), axis=1)
+    return np.concatenate([[0.0], np.cumsum(steps)])
+
+
 def _frame_times(rng, num, opts):
     dt = 1.0 / opts['rate_hz'] + rng.uniform(-opts['time_jitter'], opts['time_jitter'], num - 1)
     return opts['start_time'] + np.concatenate([[0.0], np.cumsum(dt)])
@@ -225,11 +231,10 @@ def _drive(rng, opts):
                                                             t[k + 1] - t[k])
 
     if opts['length_m'] is not None:
-        travelled = np.concatenate([[0.0], np.cumsum(
-            np.linalg.norm(np.diff(world_T_imu[:, :3, 3], axis=0), axis=1))])
-        num = int(np.searchsorted(travelled, opts['length_m'])) + 1
+        num = int(np.searchsorted(travelled_distance(world_T_imu), opts['length_m'])) + 1
         num = max(2, min(num, len(t)))
-        t, v_true, w_true, world_T_imu = t[:num], v_true[:, :num], w_true[:, :num], world_T_imu[:num]
+        t, v_true, w_true = t[:num], v_true[:, :num], w_true[:, :num]
+        world_T_imu = world_T_imu[:num]
     return t, v_true, w_true, world_T_imu
 
 
@@ -243,7 +248,7 @@ def _landmark_points(rng, world_T_imu, opts):
     heading = world_T_imu[:, :3, 0].copy()
     heading[:, 2] = 0.0
     heading /= np.linalg.norm(heading, axis=1, keepdims=True)
-    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(positions, axis=0), axis=1))])
+    arc = travelled_distance(world_T_imu)
 
     extra = opts['max_depth'] + 10.0
     # Extend the path straight beyond both ends so the first and last frames see a scene too.
@@ -358,7 +363,8 @@ def _measure_pixels(rng, z_true, opts):
     shifted = idx[~negative]
     pick = rng.random((shifted.size, 4)) < 0.5
     pick[np.arange(shifted.size), rng.integers(0, 4, shifted.size)] = True
-    offset = rng.uniform(20.0, 200.0, (shifted.size, 4)) * rng.choice([-1.0, 1.0], (shifted.size, 4))
+    offset = (rng.uniform(20.0, 200.0, (shifted.size, 4))
+              * rng.choice([-1.0, 1.0], (shifted.size, 4)))
     base = z[shifted]
     moved = base + offset
     outside = (moved < 0) | (moved > limits)

@@ -1,2 +1,349 @@
+// Unit tests of the ROS message conversions, the ROS-layer options and the shared runner (no
+// roscore).
+#include "ekf_vislam/core/yaml_parameter_source.h"
+#include "ekf_vislam/ros/bag_reader.h"
+#include "ekf_vislam/ros/conversions.h"
+#include "ekf_vislam/ros/vislam_ros_options.h"
+
 #include <gtest/gtest.h>
-int main(int argc, char** argv) { testing::InitGoogleTest(&argc, argv); return RUN_ALL_TESTS(); }
+
+#include <cmath>
+#include <limits>
+
+namespace ekf_vislam {
+namespace {
+
+namespace rc = ros_conversions;
+const double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+StereoCalibration kittiLike() {
+  StereoCalibration c;
+  c.fx = 707.0912;
+  c.fy = 707.0912;
+  c.cx = 601.8873;
+  c.cy = 183.1104;
+  c.baseline = 0.5379;
+  c.image_width = 1241;
+  c.image_height = 376;
+  return c;
+}
+
+Eigen::Isometry3d somePose() {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.3, -0.5, 0.8).normalized()).toRotationMatrix();
+  T.translation() << 1.5, -2.25, 0.75;
+  return T;
+}
+
+TEST(Conversions, TwistRoundTrip) {
+  geometry_msgs::TwistStamped msg;
+  msg.header.stamp = ros::Time(1317384506, 250000000);
+  msg.header.frame_id = "imu";
+  msg.twist.linear.x = 1.0;
+  msg.twist.linear.y = -2.0;
+  msg.twist.linear.z = 3.0;
+  msg.twist.angular.x = 0.1;
+  msg.twist.angular.y = -0.2;
+  msg.twist.angular.z = 0.3;
+  const TwistData twist = rc::toTwistData(msg);
+  EXPECT_DOUBLE_EQ(twist.stamp, 1317384506.25);
+  EXPECT_EQ(twist.v_imu, Eigen::Vector3d(1.0, -2.0, 3.0));
+  EXPECT_EQ(twist.w_imu, Eigen::Vector3d(0.1, -0.2, 0.3));
+  const geometry_msgs::TwistStamped back = rc::toTwistMsg(twist, "imu");
+  EXPECT_EQ(back.header.stamp, msg.header.stamp);
+  EXPECT_EQ(back.header.frame_id, "imu");
+  EXPECT_EQ(back.twist.linear.y, -2.0);
+  EXPECT_EQ(back.twist.angular.z, 0.3);
+}
+
+TEST(Conversions, TwistNaNPassesToTheEstimatorUnchanged) {
+  geometry_msgs::TwistStamped msg;
+  msg.twist.linear.x = kNaN;
+  const TwistData twist = rc::toTwistData(msg);
+  EXPECT_TRUE(std::isnan(twist.v_imu.x()));  // the estimator rejects and counts it
+}
+
+TEST(Conversions, FeaturesRoundTrip) {
+  ekf_vislam::StereoFeatureArray msg;
+  msg.header.stamp = ros::Time(100, 500000000);
+  msg.header.frame_id = "camera_left";
+  for (uint32_t id : {7u, 3u, 4000000000u}) {
+    ekf_vislam::StereoFeatureMsg f;
+    f.id = id;
+    f.u_left = 100.5f + id % 10;
+    f.v_left = 50.25f;
+    f.u_right = 90.5f;
+    f.v_right = 50.75f;
+    msg.features.push_back(f);
+  }
+  const FeatureFrame frame = rc::toFeatureFrame(msg);
+  EXPECT_DOUBLE_EQ(frame.stamp, 100.5);
+  ASSERT_EQ(frame.features.size(), 3u);
+  EXPECT_EQ(frame.features[0].id, 7u);
+  EXPECT_EQ(frame.features[1].id, 3u);  // message order kept
+  EXPECT_EQ(frame.features[2].id, 4000000000u);
+  EXPECT_DOUBLE_EQ(frame.features[0].u_left, 107.5);
+  EXPECT_DOUBLE_EQ(frame.features[1].v_right, 50.75);
+  const ekf_vislam::StereoFeatureArray back = rc::toFeatureArrayMsg(frame, "camera_left");
+  EXPECT_EQ(back.header.stamp, msg.header.stamp);
+  ASSERT_EQ(back.features.size(), 3u);
+  for (size_t i = 0; i < 3; ++i) EXPECT_EQ(back.features[i], msg.features[i]);
+}
+
+TEST(Conversions, EmptyFeatureFrame) {
+  ekf_vislam::StereoFeatureArray msg;
+  EXPECT_TRUE(rc::toFeatureFrame(msg).features.empty());
+}
+
+TEST(Conversions, CameraInfoPairGivesCalibration) {
+  sensor_msgs::CameraInfo left, right;
+  rc::cameraInfoFromCalibration(kittiLike(), &left, &right);
+  EXPECT_NEAR(right.P[3], -707.0912 * 0.5379, 1e-9);
+  StereoCalibration c;
+  c.cam_T_imu = somePose();
+  std::string error;
+  ASSERT_TRUE(rc::calibrationFromCameraInfo(left, right, &c, &error)) << error;
+  EXPECT_DOUBLE_EQ(c.fx, 707.0912);
+  EXPECT_DOUBLE_EQ(c.fy, 707.0912);
+  EXPECT_DOUBLE_EQ(c.cx, 601.8873);
+  EXPECT_DOUBLE_EQ(c.cy, 183.1104);
+  EXPECT_NEAR(c.baseline, 0.5379, 1e-12);
+  EXPECT_EQ(c.image_width, 1241);
+  EXPECT_EQ(c.image_height, 376);
+  EXPECT_TRUE(c.cam_T_imu.isApprox(somePose()));  // extrinsic untouched
+  c.cam_T_imu = Eigen::Isometry3d::Identity();
+  EXPECT_EQ(c.validate(), "");
+}
+
+TEST(Conversions, CameraInfoFallsBackToKWithoutP) {
+  sensor_msgs::CameraInfo left, right;
+  rc::cameraInfoFromCalibration(kittiLike(), &left, &right);
+  left.P.fill(0.0);
+  StereoCalibration c;
+  std::string error;
+  ASSERT_TRUE(rc::calibrationFromCameraInfo(left, right, &c, &error)) << error;
+  EXPECT_DOUBLE_EQ(c.fx, 707.0912);
+  EXPECT_DOUBLE_EQ(c.cy, 183.1104);
+}
+
+TEST(Conversions, BadCameraInfoIsRefusedWithAMessage) {
+  sensor_msgs::CameraInfo left, right;
+  StereoCalibration c;
+  std::string error;
+
+  rc::cameraInfoFromCalibration(kittiLike(), &left, &right);
+  left.P[0] = 0.0;
+  left.K[0] = 0.0;
+  EXPECT_FALSE(rc::calibrationFromCameraInfo(left, right, &c, &error));
+  EXPECT_NE(error.find("focal"), std::string::npos) << error;
+
+  rc::cameraInfoFromCalibration(kittiLike(), &left, &right);
+  right.P[2] += 3.0;  // cx differs: not a rectified pair
+  error.clear();
+  EXPECT_FALSE(rc::calibrationFromCameraInfo(left, right, &c, &error));
+  EXPECT_NE(error.find("disagree"), std::string::npos) << error;
+
+  rc::cameraInfoFromCalibration(kittiLike(), &left, &right);
+  right.P[3] = 0.0;  // no baseline (e.g. the left info twice)
+  error.clear();
+  EXPECT_FALSE(rc::calibrationFromCameraInfo(left, right, &c, &error));
+  EXPECT_NE(error.find("baseline"), std::string::npos) << error;
+
+  rc::cameraInfoFromCalibration(kittiLike(), &left, &right);
+  right.P[3] = +380.0;  // left and right swapped
+  error.clear();
+  EXPECT_FALSE(rc::calibrationFromCameraInfo(left, right, &c, &error));
+  EXPECT_NE(error.find("baseline"), std::string::npos) << error;
+
+  rc::cameraInfoFromCalibration(kittiLike(), &left, &right);
+  left.P[2] = kNaN;
+  right.P[2] = kNaN;
+  error.clear();
+  EXPECT_FALSE(rc::calibrationFromCameraInfo(left, right, &c, &error));
+  EXPECT_FALSE(error.empty());
+  EXPECT_EQ(c.fx, 0.0);  // untouched on failure
+}
+
+TEST(Conversions, TransformRoundTrip) {
+  const Eigen::Isometry3d T = somePose();
+  const geometry_msgs::Transform msg = rc::toTransformMsg(T);
+  EXPECT_DOUBLE_EQ(msg.translation.x, 1.5);
+  const Eigen::Isometry3d back = rc::toIsometry(msg);
+  EXPECT_TRUE(back.matrix().isApprox(T.matrix(), 1e-12));
+  const geometry_msgs::Pose pose = rc::toPoseMsg(T);
+  EXPECT_DOUBLE_EQ(pose.orientation.w, msg.rotation.w);
+  EXPECT_DOUBLE_EQ(pose.position.z, 0.75);
+}
+
+TEST(Conversions, TransformNormalizesTheQuaternion) {
+  geometry_msgs::Transform msg;
+  msg.rotation.w = 2.0;  // not unit
+  msg.translation.y = 1.0;
+  Eigen::Isometry3d T = rc::toIsometry(msg);
+  EXPECT_TRUE(T.linear().isApprox(Eigen::Matrix3d::Identity()));
+  msg.rotation.w = 0.0;  // all zero: identity
+  T = rc::toIsometry(msg);
+  EXPECT_TRUE(T.linear().isApprox(Eigen::Matrix3d::Identity()));
+  msg.rotation.x = kNaN;  // NaN stays visible, so calibration validation refuses it
+  T = rc::toIsometry(msg);
+  StereoCalibration c = kittiLike();
+  c.cam_T_imu = T;
+  EXPECT_NE(c.validate(), "");
+}
+
+TEST(Conversions, CovarianceLayoutIsRowMajor) {
+  Eigen::Matrix<double, 6, 6> cov;
+  for (int r = 0; r < 6; ++r) {
+    for (int c = 0; c < 6; ++c) cov(r, c) = 10 * r + c;
+  }
+  boost::array<double, 36> msg;
+  rc::toCovarianceMsg(cov, &msg);
+  EXPECT_EQ(msg[0], 0.0);
+  EXPECT_EQ(msg[1], 1.0);    // (0, 1)
+  EXPECT_EQ(msg[6], 10.0);   // (1, 0)
+  EXPECT_EQ(msg[35], 55.0);  // (5, 5)
+  EXPECT_EQ(msg[6 * 3 + 5], 35.0);
+  EXPECT_EQ(rc::fromCovarianceMsg(msg), cov);
+}
+
+TEST(Conversions, Odometry) {
+  Eigen::Matrix<double, 6, 6> pose_cov = Eigen::Matrix<double, 6, 6>::Identity();
+  pose_cov(0, 0) = 4.0;   // x variance
+  pose_cov(5, 5) = 0.01;  // yaw variance
+  pose_cov(0, 5) = pose_cov(5, 0) = 0.05;
+  Eigen::Matrix<double, 6, 6> twist_cov = 0.5 * Eigen::Matrix<double, 6, 6>::Identity();
+  TwistData twist;
+  twist.v_imu << 8.0, 0.1, 0.0;
+  twist.w_imu << 0.0, 0.0, 0.2;
+  nav_msgs::Odometry odom;
+  ASSERT_TRUE(rc::toOdometryMsg(12.5, "world", "imu", somePose(), pose_cov, twist, twist_cov,
+                                &odom));
+  EXPECT_EQ(odom.header.frame_id, "world");
+  EXPECT_EQ(odom.child_frame_id, "imu");
+  EXPECT_EQ(odom.header.stamp, ros::Time(12, 500000000));
+  EXPECT_DOUBLE_EQ(odom.pose.pose.position.x, 1.5);
+  EXPECT_EQ(odom.pose.covariance[0], 4.0);
+  EXPECT_EQ(odom.pose.covariance[35], 0.01);
+  EXPECT_EQ(odom.pose.covariance[5], 0.05);
+  EXPECT_EQ(odom.pose.covariance[30], 0.05);
+  EXPECT_EQ(odom.twist.twist.linear.x, 8.0);
+  EXPECT_EQ(odom.twist.twist.angular.z, 0.2);
+  EXPECT_EQ(odom.twist.covariance[7], 0.5);
+  const Eigen::Quaterniond q(somePose().linear());
+  EXPECT_NEAR(std::abs(q.dot(Eigen::Quaterniond(odom.pose.pose.orientation.w,
+                                                odom.pose.pose.orientation.x,
+                                                odom.pose.pose.orientation.y,
+                                                odom.pose.pose.orientation.z))),
+              1.0, 1e-12);
+}
+
+TEST(Conversions, OdometryNeverCarriesNaN) {
+  const Eigen::Matrix<double, 6, 6> I = Eigen::Matrix<double, 6, 6>::Identity();
+  TwistData twist;
+  nav_msgs::Odometry odom;
+  odom.header.frame_id = "untouched";
+  Eigen::Isometry3d bad_pose = somePose();
+  bad_pose.translation().x() = kNaN;
+  EXPECT_FALSE(rc::toOdometryMsg(1.0, "world", "imu", bad_pose, I, twist, I, &odom));
+  Eigen::Matrix<double, 6, 6> bad_cov = I;
+  bad_cov(2, 3) = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(rc::toOdometryMsg(1.0, "world", "imu", somePose(), bad_cov, twist, I, &odom));
+  EXPECT_FALSE(rc::toOdometryMsg(1.0, "world", "imu", somePose(), I, twist, bad_cov, &odom));
+  TwistData bad_twist;
+  bad_twist.w_imu.y() = kNaN;
+  EXPECT_FALSE(rc::toOdometryMsg(1.0, "world", "imu", somePose(), I, bad_twist, I, &odom));
+  EXPECT_FALSE(rc::toOdometryMsg(kNaN, "world", "imu", somePose(), I, twist, I, &odom));
+  EXPECT_EQ(odom.header.frame_id, "untouched");
+}
+
+TEST(Conversions, StaticTransformLookupFollowsChains) {
+  geometry_msgs::TransformStamped a, b;
+  a.header.frame_id = "imu";
+  a.child_frame_id = "base_camera";
+  a.transform = rc::toTransformMsg(somePose());
+  Eigen::Isometry3d offset = Eigen::Isometry3d::Identity();
+  offset.translation() << 0.0, 0.0, 0.3;
+  b.header.frame_id = "base_camera";
+  b.child_frame_id = "camera_left";
+  b.transform = rc::toTransformMsg(offset);
+  Eigen::Isometry3d imu_T_cam;
+  std::string error;
+  ASSERT_TRUE(lookupStaticTransform({a, b}, "imu", "camera_left", &imu_T_cam, &error)) << error;
+  EXPECT_TRUE(imu_T_cam.matrix().isApprox((somePose() * offset).matrix(), 1e-12));
+  EXPECT_FALSE(lookupStaticTransform({a}, "imu", "camera_left", &imu_T_cam, &error));
+  EXPECT_NE(error.find("camera_left"), std::string::npos) << error;
+}
+
+TEST(RosOptions, DefaultsAndParsing) {
+  VislamRosOptions defaults;
+  EXPECT_EQ(defaults.validate(), "");
+  const YamlParameterSource source = YamlParameterSource::fromString(
+      "ros:\n"
+      "  world_frame: map\n"
+      "  imu_frame: base_imu\n"
+      "  publish_tf: false\n"
+      "  landmark_marker_rate: 5\n"
+      "  covariance_ellipsoids: true\n"
+      "  sequencer_max_delay: 0.25\n"
+      "  output_dir: /tmp/out\n"
+      "  calibration:\n"
+      "    fx: 700\n    fy: 701\n    cx: 600\n    cy: 180\n    baseline: 0.54\n"
+      "    cam_T_imu: \"0 -1 0 0.1  0 0 -1 0.2  1 0 0 0.3  0 0 0 1\"\n");
+  ASSERT_TRUE(source.ok()) << source.error();
+  VislamRosOptions o;
+  std::string error;
+  ASSERT_TRUE(parseVislamRosOptions(source, &o, &error)) << error;
+  EXPECT_EQ(o.world_frame, "map");
+  EXPECT_EQ(o.imu_frame, "base_imu");
+  EXPECT_FALSE(o.publish_tf);
+  EXPECT_EQ(o.landmark_marker_rate, 5.0);
+  EXPECT_TRUE(o.covariance_ellipsoids);
+  EXPECT_EQ(o.sequencer_max_delay, 0.25);
+  EXPECT_EQ(o.output_dir, "/tmp/out");
+  EXPECT_TRUE(o.calibration.has_intrinsics);
+  EXPECT_EQ(o.calibration.calibration.fy, 701.0);
+  EXPECT_EQ(describeOptions(o).find("world_frame=map") != std::string::npos, true);
+  ASSERT_TRUE(o.calibration.has_extrinsic);
+  EXPECT_EQ(o.calibration.calibration.cam_T_imu.translation(), Eigen::Vector3d(0.1, 0.2, 0.3));
+}
+
+TEST(RosOptions, StringFormOfCamTImu) {
+  const YamlParameterSource source = YamlParameterSource::fromString(
+      "ros:\n  calibration:\n    cam_T_imu: \"0 -1 0 0.1  0 0 -1 0.2  1 0 0 0.3  0 0 0 1\"\n");
+  VislamRosOptions o;
+  std::string error;
+  ASSERT_TRUE(parseVislamRosOptions(source, &o, &error)) << error;
+  ASSERT_TRUE(o.calibration.has_extrinsic);
+  EXPECT_FALSE(o.calibration.has_intrinsics);
+  EXPECT_EQ(o.calibration.calibration.cam_T_imu.translation(), Eigen::Vector3d(0.1, 0.2, 0.3));
+  StereoCalibration target = kittiLike();
+  o.calibration.applyTo(&target);
+  EXPECT_EQ(target.fx, kittiLike().fx);
+  EXPECT_EQ(target.validate(), "");
+}
+
+TEST(RosOptions, ErrorsNameTheKey) {
+  VislamRosOptions o;
+  std::string error;
+  EXPECT_FALSE(parseVislamRosOptions(
+      YamlParameterSource::fromString("ros:\n  publish_tf: maybe\n"), &o, &error));
+  EXPECT_NE(error.find("ros/publish_tf"), std::string::npos) << error;
+  EXPECT_FALSE(parseVislamRosOptions(
+      YamlParameterSource::fromString("ros:\n  calibration:\n    fx: 700\n"), &o, &error));
+  EXPECT_NE(error.find("ros/calibration"), std::string::npos) << error;
+  EXPECT_FALSE(parseVislamRosOptions(
+      YamlParameterSource::fromString("ros:\n  calibration:\n    cam_T_imu: \"1 0 0\"\n"), &o,
+      &error));
+  EXPECT_NE(error.find("16 numbers"), std::string::npos) << error;
+  EXPECT_FALSE(parseVislamRosOptions(
+      YamlParameterSource::fromString("ros:\n  world_frame: imu\n"), &o, &error));
+  EXPECT_EQ(o.world_frame, "world");  // untouched on failure
+}
+
+}  // namespace
+}  // namespace ekf_vislam
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}

@@ -74,8 +74,6 @@ VislamRos::VislamRos(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string&
   odometry_pub_ = pnh_.advertise<nav_msgs::Odometry>("odometry", 100);
   path_pub_ = pnh_.advertise<nav_msgs::Path>("path", 1, true);
   landmarks_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("landmarks", 1, true);
-  reset_srv_ = pnh_.advertiseService("reset", &VislamRos::resetService, this);
-  save_srv_ = pnh_.advertiseService("save", &VislamRos::saveService, this);
 
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
   diagnostics_->setHardwareID("ekf_vislam");
@@ -99,6 +97,9 @@ VislamRos::VislamRos(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string&
   }
   diagnostics_timer_ = nh_.createWallTimer(ros::WallDuration(ros_options_.diagnostic_period),
                                            &VislamRos::diagnosticsTimer, this);
+  // Last, so that a client seeing the services knows the subscriptions are registered.
+  reset_srv_ = pnh_.advertiseService("reset", &VislamRos::resetService, this);
+  save_srv_ = pnh_.advertiseService("save", &VislamRos::saveService, this);
   ROS_INFO("%s: listening on %s and %s, publishing %s", name_.c_str(),
            twist_sub_.getTopic().c_str(), features_sub_.getTopic().c_str(),
            odometry_pub_.getTopic().c_str());
@@ -119,6 +120,7 @@ void VislamRos::shutdown() {
   left_info_sub_.shutdown();
   right_info_sub_.shutdown();
   tryCalibrate();
+  calibration_wait_over_ = true;
   runner_->flush([this](const EstimatorRunner::Processed& p) { onProcessed(p); });
   if (!ros_options_.output_dir.empty()) {
     std::string message;
@@ -178,12 +180,31 @@ void VislamRos::push(Measurement measurement) {
 
 void VislamRos::process(bool flush) {
   if (!runner_->estimator().hasCalibration()) tryCalibrate();
+  if (holdForCalibration()) return;
   const auto observer = [this](const EstimatorRunner::Processed& p) { onProcessed(p); };
   if (flush) {
     runner_->flush(observer);
   } else {
     runner_->processReady(observer);
   }
+  if (publishing_) publishTf();
+}
+
+bool VislamRos::holdForCalibration() {
+  // At start the calibration (camera_info, latched /tf_static) races the first frames: keep the
+  // measurements in the sequencer for up to ros/calibration_wait, so the first frames are used
+  // (and the result does not depend on that race).
+  if (options_.mode == EstimatorMode::kDeadReckoning || runner_->estimator().hasCalibration() ||
+      calibration_wait_over_) {
+    return false;
+  }
+  const ros::WallTime now = ros::WallTime::now();
+  if (first_input_.isZero()) first_input_ = now;
+  if ((now - first_input_).toSec() < ros_options_.calibration_wait) return true;
+  calibration_wait_over_ = true;
+  ROS_WARN("%s: no valid calibration after %.1f s (%s): processing without it", name_.c_str(),
+           ros_options_.calibration_wait, calibration_status_.c_str());
+  return false;
 }
 
 void VislamRos::tryCalibrate() {
@@ -298,13 +319,25 @@ void VislamRos::publishOdometry(double stamp) {
     return;
   }
   odometry_pub_.publish(odometry);
-  if (ros_options_.publish_tf) {
-    geometry_msgs::TransformStamped transform;
-    transform.header = odometry.header;
-    transform.child_frame_id = ros_options_.imu_frame;
-    transform.transform = ros_conversions::toTransformMsg(world_T_imu);
-    tf_broadcaster_.sendTransform(transform);
+  last_odometry_ = odometry;
+  has_odometry_ = true;
+}
+
+void VislamRos::publishTf() {
+  // Once per stamp: a twist and a frame often share one, and tf2 drops repeated stamps.
+  if (!has_odometry_ || !ros_options_.publish_tf ||
+      last_odometry_.header.stamp == last_tf_stamp_) {
+    return;
   }
+  geometry_msgs::TransformStamped transform;
+  transform.header = last_odometry_.header;
+  transform.child_frame_id = ros_options_.imu_frame;
+  transform.transform.translation.x = last_odometry_.pose.pose.position.x;
+  transform.transform.translation.y = last_odometry_.pose.pose.position.y;
+  transform.transform.translation.z = last_odometry_.pose.pose.position.z;
+  transform.transform.rotation = last_odometry_.pose.pose.orientation;
+  tf_broadcaster_.sendTransform(transform);
+  last_tf_stamp_ = transform.header.stamp;
 }
 
 void VislamRos::publishPath() {
@@ -325,11 +358,11 @@ void VislamRos::publishLandmarks() {
   map.id = 0;
   map.type = visualization_msgs::Marker::POINTS;
   map.pose.orientation.w = 1.0;
-  map.scale.x = map.scale.y = 0.25;
+  map.scale.x = map.scale.y = ros_options_.landmark_point_size;
   map.color = color(0.0f, 1.0f, 0.0f, 1.0f);
   visualization_msgs::Marker active = map;
   active.ns = "active_landmarks";
-  active.scale.x = active.scale.y = 0.6;
+  active.scale.x = active.scale.y = 2.0 * ros_options_.landmark_point_size;
   active.color = color(0.1f, 0.6f, 1.0f, 1.0f);
 
   map.points.reserve(landmarks.size());
@@ -413,8 +446,8 @@ void VislamRos::clearVisualization() {
 void VislamRos::flushTimer(const ros::WallTimerEvent&) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (shut_down_ || runner_->buffered() == 0) return;
-  if ((ros::WallTime::now() - last_input_).toSec() < ros_options_.flush_timeout) return;
-  process(true);
+  // Inputs stopped: process what is left. Otherwise release what the calibration held back.
+  process((ros::WallTime::now() - last_input_).toSec() >= ros_options_.flush_timeout);
 }
 
 void VislamRos::visualizationTimer(const ros::WallTimerEvent&) {
@@ -517,18 +550,20 @@ bool VislamRos::saveService(std_srvs::Trigger::Request&, std_srvs::Trigger::Resp
 }
 
 bool VislamRos::saveLocked(std::string* message) {
-  if (ros_options_.output_dir.empty()) {
+  // ~ros/output_dir is read again here, so the target can be changed while running.
+  std::string dir = ros_options_.output_dir;
+  if (!shut_down_ && pnh_.getParam("ros/output_dir", dir)) ros_options_.output_dir = dir;
+  if (dir.empty()) {
     *message = "parameter ros/output_dir is not set: nothing saved";
     return false;
   }
   std::string error;
-  if (!runner_->save(ros_options_.output_dir, &error)) {
+  if (!runner_->save(dir, &error)) {
     *message = "save failed: " + error;
     return false;
   }
   *message = "saved " + std::to_string(runner_->trajectory().size()) + " poses and " +
-             std::to_string(runner_->estimator().landmarks().size()) + " landmarks to " +
-             ros_options_.output_dir;
+             std::to_string(runner_->estimator().landmarks().size()) + " landmarks to " + dir;
   return true;
 }
 

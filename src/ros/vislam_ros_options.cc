@@ -85,12 +85,16 @@ std::string VislamRosOptions::validate() const {
     why << "ros/diagnostic_period must be > 0";
   } else if (!(input_timeout > 0.0) || !(flush_timeout > 0.0)) {
     why << "ros/input_timeout and ros/flush_timeout must be > 0";
+  } else if (!(calibration_wait >= 0.0)) {
+    why << "ros/calibration_wait must be >= 0";
   } else if (!(sequencer_max_delay >= 0.0)) {
     why << "ros/sequencer_max_delay must be >= 0";
   } else if (sequencer_max_buffered < 1 || queue_size < 1) {
     why << "ros/sequencer_max_buffered and ros/queue_size must be >= 1";
   } else if (!(landmark_sigma_good > 0.0) || !(landmark_sigma_bad > landmark_sigma_good)) {
     why << "need 0 < ros/landmark_sigma_good < ros/landmark_sigma_bad";
+  } else if (!(landmark_point_size > 0.0)) {
+    why << "ros/landmark_point_size must be > 0";
   } else if (!(ellipsoid_sigma_scale > 0.0)) {
     why << "ros/ellipsoid_sigma_scale must be > 0";
   }
@@ -107,12 +111,14 @@ bool parseVislamRosOptions(const ParameterSource& source, VislamRosOptions* opti
   r.readDouble("ros/landmark_marker_rate", &o.landmark_marker_rate);
   r.readBool("ros/covariance_ellipsoids", &o.covariance_ellipsoids);
   r.readDouble("ros/ellipsoid_sigma_scale", &o.ellipsoid_sigma_scale);
+  r.readDouble("ros/landmark_point_size", &o.landmark_point_size);
   r.readDouble("ros/landmark_sigma_good", &o.landmark_sigma_good);
   r.readDouble("ros/landmark_sigma_bad", &o.landmark_sigma_bad);
   r.readDouble("ros/path_rate", &o.path_rate);
   r.readDouble("ros/diagnostic_period", &o.diagnostic_period);
   r.readDouble("ros/input_timeout", &o.input_timeout);
   r.readDouble("ros/flush_timeout", &o.flush_timeout);
+  r.readDouble("ros/calibration_wait", &o.calibration_wait);
   r.readDouble("ros/sequencer_max_delay", &o.sequencer_max_delay);
   r.readInt("ros/sequencer_max_buffered", &o.sequencer_max_buffered);
   r.readInt("ros/queue_size", &o.queue_size);
@@ -197,10 +203,11 @@ std::string describeOptions(const VislamRosOptions& o) {
       << " publish_tf=" << o.publish_tf << " landmark_marker_rate=" << o.landmark_marker_rate
       << " covariance_ellipsoids=" << o.covariance_ellipsoids
       << " ellipsoid_sigma_scale=" << o.ellipsoid_sigma_scale
+      << " landmark_point_size=" << o.landmark_point_size
       << " landmark_sigma_good=" << o.landmark_sigma_good
       << " landmark_sigma_bad=" << o.landmark_sigma_bad << " path_rate=" << o.path_rate
       << " diagnostic_period=" << o.diagnostic_period << " input_timeout=" << o.input_timeout
-      << " flush_timeout=" << o.flush_timeout
+      << " flush_timeout=" << o.flush_timeout << " calibration_wait=" << o.calibration_wait
       << " sequencer_max_delay=" << o.sequencer_max_delay
       << " sequencer_max_buffered=" << o.sequencer_max_buffered
       << " queue_size=" << o.queue_size << " output_dir="

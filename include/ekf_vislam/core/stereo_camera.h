@@ -23,8 +23,8 @@ class StereoCamera {
   const Eigen::Matrix4d& imuTCam() const { return imu_T_cam_; }
 
   /// Predicted observation [uL, vL, uR, vR] of p_world seen from the pose imu_T_world, and (when
-  /// the pointers are given) the Jacobians with respect to the left perturbation of the pose
-  /// (imu_T_world = exp(dxi^) imu_T_world_mean; 4x6) and to p_world (4x3).
+  /// the pointers are given) the Jacobians with respect to the world-frame perturbation of the
+  /// pose (world_T_imu = exp(eps^) world_T_imu_mean, eps = [rho; phi]; 4x6) and to p_world (4x3).
   /// Returns false when the point is not in front of the camera (depth <= min_depth).
   bool project(const Eigen::Matrix4d& imu_T_world, const Eigen::Vector3d& p_world,
                Eigen::Vector4d* z, Matrix46d* H_pose = nullptr, Matrix43d* H_landmark = nullptr,

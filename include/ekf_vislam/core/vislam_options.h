@@ -56,6 +56,9 @@ struct VislamOptions {
   double min_depth = 1.0;             ///< m
   double max_depth = 80.0;            ///< m
   double gating_probability = 0.95;   ///< chi-square gate (per observation)
+  /// A landmark whose observations fail the gate this many frames in a row restarts from its
+  /// current observation (feature tracks that jump); 0 = never.
+  int reinitialize_after_gated = 2;
   bool keep_all_landmarks_in_state = false;  ///< never marginalize (exact, O(N^2) memory)
 
   // limits/ (input sanity)

@@ -19,6 +19,7 @@
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <geometry_msgs/TwistStamped.h>
+#include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
@@ -54,9 +55,11 @@ class VislamRos {
   void process(bool flush);            // locked
   void onProcessed(const EstimatorRunner::Processed& processed);
   void tryCalibrate();  // locked
+  bool holdForCalibration();  // locked
 
   // Outputs.
   void publishOdometry(double stamp);
+  void publishTf();
   void publishPath();
   void publishLandmarks();
   void clearVisualization();
@@ -86,6 +89,8 @@ class VislamRos {
   std::string camera_frame_;
   std::string calibration_status_ = "waiting for camera_info and tf";
   std::string rejected_calibration_;  ///< last refused calibration message (logged once each)
+  ros::WallTime first_input_;
+  bool calibration_wait_over_ = false;
 
   // Counters and rates (wall clock).
   ros::WallTime last_input_;
@@ -113,6 +118,9 @@ class VislamRos {
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   nav_msgs::Path path_;
+  nav_msgs::Odometry last_odometry_;
+  bool has_odometry_ = false;
+  ros::Time last_tf_stamp_;
   bool path_dirty_ = false;
   bool landmarks_dirty_ = false;
   size_t previous_ellipsoids_ = 0;

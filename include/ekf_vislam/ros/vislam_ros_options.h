@@ -30,12 +30,14 @@ struct VislamRosOptions {
   double landmark_marker_rate = 2.0;   ///< ros/landmark_marker_rate, Hz (0 = never)
   bool covariance_ellipsoids = false;  ///< ros/covariance_ellipsoids (active landmarks)
   double ellipsoid_sigma_scale = 3.0;  ///< ros/ellipsoid_sigma_scale: ellipsoid half-axes in sigma
-  double landmark_sigma_good = 0.1;    ///< ros/landmark_sigma_good, m: green at or below
-  double landmark_sigma_bad = 5.0;     ///< ros/landmark_sigma_bad, m: red at or above
+  double landmark_point_size = 0.5;    ///< ros/landmark_point_size, m (active ones: twice)
+  double landmark_sigma_good = 0.25;   ///< ros/landmark_sigma_good, m: green at or below
+  double landmark_sigma_bad = 10.0;    ///< ros/landmark_sigma_bad, m: red at or above
   double path_rate = 2.0;              ///< ros/path_rate, Hz (0 = never)
   double diagnostic_period = 1.0;      ///< ros/diagnostic_period, s
   double input_timeout = 1.0;          ///< ros/input_timeout, wall s: diagnostics WARN after
   double flush_timeout = 0.5;          ///< ros/flush_timeout, wall s without input: flush
+  double calibration_wait = 2.0;       ///< ros/calibration_wait, wall s inputs are held at start
   double sequencer_max_delay = 0.5;    ///< ros/sequencer_max_delay, s of stamp time
   int sequencer_max_buffered = 2000;   ///< ros/sequencer_max_buffered, messages
   int queue_size = 2000;               ///< ros/queue_size of every subscriber

@@ -1,1 +1,84 @@
+#include "ekf_vislam/core/measurement_sequencer.h"
+
 #include <gtest/gtest.h>
+
+namespace ekf_vislam {
+namespace {
+
+TwistData twist(double t) {
+  TwistData m;
+  m.stamp = t;
+  return m;
+}
+FeatureFrame frame(double t) {
+  FeatureFrame m;
+  m.stamp = t;
+  return m;
+}
+std::string describe(const std::vector<Measurement>& ms) {
+  std::string s;
+  for (const Measurement& m : ms) {
+    s += (std::holds_alternative<TwistData>(m) ? "T" : "F") + std::to_string(static_cast<int>(stampOf(m) * 10)) + " ";
+  }
+  return s;
+}
+
+TEST(MeasurementSequencer, ReleasesInStampOrderTwistFirstAtEqualStamps) {
+  MeasurementSequencer seq;
+  seq.push(frame(0.0));  // the frame arrives before its twist
+  EXPECT_TRUE(seq.popReady().empty());
+  seq.push(twist(0.0));
+  EXPECT_EQ(describe(seq.popReady()), "T0 F0 ");
+  seq.push(twist(0.1));
+  seq.push(twist(0.2));  // twists run ahead: held until frames reach them
+  EXPECT_TRUE(seq.popReady().empty());
+  seq.push(frame(0.1));
+  EXPECT_EQ(describe(seq.popReady()), "T1 F1 ");
+  seq.push(frame(0.2));
+  EXPECT_EQ(describe(seq.popReady()), "T2 F2 ");
+  EXPECT_EQ(seq.late(), 0u);
+}
+
+TEST(MeasurementSequencer, OutOfOrderArrivalsAreSorted) {
+  MeasurementSequencer seq;
+  seq.push(twist(0.2));
+  seq.push(twist(0.1));
+  seq.push(frame(0.2));
+  seq.push(frame(0.1));
+  EXPECT_EQ(describe(seq.popReady()), "T1 F1 T2 F2 ");
+}
+
+TEST(MeasurementSequencer, OneStreamStoppingReleasesAfterMaxDelay) {
+  MeasurementSequencer::Options options;
+  options.max_delay = 0.25;
+  MeasurementSequencer seq(options);
+  seq.push(twist(0.0));
+  seq.push(frame(0.0));
+  EXPECT_EQ(describe(seq.popReady()), "T0 F0 ");
+  for (int k = 1; k <= 5; ++k) seq.push(twist(0.1 * k));  // no more frames
+  EXPECT_EQ(describe(seq.popReady()), "T1 T2 ");  // older than newest - 0.25
+  EXPECT_EQ(describe(seq.flush()), "T3 T4 T5 ");
+}
+
+TEST(MeasurementSequencer, LateMessagesAreCountedAndStillReturned) {
+  MeasurementSequencer seq;
+  seq.push(twist(0.1));
+  seq.push(frame(0.1));
+  EXPECT_EQ(seq.popReady().size(), 2u);
+  seq.push(frame(0.05));  // older than what was released
+  EXPECT_EQ(seq.late(), 1u);
+  EXPECT_EQ(describe(seq.flush()), "F0 ");
+}
+
+TEST(MeasurementSequencer, BufferIsBounded) {
+  MeasurementSequencer::Options options;
+  options.max_buffered = 10;
+  options.max_delay = 1e9;
+  MeasurementSequencer seq(options);
+  for (int k = 0; k < 50; ++k) seq.push(twist(0.1 * k));
+  seq.popReady();
+  EXPECT_LE(seq.buffered(), 10u);
+}
+
+}  // namespace
+}  // namespace ekf_vislam

@@ -46,6 +46,7 @@ Eigen::MatrixXd observationSelector(bool merge_rows) {
 VislamEstimator::VislamEstimator(const VislamOptions& options) : options_(options) {
   rows_per_observation_ = options_.merge_stereo_rows ? 3 : 4;
   gate_threshold_ = chiSquareQuantile(options_.gating_probability, rows_per_observation_);
+  restart_threshold_ = chiSquareQuantile(0.9999, rows_per_observation_);
   if (options_.estimate_velocity_bias) bias_components_.insert(bias_components_.end(), {0, 1, 2});
   if (options_.estimate_gyro_bias) bias_components_.insert(bias_components_.end(), {3, 4, 5});
   bias_dim_ = static_cast<int>(bias_components_.size());
@@ -420,7 +421,9 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
       // that keeps failing the gate has jumped (seen in the KITTI tracks): restart either from
       // its current observation instead of gating the rest of its track away.
       StateBlock& block = blocks_[c.block];
-      ++block.consecutive_gated;
+      // Only gross disagreement counts towards a restart: chance gatings of a good track (5 % at
+      // a 95 % gate) must not throw its accumulated information away.
+      if (d2 > restart_threshold_) ++block.consecutive_gated;
       const bool restart = map_[block.map_index].observations <= 1 ||
                            (options_.reinitialize_after_gated > 0 &&
                             block.consecutive_gated >= options_.reinitialize_after_gated);

@@ -3,11 +3,15 @@
 #include "ekf_vislam/core/yaml_parameter_source.h"
 #include "ekf_vislam/ros/bag_reader.h"
 #include "ekf_vislam/ros/conversions.h"
+#include "ekf_vislam/ros/estimator_runner.h"
 #include "ekf_vislam/ros/vislam_ros_options.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
+#include <sys/stat.h>
+#include <unistd.h>
 #include <limits>
 
 namespace ekf_vislam {
@@ -338,6 +342,119 @@ TEST(RosOptions, ErrorsNameTheKey) {
   EXPECT_FALSE(parseVislamRosOptions(
       YamlParameterSource::fromString("ros:\n  world_frame: imu\n"), &o, &error));
   EXPECT_EQ(o.world_frame, "world");  // untouched on failure
+}
+
+// The processing loop shared by the nodelet and vislam_offline.
+StereoCalibration forwardCamera() {
+  StereoCalibration c = kittiLike();
+  Eigen::Matrix3d R;
+  R << 0, -1, 0, 0, 0, -1, 1, 0, 0;  // IMU x forward, y left, z up -> optical frame
+  c.cam_T_imu.linear() = R;
+  return c;
+}
+
+FeatureFrame frameSeeing(double stamp, const Eigen::Vector3d& p_imu, const StereoCalibration& c) {
+  const Eigen::Vector3d q = c.cam_T_imu * p_imu;
+  StereoFeature f;
+  f.id = 1;
+  f.u_left = c.fx * q.x() / q.z() + c.cx;
+  f.v_left = f.v_right = c.fy * q.y() / q.z() + c.cy;
+  f.u_right = c.fx * (q.x() - c.baseline) / q.z() + c.cx;
+  FeatureFrame frame;
+  frame.stamp = stamp;
+  frame.features.push_back(f);
+  return frame;
+}
+
+std::string tempDir() {
+  char pattern[] = "/tmp/ekf_vislam_ros_test_XXXXXX";
+  const char* dir = ::mkdtemp(pattern);
+  return dir ? dir : "";
+}
+
+bool fileExists(const std::string& path) {
+  struct stat info;
+  return ::stat(path.c_str(), &info) == 0;
+}
+
+TEST(EstimatorRunner, FeedsInStampOrderAndRecordsTheTrajectory) {
+  EstimatorRunner runner{VislamOptions(), MeasurementSequencer::Options()};
+  const StereoCalibration calibration = forwardCamera();
+  std::string error;
+  ASSERT_TRUE(runner.estimator().setCalibration(calibration, &error)) << error;
+  std::vector<std::pair<bool, double>> seen;
+  const auto observer = [&](const EstimatorRunner::Processed& p) {
+    seen.emplace_back(p.is_frame, p.stamp);
+    EXPECT_FALSE(p.without_calibration);
+  };
+  for (int k = 0; k < 5; ++k) {
+    const double t = 0.1 * k;
+    TwistData twist;
+    twist.stamp = t;
+    twist.v_imu.x() = 1.0;
+    // The frame of a stamp arrives before its twist: the sequencer puts the twist first.
+    runner.push(frameSeeing(t, Eigen::Vector3d(20.0 - t, 0.5, 0.2), calibration));
+    runner.processReady(observer);
+    runner.push(twist);
+    runner.processReady(observer);
+  }
+  runner.flush(observer);
+  ASSERT_EQ(seen.size(), 10u);
+  for (size_t i = 0; i < seen.size(); ++i) {
+    EXPECT_EQ(seen[i].first, i % 2 == 1) << i;  // twist first at equal stamps
+    EXPECT_DOUBLE_EQ(seen[i].second, 0.1 * static_cast<double>(i / 2)) << i;
+  }
+  EXPECT_EQ(runner.framesFed(), 5u);
+  EXPECT_EQ(runner.twistsFed(), 5u);
+  ASSERT_EQ(runner.trajectory().size(), 5u);
+  EXPECT_EQ(runner.times().count(), 5u);
+  EXPECT_NEAR(runner.trajectory().back().world_T_imu.translation().x(), 0.4, 0.2);
+  const RunSummary summary = runner.summary();
+  EXPECT_EQ(summary.frames, 5u);
+  EXPECT_EQ(summary.mode, "slam");
+  EXPECT_NEAR(summary.data_s, 0.4, 1e-9);
+  EXPECT_GE(summary.landmarks_total, 1u);
+
+  const std::string dir = tempDir();
+  ASSERT_FALSE(dir.empty());
+  ASSERT_TRUE(runner.save(dir + "/run/a", &error)) << error;  // creates folders
+  for (const char* name : {"trajectory.tum", "landmarks.csv", "stats.json"}) {
+    EXPECT_TRUE(fileExists(dir + "/run/a/" + name)) << name;
+  }
+  std::ifstream tum(dir + "/run/a/trajectory.tum");
+  int lines = 0;
+  for (std::string line; std::getline(tum, line);) lines += line.empty() ? 0 : 1;
+  EXPECT_EQ(lines, 5);
+
+  runner.reset();
+  EXPECT_TRUE(runner.trajectory().empty());
+  EXPECT_TRUE(runner.estimator().landmarks().empty());
+  EXPECT_TRUE(runner.estimator().hasCalibration());  // kept
+  EXPECT_EQ(runner.buffered(), 0u);
+  std::system(("rm -rf " + dir).c_str());
+}
+
+TEST(EstimatorRunner, FlagsFramesWithoutCalibration) {
+  EstimatorRunner runner{VislamOptions(), MeasurementSequencer::Options()};
+  int without = 0;
+  TwistData twist;
+  twist.stamp = 1.0;
+  runner.push(twist);
+  runner.push(frameSeeing(1.0, Eigen::Vector3d(20.0, 0.0, 0.0), forwardCamera()));
+  runner.flush([&](const EstimatorRunner::Processed& p) { without += p.without_calibration; });
+  EXPECT_EQ(without, 1);
+  EXPECT_EQ(runner.framesWithoutCalibration(), 1u);
+  EXPECT_EQ(runner.estimator().stats().get(Counter::kFrameNoCalibration), 1u);
+}
+
+TEST(EstimatorRunner, SaveFailsWithAMessage) {
+  EstimatorRunner runner{VislamOptions(), MeasurementSequencer::Options()};
+  std::string error;
+  EXPECT_FALSE(runner.save("", &error));
+  EXPECT_FALSE(error.empty());
+  error.clear();
+  EXPECT_FALSE(runner.save("/proc/ekf_vislam_cannot_create", &error));
+  EXPECT_NE(error.find("/proc"), std::string::npos) << error;
 }
 
 }  // namespace

@@ -24,6 +24,7 @@
 #include <iostream>
 #include <map>
 #include <string>
+#include <utility>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -105,18 +106,21 @@ int run(int argc, char** argv) {
     }
     std::string value;
     const size_t eq = flag.find('=');
-    if (eq != std::string::npos) {
+    const bool inline_value = eq != std::string::npos;
+    if (inline_value) {
       value = flag.substr(eq + 1);
       flag = flag.substr(0, eq);
-    } else if (i + 1 < argc) {
-      value = argv[++i];
-    } else {
-      std::cerr << "vislam_offline: " << flag << " needs a value\n" << kUsage;
-      return 2;
     }
     if (known.count(flag) == 0) {
-      std::cerr << "vislam_offline: unknown option " << flag << "\n" << kUsage;
+      std::cerr << "vislam_offline: unknown argument " << flag << "\n" << kUsage;
       return 2;
+    }
+    if (!inline_value) {
+      if (i + 1 >= argc) {
+        std::cerr << "vislam_offline: " << flag << " needs a value\n" << kUsage;
+        return 2;
+      }
+      value = argv[++i];
     }
     args[flag] = value;
   }
@@ -132,7 +136,7 @@ int run(int argc, char** argv) {
     if (config.empty()) return fail("no --config given and config/default.yaml of ekf_vislam not found");
   }
   YamlParameterSource source(config);
-  if (!source.ok()) return fail("cannot read config " + config + ": " + source.error());
+  if (!source.ok()) return fail("cannot read config " + source.error());
   VislamOptions options;
   VislamRosOptions ros_options;
   std::string error;
@@ -155,11 +159,24 @@ int run(int argc, char** argv) {
   BagReader bag;
   if (!bag.open(args["--bag"], topics, &error)) return fail(error);
   const bool needs_features = options.mode != EstimatorMode::kDeadReckoning;
+  if (topics.twist == topics.features) return fail("the twist and feature topics must differ");
   if (bag.messageCount(topics.twist) == 0) {
     return fail("bag " + args["--bag"] + " has no messages on " + topics.twist);
   }
   if (needs_features && bag.messageCount(topics.features) == 0) {
     return fail("bag " + args["--bag"] + " has no messages on " + topics.features);
+  }
+  const std::pair<std::string, std::string> expected_types[] = {
+      {topics.twist, "geometry_msgs/TwistStamped"},
+      {topics.features, "ekf_vislam/StereoFeatureArray"},
+      {topics.left_info, "sensor_msgs/CameraInfo"},
+      {topics.right_info, "sensor_msgs/CameraInfo"},
+      {topics.tf_static, "tf2_msgs/TFMessage"}};
+  for (const auto& [topic, type] : expected_types) {
+    const std::string actual = bag.dataType(topic);
+    if (!actual.empty() && actual != type) {
+      return fail(topic + " holds " + actual + ", expected " + type);
+    }
   }
 
   // Calibration: camera_info pair + /tf_static, or the ros/calibration override.

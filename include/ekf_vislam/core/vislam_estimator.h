@@ -123,6 +123,7 @@ class VislamEstimator {
   bool has_calibration_ = false;
   int rows_per_observation_ = 3;
   double gate_threshold_ = 0.0;
+  double restart_threshold_ = 0.0;  ///< chi-square 0.9999: gross disagreement (track jumped)
   std::vector<int> bias_components_;  ///< entries of u = [v; w] whose bias is estimated
 
   bool initialized_ = false;

@@ -36,7 +36,7 @@ struct VislamOptions {
   // noise/
   double pixel_sigma = 2.0;               ///< px, std of each image coordinate
   bool merge_stereo_rows = true;          ///< observe [uL, (vL+vR)/2, uR] (3 rows) instead of 4
-  double linear_velocity_noise = 0.15;    ///< m/s/sqrt(Hz): W_v = sigma^2 * tau
+  double linear_velocity_noise = 0.10;    ///< m/s/sqrt(Hz): W_v = sigma^2 * tau
   double angular_velocity_noise = 0.015;  ///< rad/s/sqrt(Hz): W_w = sigma^2 * tau
 
   // prior/
@@ -56,9 +56,10 @@ struct VislamOptions {
   double min_depth = 1.0;             ///< m
   double max_depth = 80.0;            ///< m
   double gating_probability = 0.95;   ///< chi-square gate (per observation)
-  /// A landmark whose observations fail the gate this many frames in a row restarts from its
-  /// current observation (feature tracks that jump); 0 = never.
-  int reinitialize_after_gated = 2;
+  /// A landmark whose observations disagree grossly (beyond the chi-square 0.9999 quantile) this
+  /// many frames in a row restarts from its current observation (feature tracks that jump);
+  /// 0 = never.
+  int reinitialize_after_gated = 1;
   bool keep_all_landmarks_in_state = false;  ///< never marginalize (exact, O(N^2) memory)
 
   // limits/ (input sanity)

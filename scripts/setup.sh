@@ -38,8 +38,21 @@ if ((${#missing[@]})); then
     >/tmp/ekf_vislam_apt.log 2>&1 || { tail -30 /tmp/ekf_vislam_apt.log; exit 1; }
 fi
 
+# The package in the workspace is a folder of links to the repository's entries, all but the
+# workspace itself: a link to the whole repository would contain the workspace again, and rosrun's
+# search would report a file system loop.
+PKG="${WS}/src/ekf_vislam"
 mkdir -p "${WS}/src"
-ln -sfn "${REPO}" "${WS}/src/ekf_vislam"
+[[ -L "${PKG}" ]] && rm -f "${PKG}"
+mkdir -p "${PKG}"
+for entry in "${REPO}"/* "${REPO}"/.clang-format; do
+  [[ -e "${entry}" ]] || continue
+  [[ "$(cd "${entry}" 2>/dev/null && pwd)" == "${WS}" ]] && continue
+  ln -sfn "${entry}" "${PKG}/$(basename "${entry}")"
+done
+for link in "${PKG}"/* "${PKG}"/.clang-format; do
+  [[ -L "${link}" && ! -e "${link}" ]] && rm -f "${link}"
+done
 # catkin snapshots PYTHONPATH at the first configure: the devel python folder must exist by then.
 mkdir -p "${WS}/devel/lib/python3/dist-packages"
 

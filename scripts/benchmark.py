@@ -1,0 +1,139 @@
+#!/usr/bin/python3
+"""Accuracy and speed of ekf_vislam on the course datasets and on synthetic drives.
+
+Converts each dataset to a bag (cached), runs vislam_offline in the three modes, evaluates
+against ground truth and prints one table (also written as benchmark.md / benchmark.json).
+Speed: wall time and per-frame times from stats.json; peak memory from the kernel (wait4 rusage).
+
+    scripts/benchmark.sh [--data DIR] [--seeds 1 2 3] [--out results/benchmark]
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, '..', 'src'))
+from ekf_vislam_tools import metrics, trajectory  # noqa: E402
+
+MODES = ('slam', 'mapping', 'deadreckoning')
+PY = '/usr/bin/python3'
+
+
+def run(cmd, **kwargs):
+    """Runs cmd; returns (wall_s, peak_rss_mb). Raises on failure with its stderr."""
+    start = time.monotonic()
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, **kwargs)
+    _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.monotonic() - start
+    out, err = proc.stdout.read().decode(), proc.stderr.read().decode()
+    if os.waitstatus_to_exitcode(status) != 0:
+        raise RuntimeError('%s failed:\n%s%s' % (' '.join(cmd), out, err))
+    return wall, usage.ru_maxrss / 1024.0
+
+
+def offline_binary():
+    out = subprocess.run(['catkin_find', '--first-only', '--libexec', 'ekf_vislam'],
+                         capture_output=True, text=True).stdout.strip()
+    path = os.path.join(out, 'vislam_offline')
+    if not os.path.exists(path):
+        sys.exit('benchmark: vislam_offline not built; run scripts/setup.sh first')
+    return path
+
+
+def evaluate_case(name, bag, groundtruth, out_dir, binary, config):
+    rows = []
+    for mode in MODES:
+        mode_dir = os.path.join(out_dir, name, mode)
+        os.makedirs(mode_dir, exist_ok=True)
+        cmd = [binary, '--bag', bag, '--mode', mode, '--out', mode_dir]
+        if config:
+            cmd += ['--config', config]
+        wall, rss = run(cmd)
+        with open(os.path.join(mode_dir, 'stats.json')) as f:
+            stats = json.load(f)
+        row = {'dataset': name, 'mode': mode, 'frames': stats['frames'],
+               'landmarks': stats['landmarks'], 'process_wall_s': round(wall, 3),
+               'estimator_wall_s': stats['wall_s'], 'data_s': stats['data_s'],
+               'frame_ms_p50': stats['frame_ms']['p50'], 'frame_ms_p99': stats['frame_ms']['p99'],
+               'frame_ms_max': stats['frame_ms']['max'], 'peak_rss_mb': round(rss, 1),
+               'observations_used': stats['observations_used'],
+               'observations_rejected': stats['observations_rejected']}
+        if groundtruth:
+            t, T = trajectory.read_tum(os.path.join(mode_dir, 'trajectory.tum'))
+            tg, Tg = trajectory.read_tum(groundtruth)
+            m = metrics.evaluate_trajectory(t, T, tg, Tg)
+            row.update(ate_m=m['ate_rmse_m'], rpe_percent=m['rpe_percent'],
+                       rot_rmse_deg=m['rotation_rmse_deg'], final_m=m['final_position_error_m'])
+        rows.append(row)
+    return rows
+
+
+def fmt(v, spec):
+    return '-' if v is None else format(v, spec)
+
+
+def table(rows):
+    lines = ['| dataset | mode | ATE m | RPE % | rot deg | frames | landmarks | wall s | x real time | '
+             'p50 ms | p99 ms | peak MB |', '|' + '---|' * 12]
+    for r in rows:
+        rt = r['data_s'] / r['estimator_wall_s'] if r['estimator_wall_s'] > 0 else None
+        lines.append('| %s | %s | %s | %s | %s | %d | %d | %s | %s | %s | %s | %s |' % (
+            r['dataset'], r['mode'], fmt(r.get('ate_m'), '.2f'), fmt(r.get('rpe_percent'), '.2f'),
+            fmt(r.get('rot_rmse_deg'), '.2f'), r['frames'], r['landmarks'],
+            fmt(r['estimator_wall_s'], '.3f'), fmt(rt, '.0f'), fmt(r['frame_ms_p50'], '.2f'),
+            fmt(r['frame_ms_p99'], '.2f'), fmt(r['peak_rss_mb'], '.0f')))
+    return '\n'.join(lines)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser.add_argument('--data', default=os.environ.get('EKF_VISLAM_DATA',
+                                                         os.path.join(HERE, '..', '..', 'shared', 'data')))
+    parser.add_argument('--seeds', type=int, nargs='*', default=[1, 2, 3, 4, 5])
+    parser.add_argument('--config', default=None, help='options YAML (default: the shipped one)')
+    parser.add_argument('--out', default=os.path.join(HERE, '..', 'results', 'benchmark'))
+    args = parser.parse_args()
+    out = os.path.abspath(args.out)
+    bags = os.path.join(out, 'bags')
+    os.makedirs(bags, exist_ok=True)
+    binary = offline_binary()
+    cases = []
+    for seed in args.seeds:
+        prefix = os.path.join(bags, 'sim%d' % seed)
+        if not os.path.exists(prefix + '.bag'):
+            run([PY, os.path.join(HERE, 'simulate_dataset.py'), '--seed', str(seed), '--out', prefix])
+            run([PY, os.path.join(HERE, 'dataset_to_bag.py'), prefix + '.npz', prefix + '.bag'])
+        cases.append(('sim%d' % seed, prefix + '.bag', prefix + '_groundtruth.tum'))
+    for name in ('0027', '0034', '0022', '03'):
+        npz = os.path.join(args.data, name + '.npz')
+        if not os.path.exists(npz):
+            continue
+        bag = os.path.join(bags, name + '.bag')
+        if not os.path.exists(bag):
+            run([PY, os.path.join(HERE, 'dataset_to_bag.py'), npz, bag])
+        gt = os.path.join(args.data, 'groundtruth', name + '_imu_gt.tum')
+        cases.append((name, bag, gt if os.path.exists(gt) else None))
+    rows = []
+    for name, bag, gt in cases:
+        print('benchmark: %s ...' % name, file=sys.stderr, flush=True)
+        rows += evaluate_case(name, bag, gt, out, binary, args.config)
+    text = table(rows)
+    print(text)
+    slam_sims = [r['ate_m'] for r in rows if r['dataset'].startswith('sim') and r['mode'] == 'slam']
+    if slam_sims:
+        summary = 'synthetic drives, SLAM ATE: mean %.3f m, max %.3f m over %d seeds' % (
+            sum(slam_sims) / len(slam_sims), max(slam_sims), len(slam_sims))
+        print(summary)
+        text += '\n\n' + summary
+    with open(os.path.join(out, 'benchmark.md'), 'w') as f:
+        f.write(text + '\n')
+    with open(os.path.join(out, 'benchmark.json'), 'w') as f:
+        json.dump(rows, f, indent=1)
+    print('benchmark: wrote %s/benchmark.md and benchmark.json' % out, file=sys.stderr)
+
+
+if __name__ == '__main__':
+    main()

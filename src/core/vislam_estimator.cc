@@ -50,6 +50,7 @@ VislamEstimator::VislamEstimator(const VislamOptions& options) : options_(option
   if (options_.estimate_velocity_bias) bias_components_.insert(bias_components_.end(), {0, 1, 2});
   if (options_.estimate_gyro_bias) bias_components_.insert(bias_components_.end(), {3, 4, 5});
   bias_dim_ = static_cast<int>(bias_components_.size());
+  rotation_dim_ = options_.estimate_twist_rotation ? 3 : 0;
   initializeState();
 }
 
@@ -75,6 +76,10 @@ void VislamEstimator::setPriorCovariance() {
                                              : options_.gyro_bias_prior_sigma;
     sigma_(kPoseDim + i, kPoseDim + i) = s * s;
   }
+  const double rot2 = options_.twist_rotation_prior_sigma * options_.twist_rotation_prior_sigma;
+  for (int i = 0; i < rotation_dim_; ++i) {
+    sigma_(kPoseDim + bias_dim_ + i, kPoseDim + bias_dim_ + i) = rot2;
+  }
 }
 
 void VislamEstimator::initializeState() {
@@ -84,7 +89,8 @@ void VislamEstimator::initializeState() {
   held_twist_ = TwistData();
   imu_T_world_.setIdentity();
   bias_ = Eigen::VectorXd::Zero(bias_dim_);
-  dim_ = kPoseDim + bias_dim_;
+  imu_R_twist_.setIdentity();
+  dim_ = kPoseDim + auxDim();
   const int capacity = std::max(64, dim_);
   sigma_ = Eigen::MatrixXd::Zero(capacity, capacity);
   p_world_ = Eigen::VectorXd::Zero(capacity);
@@ -107,6 +113,16 @@ void VislamEstimator::ensureCapacity(int dim) {
   Eigen::VectorXd grown_mean = Eigen::VectorXd::Zero(new_capacity);
   grown_mean.head(dim_) = p_world_.head(dim_);
   p_world_.swap(grown_mean);
+}
+
+Vector6d VislamEstimator::trueTwist(const TwistData& twist) const {
+  const Vector6d b = biasVector();
+  const Eigen::Vector3d v_twist = twist.v_imu - b.head<3>();
+  const Eigen::Vector3d w_twist = twist.w_imu - b.tail<3>();
+  Vector6d u;
+  u.head<3>() = imu_R_twist_ * v_twist;
+  u.tail<3>() = imu_R_twist_ * w_twist;
+  return u;
 }
 
 Vector6d VislamEstimator::biasVector() const {
@@ -196,9 +212,7 @@ bool VislamEstimator::advanceTo(double stamp, const TwistData& twist, FeedResult
 }
 
 void VislamEstimator::predict(double dt, const TwistData& twist, double noise_scale) {
-  Vector6d u;
-  u << twist.v_imu, twist.w_imu;
-  u -= biasVector();
+  const Vector6d u = trueTwist(twist);
   const Vector6d xi = -dt * u;
   const Eigen::Matrix4d motion = se3::exp(xi);
   imu_T_world_ = motion * imu_T_world_;
@@ -219,15 +233,24 @@ void VislamEstimator::predict(double dt, const TwistData& twist, double noise_sc
       D.block<3, 3>(row, 3) = se3::hat(Eigen::Vector3d(p_world_.segment<3>(row)));
     }
   }
-  if (bias_dim_ > 0) {
-    // F = I + E on the bias columns, E = D G (dim x bias_dim).
-    const Matrix6d J = -dt * Ad * se3::leftJacobian(xi);
-    Eigen::MatrixXd G(kPoseDim, bias_dim_);
-    for (int i = 0; i < bias_dim_; ++i) G.col(i) = J.col(bias_components_[i]);
+  const int aux = auxDim();
+  if (aux > 0) {
+    // F = I + E on the auxiliary columns, E = D G (dim x aux), G = dt Ad J_l(xi) du/daux with
+    // du/db = -R_m (bias components) and du/dtheta = -[(R_m (v - b_v))^; (R_m (w - b_w))^].
+    Eigen::MatrixXd du_daux = Eigen::MatrixXd::Zero(kPoseDim, aux);
+    for (int i = 0; i < bias_dim_; ++i) {
+      const int c = bias_components_[i];
+      du_daux.block<3, 1>(c < 3 ? 0 : 3, i) = -imu_R_twist_.col(c % 3);
+    }
+    if (rotation_dim_ > 0) {
+      du_daux.block<3, 3>(0, bias_dim_) = -se3::hat(Eigen::Vector3d(u.head<3>()));
+      du_daux.block<3, 3>(3, bias_dim_) = -se3::hat(Eigen::Vector3d(u.tail<3>()));
+    }
+    const Eigen::MatrixXd G = dt * Ad * se3::leftJacobian(xi) * du_daux;
     const Eigen::MatrixXd E = D * G;
-    const Eigen::MatrixXd E_sigma = E * S.middleRows(kPoseDim, bias_dim_);  // dim x dim
-    const Eigen::MatrixXd sigma_bb = S.block(kPoseDim, kPoseDim, bias_dim_, bias_dim_);
-    S += E_sigma + E_sigma.transpose() + E * sigma_bb * E.transpose();
+    const Eigen::MatrixXd E_sigma = E * S.middleRows(kPoseDim, aux);  // dim x dim
+    const Eigen::MatrixXd sigma_aa = S.block(kPoseDim, kPoseDim, aux, aux);
+    S += E_sigma + E_sigma.transpose() + E * sigma_aa * E.transpose();
   }
   const double qv = options_.linear_velocity_noise * options_.linear_velocity_noise;
   const double qw = options_.angular_velocity_noise * options_.angular_velocity_noise;
@@ -239,6 +262,10 @@ void VislamEstimator::predict(double dt, const TwistData& twist, double noise_sc
     const double rw = bias_components_[i] < 3 ? options_.velocity_bias_random_walk
                                               : options_.gyro_bias_random_walk;
     S(kPoseDim + i, kPoseDim + i) += dt * rw * rw;
+  }
+  const double rot_rw = options_.twist_rotation_random_walk;
+  for (int i = 0; i < rotation_dim_; ++i) {
+    S(kPoseDim + bias_dim_ + i, kPoseDim + bias_dim_ + i) += dt * rot_rw * rot_rw;
   }
 }
 
@@ -481,6 +508,9 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
           se3::normalizeRotation(&imu_T_world_);
         }
         if (bias_dim_ > 0) bias_ += dx.segment(kPoseDim, bias_dim_);
+        if (rotation_dim_ > 0) {
+          imu_R_twist_ = se3::expSO3(dx.segment<3>(kPoseDim + bias_dim_)) * imu_R_twist_;
+        }
         // Landmarks: p <- exp(dphi^) p + J_l(dphi) dxi (the SE_K(3) exponential).
         const Eigen::Vector3d dphi = correct_pose ? Eigen::Vector3d(dx.segment<3>(3))
                                                   : Eigen::Vector3d::Zero();
@@ -599,7 +629,7 @@ void VislamEstimator::removeBlocks(const std::vector<bool>& remove, bool count_a
   syncBlocksToMap();
   std::vector<int> keep_rows;
   keep_rows.reserve(dim_);
-  for (int i = 0; i < kPoseDim + bias_dim_; ++i) keep_rows.push_back(i);
+  for (int i = 0; i < kPoseDim + auxDim(); ++i) keep_rows.push_back(i);
   std::vector<StateBlock> kept_blocks;
   for (size_t k = 0; k < blocks_.size(); ++k) {
     if (remove[k]) {
@@ -695,9 +725,9 @@ Matrix6d VislamEstimator::poseCovarianceWorld() const {
 
 TwistData VislamEstimator::correctedTwist() const {
   TwistData t = held_twist_;
-  const Vector6d b = biasVector();
-  t.v_imu -= b.head<3>();
-  t.w_imu -= b.tail<3>();
+  const Vector6d u = trueTwist(held_twist_);
+  t.v_imu = u.head<3>();
+  t.w_imu = u.tail<3>();
   return t;
 }
 

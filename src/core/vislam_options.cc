@@ -93,6 +93,8 @@ std::string VislamOptions::validate() const {
   non_negative("bias/gyro_random_walk", gyro_bias_random_walk);
   positive("bias/velocity_prior_sigma", velocity_bias_prior_sigma);
   non_negative("bias/velocity_random_walk", velocity_bias_random_walk);
+  positive("extrinsic/twist_rotation_prior_sigma", twist_rotation_prior_sigma);
+  non_negative("extrinsic/twist_rotation_random_walk", twist_rotation_random_walk);
   positive("landmarks/min_disparity_px", min_disparity_px);
   positive("landmarks/min_depth", min_depth);
   positive("landmarks/max_depth", max_depth);
@@ -138,6 +140,9 @@ bool parseVislamOptions(const ParameterSource& source, VislamOptions* o, std::st
   r.flag("bias/estimate_velocity_bias", &o->estimate_velocity_bias);
   r.number("bias/velocity_prior_sigma", &o->velocity_bias_prior_sigma);
   r.number("bias/velocity_random_walk", &o->velocity_bias_random_walk);
+  r.flag("extrinsic/estimate_twist_rotation", &o->estimate_twist_rotation);
+  r.number("extrinsic/twist_rotation_prior_sigma", &o->twist_rotation_prior_sigma);
+  r.number("extrinsic/twist_rotation_random_walk", &o->twist_rotation_random_walk);
   r.number("landmarks/min_disparity_px", &o->min_disparity_px);
   r.number("landmarks/min_depth", &o->min_depth);
   r.number("landmarks/max_depth", &o->max_depth);

@@ -32,6 +32,8 @@ TEST(VislamOptions, ShippedConfigParsesAndMatchesBuiltInDefaults) {
   EXPECT_EQ(parsed.max_features_per_frame, defaults.max_features_per_frame);
   EXPECT_EQ(parsed.gap_policy, defaults.gap_policy);
   EXPECT_EQ(parsed.divergence_policy, defaults.divergence_policy);
+  EXPECT_EQ(parsed.estimate_twist_rotation, defaults.estimate_twist_rotation);
+  EXPECT_DOUBLE_EQ(parsed.twist_rotation_prior_sigma, defaults.twist_rotation_prior_sigma);
 }
 
 TEST(VislamOptions, NestedKeysEnumsAndMissingKeys) {

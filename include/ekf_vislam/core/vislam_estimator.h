@@ -1,7 +1,8 @@
 // EKF visual-inertial SLAM on SE(3): the estimator core. No ROS.
 //
 // State: pose world_T_imu (T) with a world-frame perturbation T = exp(eps^) T_mean,
-// eps = [rho; phi] (translation first), optional twist bias b (u_true = u_measured - b), and the
+// eps = [rho; phi] (translation first), optional twist bias b and rotation R_m of the twist frame
+// (u_true = R_m (u_measured - b), R_m = exp(theta^) R_m_mean), and the
 // landmarks that are currently tracked, each with the invariant error xi_i of right-invariant
 // EKF-SLAM (Barrau & Bonnabel): p_i = exp(phi^) p_i_mean + xi_i. One joint covariance.
 //
@@ -77,6 +78,9 @@ class VislamEstimator {
   Matrix6d correctedTwistCovariance() const;
   /// Estimated bias [v; w] (zeros for components not estimated).
   Vector6d twistBias() const;
+  /// Estimated rotation from the twist's measurement frame to the IMU frame (identity when not
+  /// estimated).
+  const Eigen::Matrix3d& twistRotation() const { return imu_R_twist_; }
 
   /// Every landmark ever initialized (active ones carry their current estimate).
   const std::vector<LandmarkEstimate>& landmarks() const { return map_; }
@@ -113,8 +117,11 @@ class VislamEstimator {
   void checkHealth(int candidates, int gated, FeedResult* result);
   void recoverFromDivergence(const std::string& why, FeedResult* result);
   void setPriorCovariance();
-  int landmarkRow(size_t block) const { return kPoseDim + bias_dim_ + 3 * static_cast<int>(block); }
+  int auxDim() const { return bias_dim_ + rotation_dim_; }
+  int landmarkRow(size_t block) const { return kPoseDim + auxDim() + 3 * static_cast<int>(block); }
   Vector6d biasVector() const;
+  /// u_true = R_m (u_measured - b) for the current estimates.
+  Vector6d trueTwist(const TwistData& twist) const;
 
   static constexpr int kPoseDim = 6;
 
@@ -136,6 +143,8 @@ class VislamEstimator {
   Eigen::Matrix4d imu_T_world_ = Eigen::Matrix4d::Identity();
   Eigen::VectorXd bias_;     ///< estimated bias components (size bias_dim_)
   int bias_dim_ = 0;
+  Eigen::Matrix3d imu_R_twist_ = Eigen::Matrix3d::Identity();  ///< R_m
+  int rotation_dim_ = 0;     ///< 3 when R_m is estimated (state rows after the bias)
   int dim_ = 0;              ///< active state dimension
   Eigen::VectorXd p_world_;  ///< landmark means at their state rows (capacity sized)
   Eigen::MatrixXd sigma_;    ///< capacity >= dim_; only the top-left dim_ x dim_ block is live

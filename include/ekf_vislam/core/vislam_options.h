@@ -51,6 +51,13 @@ struct VislamOptions {
   double velocity_bias_prior_sigma = 0.1;  ///< m/s
   double velocity_bias_random_walk = 1e-3; ///< m/s/sqrt(s)
 
+  // extrinsic/
+  /// Estimate the rotation R_m between the frame the twist is measured in and the IMU frame that
+  /// cam_T_imu refers to (u_true = R_m (u_measured - b)); the KITTI files carry 1-3 degrees.
+  bool estimate_twist_rotation = true;
+  double twist_rotation_prior_sigma = 0.05;   ///< rad
+  double twist_rotation_random_walk = 0.0;    ///< rad/sqrt(s)
+
   // landmarks/
   double min_disparity_px = 1.0;      ///< smaller (or negative) disparity: not initialized
   double min_depth = 1.0;             ///< m

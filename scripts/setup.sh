@@ -47,11 +47,13 @@ mkdir -p "${WS}/src"
 mkdir -p "${PKG}"
 for entry in "${REPO}"/* "${REPO}"/.clang-format; do
   [[ -e "${entry}" ]] || continue
+  # Never link a workspace (the default one, build/, or the one being built).
+  [[ "$(basename "${entry}")" == build ]] && continue
   [[ "$(cd "${entry}" 2>/dev/null && pwd)" == "${WS}" ]] && continue
   ln -sfn "${entry}" "${PKG}/$(basename "${entry}")"
 done
 for link in "${PKG}"/* "${PKG}"/.clang-format; do
-  [[ -L "${link}" && ! -e "${link}" ]] && rm -f "${link}"
+  if [[ -L "${link}" && ( ! -e "${link}" || "$(basename "${link}")" == build ) ]]; then rm -f "${link}"; fi
 done
 # catkin snapshots PYTHONPATH at the first configure: the devel python folder must exist by then.
 mkdir -p "${WS}/devel/lib/python3/dist-packages"

@@ -1,0 +1,111 @@
+"""End-to-end regression: dataset -> bag -> vislam_offline -> accuracy against ground truth.
+
+Synthetic drives always (the project's simulator, default settings); the KITTI sequences 0027 and
+0034 when ../shared/data (or EKF_VISLAM_DATA) is there. The bounds guard the figures measured with
+the shipped config/default.yaml (README "Accuracy"), with margin; the README states where they
+fall short of the targets.
+"""
+import json
+import os
+import shutil
+import subprocess
+import unittest
+
+import numpy as np
+
+import ekf_test_paths as paths
+from ekf_vislam_tools import metrics, trajectory
+
+SCRIPTS = os.path.join(paths.REPO_ROOT, 'scripts')
+PY = '/usr/bin/python3'
+
+
+def run(cmd):
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise AssertionError('%s failed (%d):\n%s%s' % (' '.join(cmd), proc.returncode, proc.stdout,
+                                                        proc.stderr))
+    return proc
+
+
+def offline(bag, mode, out_dir):
+    run(['rosrun', 'ekf_vislam', 'vislam_offline', '--bag', bag, '--mode', mode, '--out', out_dir])
+    with open(os.path.join(out_dir, 'stats.json')) as f:
+        stats = json.load(f)
+    return trajectory.read_tum(os.path.join(out_dir, 'trajectory.tum')), stats
+
+
+def accuracy(estimate, groundtruth_path):
+    t, T = estimate
+    tg, Tg = trajectory.read_tum(groundtruth_path)
+    return metrics.evaluate_trajectory(t, T, tg, Tg)
+
+
+class SyntheticDriveTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = paths.make_temp_dir()
+        cls.addClassCleanup(shutil.rmtree, cls.tmp, True)
+        cls.results = {}
+        for seed in (11, 12):
+            prefix = os.path.join(cls.tmp, 'sim%d' % seed)
+            run([PY, os.path.join(SCRIPTS, 'simulate_dataset.py'), '--seed', str(seed), '--out', prefix])
+            run([PY, os.path.join(SCRIPTS, 'dataset_to_bag.py'), prefix + '.npz', prefix + '.bag'])
+            for mode in ('slam', 'mapping', 'deadreckoning'):
+                out = os.path.join(cls.tmp, 'sim%d_%s' % (seed, mode))
+                estimate, stats = offline(prefix + '.bag', mode, out)
+                cls.results[(seed, mode)] = (estimate, stats, accuracy(estimate, prefix + '_groundtruth.tum'))
+
+    def test_slam_accuracy_on_synthetic_drives(self):
+        for seed in (11, 12):
+            ate = self.results[(seed, 'slam')][2]['ate_rmse_m']
+            dead = self.results[(seed, 'deadreckoning')][2]['ate_rmse_m']
+            print('seed %d: SLAM ATE %.3f m, dead reckoning %.3f m' % (seed, ate, dead))
+            self.assertLess(ate, 1.0)
+            self.assertLess(ate, 0.2 * dead)
+
+    def test_mapping_keeps_the_dead_reckoned_pose_and_builds_a_map(self):
+        for seed in (11, 12):
+            (t_map, T_map), stats_map, _ = self.results[(seed, 'mapping')]
+            (t_dr, T_dr), stats_dr, _ = self.results[(seed, 'deadreckoning')]
+            np.testing.assert_allclose(T_map[:, :3, 3], T_dr[:, :3, 3], atol=1e-6)
+            self.assertGreater(stats_map['landmarks'], 1000)
+            self.assertEqual(stats_dr['landmarks'], 0)
+
+    def test_statistics_are_complete(self):
+        _, stats, _ = self.results[(11, 'slam')]
+        self.assertEqual(stats['frames'], stats['twists'])
+        self.assertGreater(stats['counters']['observation_update'], 10 * stats['frames'])
+        self.assertGreater(stats['counters']['observation_gated'], 0)  # the simulator's outliers
+        self.assertLessEqual(stats['peak_active_landmarks'], 300)  # bounded state
+
+
+@unittest.skipUnless(paths.data_dir(), 'course datasets not found (../shared/data or EKF_VISLAM_DATA)')
+class KittiRegressionTest(unittest.TestCase):
+    # Measured with config/default.yaml (scripts/benchmark.sh): 0027 4.23 m, 0034 11.95 m.
+    BOUNDS = {'0027': (5.0, 4.5), '0034': (14.0, 8.0)}  # (ATE m, RPE %)
+
+    def check(self, name):
+        data = paths.data_dir()
+        tmp = paths.make_temp_dir(self)
+        bag = os.path.join(tmp, name + '.bag')
+        run([PY, os.path.join(SCRIPTS, 'dataset_to_bag.py'), os.path.join(data, name + '.npz'), bag])
+        gt = os.path.join(data, 'groundtruth', name + '_imu_gt.tum')
+        slam = accuracy(offline(bag, 'slam', os.path.join(tmp, 'slam'))[0], gt)
+        dead = accuracy(offline(bag, 'deadreckoning', os.path.join(tmp, 'dr'))[0], gt)
+        print('%s: SLAM ATE %.3f m RPE %.2f %%, dead reckoning ATE %.3f m' % (
+            name, slam['ate_rmse_m'], slam['rpe_percent'], dead['ate_rmse_m']))
+        ate_bound, rpe_bound = self.BOUNDS[name]
+        self.assertLess(slam['ate_rmse_m'], ate_bound)
+        self.assertLess(slam['rpe_percent'], rpe_bound)
+        self.assertLess(slam['ate_rmse_m'], 0.35 * dead['ate_rmse_m'])
+
+    def test_0027(self):
+        self.check('0027')
+
+    def test_0034(self):
+        self.check('0034')
+
+
+if __name__ == '__main__':
+    unittest.main()

@@ -9,13 +9,13 @@
 namespace ekf_vislam {
 namespace ros_conversions {
 
-namespace {
-
 ros::Time toRosTime(double stamp) {
   ros::Time time;
   if (std::isfinite(stamp) && stamp >= 0.0 && stamp < 4294967295.0) time.fromSec(stamp);
   return time;
 }
+
+namespace {
 
 bool allZero(const boost::array<double, 12>& p) {
   for (double value : p) {

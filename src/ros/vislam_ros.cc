@@ -15,11 +15,6 @@ namespace ekf_vislam {
 
 namespace {
 
-ros::Time rosTime(double stamp) {
-  ros::Time time;
-  if (std::isfinite(stamp) && stamp >= 0.0 && stamp < 4294967295.0) time.fromSec(stamp);
-  return time;
-}
 
 std_msgs::ColorRGBA color(float r, float g, float b, float a) {
   std_msgs::ColorRGBA c;
@@ -292,7 +287,7 @@ void VislamRos::onProcessed(const EstimatorRunner::Processed& processed) {
   if (processed.is_frame && !runner_->trajectory().empty()) {
     geometry_msgs::PoseStamped pose;
     pose.header.frame_id = ros_options_.world_frame;
-    pose.header.stamp = rosTime(runner_->trajectory().back().stamp);
+    pose.header.stamp = ros_conversions::toRosTime(runner_->trajectory().back().stamp);
     pose.pose = ros_conversions::toPoseMsg(runner_->trajectory().back().world_T_imu);
     path_.poses.push_back(pose);
     path_.header.stamp = pose.header.stamp;
@@ -353,7 +348,7 @@ void VislamRos::publishLandmarks() {
 
   visualization_msgs::Marker map;
   map.header.frame_id = ros_options_.world_frame;
-  map.header.stamp = rosTime(last_stamp_);
+  map.header.stamp = ros_conversions::toRosTime(last_stamp_);
   map.ns = "landmarks";
   map.id = 0;
   map.type = visualization_msgs::Marker::POINTS;

@@ -18,6 +18,9 @@
 namespace ekf_vislam {
 namespace ros_conversions {
 
+/// Seconds -> ros::Time; a stamp ROS cannot represent (non-finite, negative, past 2106) gives 0.
+ros::Time toRosTime(double stamp);
+
 /// Twist message -> core twist (stamp in seconds). Non-finite values pass through unchanged:
 /// the estimator rejects and counts them.
 TwistData toTwistData(const geometry_msgs::TwistStamped& msg);

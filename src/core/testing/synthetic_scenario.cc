@@ -74,6 +74,15 @@ Scenario makeScenario(const ScenarioOptions& o) {
   std::vector<int> state(points.size(), 0);  // 0 unused, 1 tracking, 2 done
   std::vector<uint32_t> id_of(points.size(), 0);
   uint32_t next_id = 0;
+  auto observe = [&](uint32_t id, const Eigen::Vector4d& z) {
+    StereoFeature f;
+    f.id = id;
+    f.u_left = z(0) + o.pixel_sigma * normal(rng);
+    f.v_left = z(1) + o.pixel_sigma * normal(rng);
+    f.u_right = z(2) + o.pixel_sigma * normal(rng);
+    f.v_right = z(3) + o.pixel_sigma * normal(rng);
+    return f;
+  };
   for (size_t k = 0; k < s.world_T_imu.size(); ++k) {
     FeatureFrame frame;
     frame.stamp = s.twists[k].stamp;
@@ -93,13 +102,7 @@ Scenario makeScenario(const ScenarioOptions& o) {
           continue;
         }
         ++tracked;
-        StereoFeature f;
-        f.id = id_of[i];
-        f.u_left = z(0) + o.pixel_sigma * normal(rng);
-        f.v_left = z(1) + o.pixel_sigma * normal(rng);
-        f.u_right = z(2) + o.pixel_sigma * normal(rng);
-        f.v_right = z(3) + o.pixel_sigma * normal(rng);
-        frame.features.push_back(f);
+        frame.features.push_back(observe(id_of[i], z));
       } else if (visible) {
         visible_new.emplace_back(i, z);
       }
@@ -111,13 +114,7 @@ Scenario makeScenario(const ScenarioOptions& o) {
       id_of[i] = next_id++;
       s.p_world[id_of[i]] = points[i];
       ++tracked;
-      StereoFeature f;
-      f.id = id_of[i];
-      f.u_left = z(0) + o.pixel_sigma * normal(rng);
-      f.v_left = z(1) + o.pixel_sigma * normal(rng);
-      f.u_right = z(2) + o.pixel_sigma * normal(rng);
-      f.v_right = z(3) + o.pixel_sigma * normal(rng);
-      frame.features.push_back(f);
+      frame.features.push_back(observe(id_of[i], z));
     }
     for (StereoFeature& f : frame.features) {
       if (uniform(rng) < o.outlier_rate) {

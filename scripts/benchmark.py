@@ -3,7 +3,8 @@
 
 Converts each dataset to a bag (cached), runs vislam_offline in the three modes, evaluates
 against ground truth and prints one table (also written as benchmark.md / benchmark.json).
-Speed: wall time and per-frame times from stats.json; peak memory from the kernel (wait4 rusage).
+Speed: wall time and per-frame times from stats.json; peak memory (resident set) as the process
+itself reports it in stats.json (getrusage): a fork's rusage would include the parent's pages.
 
     scripts/benchmark.sh [--data DIR] [--seeds 1 2 3] [--out results/benchmark]
 """
@@ -22,16 +23,13 @@ MODES = ('slam', 'mapping', 'deadreckoning')
 PY = '/usr/bin/python3'
 
 
-def run(cmd, **kwargs):
-    """Runs cmd; returns (wall_s, peak_rss_mb). Raises on failure with its stderr."""
+def run(cmd):
+    """Runs cmd; returns its wall time in s. Raises on failure with its output."""
     start = time.monotonic()
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, **kwargs)
-    _, status, usage = os.wait4(proc.pid, 0)
-    wall = time.monotonic() - start
-    out, err = proc.stdout.read().decode(), proc.stderr.read().decode()
-    if os.waitstatus_to_exitcode(status) != 0:
-        raise RuntimeError('%s failed:\n%s%s' % (' '.join(cmd), out, err))
-    return wall, usage.ru_maxrss / 1024.0
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise RuntimeError('%s failed:\n%s%s' % (' '.join(cmd), proc.stdout, proc.stderr))
+    return time.monotonic() - start
 
 
 def offline_binary():
@@ -51,14 +49,14 @@ def evaluate_case(name, bag, groundtruth, out_dir, binary, config):
         cmd = [binary, '--bag', bag, '--mode', mode, '--out', mode_dir]
         if config:
             cmd += ['--config', config]
-        wall, rss = run(cmd)
+        wall = run(cmd)
         with open(os.path.join(mode_dir, 'stats.json')) as f:
             stats = json.load(f)
         row = {'dataset': name, 'mode': mode, 'frames': stats['frames'],
                'landmarks': stats['landmarks'], 'process_wall_s': round(wall, 3),
                'estimator_wall_s': stats['wall_s'], 'data_s': stats['data_s'],
                'frame_ms_p50': stats['frame_ms']['p50'], 'frame_ms_p99': stats['frame_ms']['p99'],
-               'frame_ms_max': stats['frame_ms']['max'], 'peak_rss_mb': round(rss, 1),
+               'frame_ms_max': stats['frame_ms']['max'], 'peak_rss_mb': stats.get('peak_rss_mb'),
                'observations_used': stats['observations_used'],
                'observations_rejected': stats['observations_rejected']}
         if groundtruth:

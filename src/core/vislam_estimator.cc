@@ -69,8 +69,14 @@ void VislamEstimator::setPriorCovariance() {
   sigma_.topLeftCorner(dim_, dim_).setZero();
   const double p2 = options_.prior_position_sigma * options_.prior_position_sigma;
   const double r2 = options_.prior_rotation_sigma * options_.prior_rotation_sigma;
-  sigma_.diagonal().head<3>().setConstant(p2);
-  sigma_.diagonal().segment<3>(3).setConstant(r2);
+  // The prior is isotropic in (delta p, delta theta) about the current position; the internal
+  // world-frame error has rho = delta p - phi x p, i.e. Sigma = M^-1 diag M^-T, M^-1 = [[I, p^],
+  // [0, I]] (the identity at the origin).
+  Matrix6d M_inv = Matrix6d::Identity();
+  M_inv.topRightCorner<3, 3>() = se3::hat(Eigen::Vector3d(worldTImu().translation()));
+  Vector6d prior;
+  prior << p2, p2, p2, r2, r2, r2;
+  sigma_.topLeftCorner<6, 6>() = M_inv * prior.asDiagonal() * M_inv.transpose();
   for (int i = 0; i < bias_dim_; ++i) {
     const double s = bias_components_[i] < 3 ? options_.velocity_bias_prior_sigma
                                              : options_.gyro_bias_prior_sigma;
@@ -86,6 +92,9 @@ void VislamEstimator::initializeState() {
   initialized_ = false;
   time_ = 0.0;
   last_twist_stamp_ = 0.0;
+  in_twist_gap_ = false;
+  has_frame_ = false;
+  last_frame_stamp_ = 0.0;
   held_twist_ = TwistData();
   imu_T_world_.setIdentity();
   bias_ = Eigen::VectorXd::Zero(bias_dim_);
@@ -168,6 +177,7 @@ FeedResult VislamEstimator::feedTwist(const TwistData& twist) {
         << last_twist_stamp_ << "): " << (twist.stamp == last_twist_stamp_ ? "duplicate" : "time went backwards");
     return reject(Counter::kTwistNotIncreasing, why.str());
   }
+  const double previous_twist_stamp = last_twist_stamp_;
   last_twist_dt_ = twist.stamp - last_twist_stamp_;
   last_twist_stamp_ = twist.stamp;
   if (twist.stamp < time_) {
@@ -177,38 +187,44 @@ FeedResult VislamEstimator::feedTwist(const TwistData& twist) {
     result.message = "twist older than the filter time: held without prediction";
     return result;
   }
-  if (!advanceTo(twist.stamp, twist, &result)) return result;
+  advanceTo(twist.stamp, twist, previous_twist_stamp, &result);
+  in_twist_gap_ = false;
   held_twist_ = twist;
   stats_.increment(Counter::kTwistUsed);
   return result;
 }
 
-bool VislamEstimator::advanceTo(double stamp, const TwistData& twist, FeedResult* result) {
+void VislamEstimator::advanceTo(double stamp, const TwistData& twist, double twist_stamp,
+                                FeedResult* result) {
   const double dt = stamp - time_;
-  if (dt <= 0.0) return true;
+  if (dt <= 0.0) return;
   double noise_scale = 1.0;
-  if (dt > options_.max_twist_gap) {
-    stats_.increment(Counter::kTwistGap);
-    std::ostringstream why;
-    why << "no twist for " << dt << " s (limits/max_twist_gap = " << options_.max_twist_gap
-        << " s): ";
-    if (options_.gap_policy == GapPolicy::kReset) {
-      why << "filter reset (map kept)";
-      removeBlocks(std::vector<bool>(blocks_.size(), true));
-      imu_T_world_.setIdentity();
-      bias_.setZero();
-      setPriorCovariance();
-      time_ = stamp;
-      result->message = why.str();
-      return true;
-    }
-    why << "predicting across with process noise x " << options_.gap_noise_scale;
-    result->message = why.str();
+  const double since_twist = stamp - twist_stamp;
+  if (since_twist > options_.max_twist_gap) {
+    // No twist for too long (whether frames kept coming or not): once per gap, apply the policy.
     noise_scale = options_.gap_noise_scale;
+    if (!in_twist_gap_) {
+      in_twist_gap_ = true;
+      stats_.increment(Counter::kTwistGap);
+      std::ostringstream why;
+      why << "no twist for " << since_twist << " s (limits/max_twist_gap = "
+          << options_.max_twist_gap << " s): ";
+      if (options_.gap_policy == GapPolicy::kReset) {
+        why << "filter reset (map kept)";
+        removeBlocks(std::vector<bool>(blocks_.size(), true));
+        imu_T_world_.setIdentity();
+        bias_.setZero();
+        setPriorCovariance();
+        time_ = stamp;
+        result->message = why.str();
+        return;
+      }
+      why << "predicting across with process noise x " << options_.gap_noise_scale;
+      result->message = why.str();
+    }
   }
   predict(dt, twist, noise_scale);
   time_ = stamp;
-  return true;
 }
 
 void VislamEstimator::predict(double dt, const TwistData& twist, double noise_scale) {
@@ -292,13 +308,17 @@ FeedResult VislamEstimator::feedFeatures(const FeatureFrame& frame) {
     return reject(Counter::kFrameNoCalibration,
                   "feature frame rejected: no valid stereo calibration yet");
   }
-  if (frame.stamp < time_) {
+  if (frame.stamp < time_ || (has_frame_ && frame.stamp <= last_frame_stamp_)) {
     std::ostringstream why;
-    why << "feature frame " << std::fixed << frame.stamp << " older than the filter time " << time_
+    why << "feature frame " << std::fixed << frame.stamp
+        << (has_frame_ && frame.stamp == last_frame_stamp_ ? " repeats the previous frame"
+                                                           : " is older than the filter time")
         << ": rejected";
     return reject(Counter::kFrameStale, why.str());
   }
-  if (!advanceTo(frame.stamp, held_twist_, &result)) return result;
+  advanceTo(frame.stamp, held_twist_, last_twist_stamp_, &result);
+  has_frame_ = true;
+  last_frame_stamp_ = frame.stamp;
   stats_.increment(Counter::kFrameUsed);
   if (frame.features.empty()) stats_.increment(Counter::kFrameEmpty);
   if (options_.mode == EstimatorMode::kDeadReckoning) {
@@ -658,6 +678,15 @@ void VislamEstimator::removeBlocks(const std::vector<bool>& remove, bool count_a
   }
   dim_ = new_dim;
   blocks_.swap(kept_blocks);
+  // Give memory back after a burst (a frame with thousands of new landmarks).
+  const int capacity = static_cast<int>(sigma_.rows());
+  if (capacity > 256 && dim_ < capacity / 4) {
+    const int new_capacity = std::max(64, 2 * dim_);
+    Eigen::MatrixXd shrunk = sigma_.topLeftCorner(new_capacity, new_capacity);
+    sigma_.swap(shrunk);
+    Eigen::VectorXd shrunk_mean = p_world_.head(new_capacity);
+    p_world_.swap(shrunk_mean);
+  }
   tracking_.clear();
   for (size_t k = 0; k < blocks_.size(); ++k) {
     if (blocks_[k].tracking) tracking_[map_[blocks_[k].map_index].id] = k;
@@ -668,14 +697,18 @@ void VislamEstimator::removeBlocks(const std::vector<bool>& remove, bool count_a
 // Health
 // ---------------------------------------------------------------------------------------------
 
+double VislamEstimator::positionSigma() const {
+  // Of the position in world axes (the internal rho also carries rotation error x distance).
+  return std::sqrt(poseCovarianceWorld().diagonal().head<3>().maxCoeff());
+}
+
 void VislamEstimator::checkHealth(int candidates, int gated, FeedResult* result) {
   if (candidates >= 10 && gated > options_.rejected_fraction * candidates) {
     ++consecutive_rejected_frames_;
   } else {
     consecutive_rejected_frames_ = 0;
   }
-  const double position_sigma =
-      std::sqrt(sigma_.diagonal().head<3>().maxCoeff());
+  const double position_sigma = positionSigma();
   if (!std::isfinite(position_sigma) || position_sigma > options_.max_position_sigma) {
     std::ostringstream why;
     why << "pose covariance blew up (position sigma " << position_sigma << " m > health/max_position_sigma)";
@@ -698,7 +731,7 @@ void VislamEstimator::recoverFromDivergence(const std::string& why, FeedResult* 
   } else {
     // Keep the pose and bias estimates; their covariance must stay finite and bounded.
     if (!sigma_.topLeftCorner(dim_, dim_).allFinite() ||
-        std::sqrt(sigma_.diagonal().head<3>().maxCoeff()) > options_.max_position_sigma) {
+        !(positionSigma() <= options_.max_position_sigma)) {
       setPriorCovariance();
     }
     result->message = "divergence: " + why + "; landmarks dropped from the state";

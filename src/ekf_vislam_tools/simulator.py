@@ -16,6 +16,8 @@ random streams (trajectory, landmarks, tracking, pixel noise, gyro offset, twist
 spawned from ``numpy.random.SeedSequence(seed)``, so changing a noise option leaves the geometry
 (and the other noises) unchanged.
 """
+import collections
+import heapq
 import math
 
 import numpy as np
@@ -50,6 +52,10 @@ DEFAULT_OPTIONS = {
     'landmark_density': 5.0,   # landmarks per metre of road (both sides together)
     'target_obs': 70,          # observations per frame the tracker aims at (varies +-25 %)
     'track_loss': 0.05,        # per-frame probability that a track is lost while still visible
+    'reuse_ids_after': 0,      # 0: every track gets a new id; N > 0: the id of a track that ended
+                               # is given to a new track once unseen for N frames (bounds the
+                               # (4,M,T) features array of long drives; landmarks.csv then holds
+                               # the last point of each id)
     'min_depth': 2.0,          # observable depth range, m
     'max_depth': 60.0,
     'min_disparity': 0.5,      # px
@@ -136,6 +142,9 @@ def _check_options(opts):
         raise ValueError('max_depth must exceed min_depth')
     if opts['time_jitter'] >= 0.25 / opts['rate_hz']:
         raise ValueError('time_jitter must be well below the frame interval')
+    if not (float(opts['reuse_ids_after']).is_integer() and opts['reuse_ids_after'] >= 0):
+        raise ValueError('reuse_ids_after must be a non-negative integer, got %r'
+                         % opts['reuse_ids_after'])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -300,42 +309,74 @@ def _visible(z, depth, opts):
             & (z[:, 1] >= 0) & (z[:, 1] <= height - 1))
 
 
+def _visibility_radius(opts):
+    """Distance from the IMU beyond which no point is visible (depth <= max_depth inside the image,
+    plus the camera's offset from the IMU): only points within it need projecting."""
+    width, height = KITTI_IMAGE_SIZE
+    fx, fy, cx, cy = KITTI_K[0, 0], KITTI_K[1, 1], KITTI_K[0, 2], KITTI_K[1, 2]
+    x_max = max(cx, width - 1 - cx) / fx
+    y_max = max(cy, height - 1 - cy) / fy
+    offset = np.linalg.norm(se3.inverse(KITTI_CAM_T_IMU)[:3, 3])
+    return opts['max_depth'] * math.sqrt(1.0 + x_max ** 2 + y_max ** 2) + offset + 1.0
+
+
 def _track(rng, points, world_T_imu, opts):
     """Feature tracks over the frames -> (frame, point, id, z_true (n,4)) per observation.
 
     A track continues while its point stays observable, except for a small per-frame loss; new
-    tracks start on observable untracked points (a new id every time) up to a per-frame target
-    that varies smoothly around target_obs. Each id is thus seen in one contiguous run.
+    tracks start on observable untracked points (a new id every time, or with reuse_ids_after the
+    smallest id unseen for that many frames) up to a per-frame target that varies smoothly around
+    target_obs. Each track is thus one contiguous run of an id.
     """
     num = len(world_T_imu)
     wobble, _ = _smooth_signal(rng, (100.0, 400.0))
     target = np.maximum(20, np.round(opts['target_obs'] * (1.0 + 0.25 * wobble(np.arange(num)))))
     max_new = max(10, int(opts['target_obs']) // 2)
+    reuse_after = int(opts['reuse_ids_after'])
+    free_ids, ended_ids = [], collections.deque()  # heap of reusable ids; (frame, id) pending
+    # Only the points near the pose can be visible: project those (same result as all points).
+    tree = cKDTree(points)
+    radius = _visibility_radius(opts)
+    visible = np.zeros(len(points), dtype=bool)
+    was_active = np.zeros(len(points), dtype=bool)
+    z = np.zeros((len(points), 4))
     active_points = np.zeros(0, dtype=np.int64)
     active_ids = np.zeros(0, dtype=np.int64)
     next_id = 0
     frames, pts, ids, zs = [], [], [], []
     for k in range(num):
-        z, depth = project(points, world_T_imu[k])
-        visible = _visible(z, depth, opts)
-        was_active = np.zeros(len(points), dtype=bool)
-        was_active[active_points] = True
+        near = np.sort(np.asarray(tree.query_ball_point(world_T_imu[k][:3, 3], radius),
+                                  dtype=np.int64))
+        z_near, depth_near = project(points[near], world_T_imu[k])
+        seen = near[_visible(z_near, depth_near, opts)]
+        visible[seen] = True
+        z[near] = z_near
+        previous = active_points
+        was_active[previous] = True
         keep = visible[active_points] & (rng.random(active_points.size) >= opts['track_loss'])
+        if reuse_after:
+            ended_ids.extend((k, i) for i in active_ids[~keep])
         active_points, active_ids = active_points[keep], active_ids[keep]
         wanted = int(target[k]) - active_points.size
         if k > 0:
             wanted = min(wanted, max_new)
-        candidates = np.flatnonzero(visible & ~was_active)
+        candidates = seen[~was_active[seen]]
         new = min(max(wanted, 0), candidates.size)
         if new:
             started = rng.choice(candidates, new, replace=False)
+            while ended_ids and ended_ids[0][0] + reuse_after <= k:
+                heapq.heappush(free_ids, ended_ids.popleft()[1])
+            reused = [heapq.heappop(free_ids) for _ in range(min(new, len(free_ids)))]
+            fresh = np.arange(next_id, next_id + new - len(reused))
+            next_id += fresh.size
             active_points = np.concatenate([active_points, started])
-            active_ids = np.concatenate([active_ids, np.arange(next_id, next_id + new)])
-            next_id += new
+            active_ids = np.concatenate([active_ids, np.array(reused, dtype=np.int64), fresh])
         frames.append(np.full(active_points.size, k))
         pts.append(active_points)
         ids.append(active_ids)
         zs.append(z[active_points])
+        visible[seen] = False
+        was_active[previous] = False
     return (np.concatenate(frames), np.concatenate(pts), np.concatenate(ids),
             np.concatenate(zs))
 
@@ -432,19 +473,22 @@ def write_outputs(result, prefix):
 
 def statistics(features):
     """Observation statistics of a (4,M,T) features array -> dict: obs_per_frame (T,),
-    track_lengths (M,), contiguous (every id seen in one run of frames)."""
+    track_lengths (M,) (observations per id), contiguous (every id seen in one run of frames),
+    track_starts (number of runs: tracks)."""
     observed = observed_mask(features)
     track_lengths = observed.sum(axis=1)
     starts = np.diff(observed.astype(np.int8), axis=1, prepend=0) == 1
     return {'obs_per_frame': observed.sum(axis=0), 'track_lengths': track_lengths,
-            'contiguous': bool(np.all(starts.sum(axis=1) <= 1))}
+            'contiguous': bool(np.all(starts.sum(axis=1) <= 1)),
+            'track_starts': int(starts.sum())}
 
 
 def summary(result):
     """One line: frames, path length, ids, mean observations per frame, mean track length."""
     stats = statistics(result['features'])
+    tracks = max(1, int(stats['track_starts']))  # = ids unless reuse_ids_after
     return ('%d frames, %.0f m, %d feature ids, %.1f observations/frame (min %d), '
             'mean track %.1f frames, gyro offset (%.4f, %.4f, %.4f) rad/s'
             % (len(result['t']), result['path_length'], result['features'].shape[1],
                stats['obs_per_frame'].mean(), stats['obs_per_frame'].min(),
-               stats['track_lengths'].mean(), *result['gyro_bias']))
+               stats['obs_per_frame'].sum() / tracks, *result['gyro_bias']))

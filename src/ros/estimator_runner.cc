@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cerrno>
 #include <cstring>
+#include <sys/resource.h>
 #include <sys/stat.h>
 
 namespace ekf_vislam {
@@ -109,6 +110,10 @@ RunSummary EstimatorRunner::summary() const {
   s.extra["sequencer_late"] = static_cast<double>(sequencer_.late());
   s.extra["frames_without_calibration"] = static_cast<double>(frames_without_calibration_);
   s.extra["trajectory_poses"] = static_cast<double>(trajectory_.size());
+  struct rusage usage {};
+  if (getrusage(RUSAGE_SELF, &usage) == 0) {
+    s.extra["peak_rss_mb"] = usage.ru_maxrss / 1024.0;  // Linux: kilobytes; whole process
+  }
   return s;
 }
 

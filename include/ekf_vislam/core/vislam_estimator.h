@@ -102,7 +102,10 @@ class VislamEstimator {
   };
 
   void initializeState();
-  bool advanceTo(double stamp, const TwistData& twist, FeedResult* result);
+  /// Predicts from the filter time to `stamp` with `twist`; twist_stamp is the time of the last
+  /// twist (a gap beyond limits/max_twist_gap follows the gap policy, once per gap).
+  void advanceTo(double stamp, const TwistData& twist, double twist_stamp, FeedResult* result);
+  double positionSigma() const;
   void predict(double dt, const TwistData& twist, double noise_scale);
   void processFrame(const FeatureFrame& frame, FeedResult* result);
   void update(std::vector<Candidate>* candidates, std::vector<Candidate>* reinitialize,
@@ -137,6 +140,9 @@ class VislamEstimator {
   double time_ = 0.0;
   double last_twist_stamp_ = 0.0;
   double last_twist_dt_ = 0.1;
+  bool in_twist_gap_ = false;
+  bool has_frame_ = false;
+  double last_frame_stamp_ = 0.0;
   TwistData held_twist_;
 
   // State.

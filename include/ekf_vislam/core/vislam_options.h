@@ -26,7 +26,8 @@ enum class GapPolicy {
 
 /// What to do when the filter diverges (health/ checks).
 enum class DivergencePolicy {
-  kResetLandmarks,  ///< marginalize every active landmark, re-inflate the pose covariance
+  kResetLandmarks,  ///< marginalize every active landmark; keep the pose and bias (their
+                    ///< covariance back to the prior only if it is non-finite or beyond bounds)
   kResetFilter,     ///< restart the filter at the current pose estimate with the prior covariance
 };
 
@@ -76,7 +77,7 @@ struct VislamOptions {
   GapPolicy gap_policy = GapPolicy::kPredict;
   double gap_noise_scale = 10.0;        ///< process noise multiplier across a gap
   double max_row_difference_px = 5.0;   ///< |vL - vR| beyond: rejected (rectified pair)
-  int max_features_per_frame = 2000;    ///< 0 = unlimited; extra features of a frame dropped
+  int max_features_per_frame = 400;     ///< 0 = unlimited; extra features of a frame dropped
 
   // health/
   double max_position_sigma = 1000.0;   ///< m; pose sigma beyond: divergence

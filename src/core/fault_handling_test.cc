@@ -245,7 +245,7 @@ std::vector<size_t> trackedFeatures(size_t k, size_t n) {
   const FeatureFrame& prev = drive().frames[k - 1];
   const FeatureFrame& frame = drive().frames[k];
   for (size_t i = 0; i < frame.features.size() && out.size() < n; ++i) {
-    for (const StereoFeature& p : prev.features) {
+    for (const StereoObservation& p : prev.features) {
       if (p.id == frame.features[i].id) {
         out.push_back(i);
         break;
@@ -463,11 +463,11 @@ TEST_F(ObservationFault, NonFiniteCoordinates) {
 
 TEST_F(ObservationFault, ZeroAndNegativeDisparity) {
   const std::vector<size_t> idx = trackedFeatures(kFault, 3);
-  StereoFeature& zero = faulty_.features[idx[0]];
+  StereoObservation& zero = faulty_.features[idx[0]];
   zero.u_right = zero.u_left;
-  StereoFeature& negative = faulty_.features[idx[1]];
+  StereoObservation& negative = faulty_.features[idx[1]];
   std::swap(negative.u_left, negative.u_right);
-  StereoFeature& tiny = faulty_.features[idx[2]];
+  StereoObservation& tiny = faulty_.features[idx[2]];
   tiny.u_right = tiny.u_left - 0.5 * faultOptions().min_disparity_px;
   const TwinResult r = feed();
   expectOnlyObservationFault(r, Counter::kObsDisparity, 3);
@@ -476,7 +476,7 @@ TEST_F(ObservationFault, ZeroAndNegativeDisparity) {
 
 TEST_F(ObservationFault, TooFarForTheDepthRange) {
   // A new id whose disparity gives a depth beyond landmarks/max_depth: not initialized.
-  StereoFeature far;
+  StereoObservation far;
   far.id = 900000;
   far.u_left = 600.0;
   far.v_left = far.v_right = 200.0;
@@ -505,7 +505,7 @@ TEST_F(ObservationFault, LeftAndRightRowsDisagree) {
   const std::vector<size_t> idx = trackedFeatures(kFault, 2);
   const double limit = faultOptions().max_row_difference_px;
   for (size_t i : idx) {
-    StereoFeature& f = faulty_.features[i];
+    StereoObservation& f = faulty_.features[i];
     // Move the right row towards the image centre so it stays inside the image.
     f.v_right = f.v_left + (f.v_left < 188.0 ? 1.0 : -1.0) * (limit + 20.0);
   }
@@ -518,7 +518,7 @@ TEST_F(ObservationFault, DuplicateIdsInOneMessage) {
   // Three extra copies of two ids (conflicting coordinates): all but the first are dropped.
   const std::vector<size_t> idx = trackedFeatures(kFault, 2);
   for (int copy = 0; copy < 2; ++copy) {
-    StereoFeature f = clean_.features[idx[0]];
+    StereoObservation f = clean_.features[idx[0]];
     f.u_left += 30.0 * (copy + 1);
     f.u_right += 30.0 * (copy + 1);
     faulty_.features.push_back(f);
@@ -536,9 +536,9 @@ TEST_F(ObservationFault, IdReappearingAfterItsTrackEndedIsANewLandmark) {
   // An id whose track ended some frames ago comes back: a new map entry; the old entry (final
   // estimate of the ended track) stays exactly as it was.
   std::vector<uint32_t> now;
-  for (const StereoFeature& f : clean_.features) now.push_back(f.id);
+  for (const StereoObservation& f : clean_.features) now.push_back(f.id);
   auto present = [](const FeatureFrame& frame, uint32_t id) {
-    for (const StereoFeature& f : frame.features) {
+    for (const StereoObservation& f : frame.features) {
       if (f.id == id) return true;
     }
     return false;
@@ -546,9 +546,9 @@ TEST_F(ObservationFault, IdReappearingAfterItsTrackEndedIsANewLandmark) {
   const StereoCamera camera(drive().calibration);
   const Eigen::Matrix4d imu_T_world = se3::inverse(drive().world_T_imu[kFault]);
   bool found = false;
-  StereoFeature back;
+  StereoObservation back;
   for (size_t k = kFault - 5; k > kFault - 40 && !found; --k) {
-    for (const StereoFeature& f : drive().frames[k].features) {
+    for (const StereoObservation& f : drive().frames[k].features) {
       if (present(drive().frames[k + 1], f.id) || present(clean_, f.id)) continue;
       Eigen::Vector4d z;
       if (!camera.project(imu_T_world, drive().p_world.at(f.id), &z, nullptr, nullptr, 2.0) ||
@@ -620,7 +620,7 @@ TEST_F(ObservationFault, TenThousandFeaturesAreCappedWithoutStalling) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> u(40.0, 1200.0), v(20.0, 350.0), disparity(8.0, 60.0);
   while (faulty_.features.size() < 10000) {
-    StereoFeature f;
+    StereoObservation f;
     f.id = 2000000 + static_cast<uint32_t>(faulty_.features.size());
     f.u_left = u(rng);
     f.u_right = f.u_left - disparity(rng);
@@ -826,7 +826,7 @@ const char* policyName(DivergencePolicy p) {
 FeatureFrame garbageFrame(size_t k, std::mt19937* rng) {
   std::uniform_real_distribution<double> u(60.0, 1180.0), v(20.0, 350.0), disparity(6.0, 50.0);
   FeatureFrame frame = drive().frames[k];
-  for (StereoFeature& f : frame.features) {
+  for (StereoObservation& f : frame.features) {
     f.u_left = u(*rng);
     f.u_right = f.u_left - disparity(*rng);
     f.v_left = f.v_right = v(*rng);

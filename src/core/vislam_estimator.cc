@@ -14,7 +14,7 @@
 namespace ekf_vislam {
 
 struct VislamEstimator::Candidate {
-  StereoFeature feature;
+  StereoObservation feature;
   size_t block = 0;  ///< state block (update candidates)
   /// Restart of a landmark: overwrite this map entry instead of adding one.
   size_t reuse_map_index = std::numeric_limits<size_t>::max();
@@ -25,7 +25,7 @@ struct VislamEstimator::Candidate {
 
 namespace {
 
-bool allFinite(const StereoFeature& f) {
+bool allFinite(const StereoObservation& f) {
   return std::isfinite(f.u_left) && std::isfinite(f.v_left) && std::isfinite(f.u_right) &&
          std::isfinite(f.v_right);
 }
@@ -352,7 +352,7 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result
     ++result->observations_rejected;
   };
   for (size_t i = 0; i < count; ++i) {
-    const StereoFeature& f = frame.features[i];
+    const StereoObservation& f = frame.features[i];
     if (!present.insert(f.id).second) {
       rejectObservation(Counter::kObsDuplicateId);
       continue;
@@ -561,7 +561,7 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
 }
 
 bool VislamEstimator::initializeLandmark(const Candidate& c, double stamp, FeedResult* result) {
-  const StereoFeature& f = c.feature;
+  const StereoObservation& f = c.feature;
   const double v = options_.merge_stereo_rows ? 0.5 * (f.v_left + f.v_right) : f.v_left;
   Eigen::Vector3d p_cam;
   Eigen::Matrix3d J_uvu;

@@ -211,7 +211,7 @@ TEST(VislamEstimator, LandmarkInitializationCovarianceFromJacobians) {
   frame.features.resize(1);
   estimator.feedFeatures(frame);
   ASSERT_EQ(estimator.landmarks().size(), 1u);
-  const StereoFeature f = frame.features[0];
+  const StereoObservation f = frame.features[0];
   const StereoCamera camera(s.calibration);
   auto init = [&](const Eigen::Vector3d& uvu, const Vector6d& dpose) {
     Eigen::Vector3d p_cam;
@@ -266,15 +266,15 @@ TEST(VislamEstimator, LandmarkLifeCycleAugmentMarginalizeKeepInMap) {
   const Matrix6d pose_cov_before = estimator.poseCovarianceWorld();
   FeatureFrame only_gone_missing;  // same stamp as the twist: no prediction in between
   only_gone_missing.stamp = s.twists[1].stamp;
-  for (const StereoFeature& f : s.frames[0].features) {
+  for (const StereoObservation& f : s.frames[0].features) {
     if (f.id != gone) only_gone_missing.features.push_back(f);
   }
   // Remove all but the missing id through an empty-update path: feed features that are all
   // rejected (duplicate ids) except none, so only marginalization happens.
   FeatureFrame marginalize_only;
   marginalize_only.stamp = only_gone_missing.stamp;
-  for (const StereoFeature& f : only_gone_missing.features) {
-    StereoFeature bad = f;
+  for (const StereoObservation& f : only_gone_missing.features) {
+    StereoObservation bad = f;
     bad.u_right = bad.u_left + 5.0;  // negative disparity: rejected, but the track stays alive
     marginalize_only.features.push_back(bad);
   }

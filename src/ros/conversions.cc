@@ -61,7 +61,7 @@ FeatureFrame toFeatureFrame(const ekf_vislam::StereoFeatureArray& msg) {
   frame.stamp = msg.header.stamp.toSec();
   frame.features.reserve(msg.features.size());
   for (const auto& f : msg.features) {
-    StereoFeature feature;
+    StereoObservation feature;
     feature.id = f.id;
     feature.u_left = f.u_left;
     feature.v_left = f.v_left;
@@ -78,8 +78,8 @@ ekf_vislam::StereoFeatureArray toFeatureArrayMsg(const FeatureFrame& frame,
   msg.header.stamp = toRosTime(frame.stamp);
   msg.header.frame_id = frame_id;
   msg.features.reserve(frame.features.size());
-  for (const StereoFeature& feature : frame.features) {
-    ekf_vislam::StereoFeatureMsg f;
+  for (const StereoObservation& feature : frame.features) {
+    ekf_vislam::StereoFeature f;
     f.id = feature.id;
     f.u_left = static_cast<float>(feature.u_left);
     f.v_left = static_cast<float>(feature.v_left);

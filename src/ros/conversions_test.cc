@@ -72,7 +72,7 @@ TEST(Conversions, FeaturesRoundTrip) {
   msg.header.stamp = ros::Time(100, 500000000);
   msg.header.frame_id = "camera_left";
   for (uint32_t id : {7u, 3u, 4000000000u}) {
-    ekf_vislam::StereoFeatureMsg f;
+    ekf_vislam::StereoFeature f;
     f.id = id;
     f.u_left = 100.5f + id % 10;
     f.v_left = 50.25f;
@@ -355,7 +355,7 @@ StereoCalibration forwardCamera() {
 
 FeatureFrame frameSeeing(double stamp, const Eigen::Vector3d& p_imu, const StereoCalibration& c) {
   const Eigen::Vector3d q = c.cam_T_imu * p_imu;
-  StereoFeature f;
+  StereoObservation f;
   f.id = 1;
   f.u_left = c.fx * q.x() / q.z() + c.cx;
   f.v_left = f.v_right = c.fy * q.y() / q.z() + c.cy;

@@ -20,8 +20,9 @@ struct TwistData {
   Eigen::Vector3d w_imu = Eigen::Vector3d::Zero();  ///< angular velocity, rad/s, IMU frame
 };
 
-/// One tracked feature in a rectified stereo pair (pixels).
-struct StereoFeature {
+/// One tracked feature in a rectified stereo pair (pixels); the core side of the
+/// ekf_vislam/StereoFeature message.
+struct StereoObservation {
   uint32_t id = 0;
   double u_left = 0.0;
   double v_left = 0.0;
@@ -32,7 +33,7 @@ struct StereoFeature {
 /// All features observed in one stereo frame (stamp = image time, seconds).
 struct FeatureFrame {
   double stamp = 0.0;
-  std::vector<StereoFeature> features;
+  std::vector<StereoObservation> features;
 };
 
 /// Rectified stereo intrinsics plus the IMU -> left camera optical frame extrinsic.

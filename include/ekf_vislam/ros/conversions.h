@@ -3,7 +3,8 @@
 #pragma once
 
 #include "ekf_vislam/core/types.h"
-#include "ekf_vislam/ros/stereo_feature_msgs.h"
+#include <ekf_vislam/StereoFeature.h>
+#include <ekf_vislam/StereoFeatureArray.h>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>

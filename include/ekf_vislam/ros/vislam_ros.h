@@ -14,7 +14,8 @@
 
 #include "ekf_vislam/core/types.h"
 #include "ekf_vislam/ros/estimator_runner.h"
-#include "ekf_vislam/ros/stereo_feature_msgs.h"
+#include <ekf_vislam/StereoFeature.h>
+#include <ekf_vislam/StereoFeatureArray.h>
 #include "ekf_vislam/ros/vislam_ros_options.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>

@@ -75,7 +75,7 @@ Scenario makeScenario(const ScenarioOptions& o) {
   std::vector<uint32_t> id_of(points.size(), 0);
   uint32_t next_id = 0;
   auto observe = [&](uint32_t id, const Eigen::Vector4d& z) {
-    StereoFeature f;
+    StereoObservation f;
     f.id = id;
     f.u_left = z(0) + o.pixel_sigma * normal(rng);
     f.v_left = z(1) + o.pixel_sigma * normal(rng);
@@ -116,7 +116,7 @@ Scenario makeScenario(const ScenarioOptions& o) {
       ++tracked;
       frame.features.push_back(observe(id_of[i], z));
     }
-    for (StereoFeature& f : frame.features) {
+    for (StereoObservation& f : frame.features) {
       if (uniform(rng) < o.outlier_rate) {
         f.u_left += (uniform(rng) < 0.5 ? -1 : 1) * (20.0 + 100.0 * uniform(rng));
         f.v_left += (uniform(rng) < 0.5 ? -1 : 1) * (20.0 + 100.0 * uniform(rng));

@@ -52,14 +52,8 @@ const Scenario& drive() {
   return scenario;
 }
 
-// Noise matched to the scenario (1 px, 0.5 m/s and 0.05 rad/s per 0.1 s sample).
-VislamOptions faultOptions() {
-  VislamOptions o;
-  o.pixel_sigma = 1.0;
-  o.linear_velocity_noise = 0.5 * std::sqrt(0.1);
-  o.angular_velocity_noise = 0.05 * std::sqrt(0.1);
-  return o;
-}
+// Noise matched to the scenario.
+VislamOptions faultOptions() { return testing::matchedOptions(testing::ScenarioOptions()); }
 
 /// Counter increments of `after` over `before`.
 int64_t delta(const EstimatorStats& before, const EstimatorStats& after, Counter c) {

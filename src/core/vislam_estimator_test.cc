@@ -61,16 +61,10 @@ RunResult run(const Scenario& s, const VislamOptions& options, int first_frames 
   return r;
 }
 
-// The shipped defaults, with the noise matched to the scenario's (1 px per coordinate, 0.5 m/s
-// and 0.05 rad/s per 0.1 s sample): the consistency tests check a correctly specified filter. The
-// shipped configuration itself is checked on the product's simulator (test_regression.py).
-VislamOptions defaultOptions() {
-  VislamOptions o;
-  o.pixel_sigma = 1.0;
-  o.linear_velocity_noise = 0.5 * std::sqrt(0.1);
-  o.angular_velocity_noise = 0.05 * std::sqrt(0.1);
-  return o;
-}
+// The consistency tests check a correctly specified filter (noise matched to the default
+// scenario); the shipped configuration itself is checked on the product's simulator
+// (test_regression.py).
+VislamOptions defaultOptions() { return testing::matchedOptions(ScenarioOptions()); }
 
 TEST(VislamEstimator, PredictionCovarianceJacobianMatchesFiniteDifferences) {
   // The mean propagation T' = T exp(dt u^), u = [R_m (v_m - b_v); R_m (w_m - b_w)], with T

@@ -9,6 +9,14 @@
 namespace ekf_vislam {
 namespace testing {
 
+VislamOptions matchedOptions(const ScenarioOptions& scenario) {
+  VislamOptions o;
+  o.pixel_sigma = scenario.pixel_sigma;
+  o.linear_velocity_noise = scenario.linear_velocity_noise * std::sqrt(scenario.dt);
+  o.angular_velocity_noise = scenario.angular_velocity_noise * std::sqrt(scenario.dt);
+  return o;
+}
+
 StereoCalibration kittiLikeCalibration() {
   StereoCalibration c;
   c.fx = c.fy = 707.0912;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "ekf_vislam/core/types.h"
+#include "ekf_vislam/core/vislam_options.h"
 
 #include <Eigen/Core>
 
@@ -37,6 +38,10 @@ struct Scenario {
 /// KITTI-like stereo rig driving a curvy road with landmarks on both sides. Twist k+1 drives
 /// [t_k, t_k+1] (the estimator's convention). Deterministic from the seed.
 Scenario makeScenario(const ScenarioOptions& options);
+
+/// The shipped defaults with the noise matched to the scenario's (pixel sigma; per-sample twist
+/// noise turned into densities with the frame period): a correctly specified filter.
+VislamOptions matchedOptions(const ScenarioOptions& scenario);
 
 /// KITTI-like calibration (fx 707, baseline 0.537 m, image 1241x376).
 StereoCalibration kittiLikeCalibration();

@@ -33,6 +33,8 @@ import tempfile
 import threading
 import time
 
+import numpy as np
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, '..', 'src'))
 from ekf_vislam_tools import metrics, trajectory  # noqa: E402
@@ -167,6 +169,41 @@ def simulate_child(prefix, seed, frames, reuse):
 # ---------------------------------------------------------------------------------------------
 # Soak
 # ---------------------------------------------------------------------------------------------
+def soak_through_nodelet(prefix, out, rate, offline_trajectory):
+    """Plays the whole drive through the nodelet (launch/play_dataset.launch, rosbag play with
+    /clock at `rate` x real time, saved at shutdown) and compares it with vislam_offline."""
+    folder = os.path.join(out, 'soak_nodelet')
+    shutil.rmtree(folder, ignore_errors=True)
+    env = dict(os.environ, ROS_HOME=tempfile.mkdtemp(prefix='ekf_vislam_soak_ros_'))
+    log('the whole drive through the nodelet at %gx ...' % rate)
+    start = time.monotonic()
+    subprocess.run(['roslaunch', 'ekf_vislam', 'play_dataset.launch', 'bag:=' + prefix + '.bag',
+                    'rate:=%g' % rate, 'rviz:=false', 'output_dir:=' + folder],
+                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env, check=False)
+    wall = time.monotonic() - start
+    shutil.rmtree(env['ROS_HOME'], ignore_errors=True)
+    with open(os.path.join(folder, 'stats.json')) as f:
+        stats = json.load(f)
+    _, T = trajectory.read_tum(os.path.join(folder, 'trajectory.tum'))
+    _, T_offline = trajectory.read_tum(offline_trajectory)
+    n = min(len(T), len(T_offline))
+    difference = float(np.abs(T[:n, :3, 3] - T_offline[:n, :3, 3]).max()) if n else float('nan')
+    log('  nodelet: %d frames, %d twists, %d late, %.1f s wall, peak RSS %.0f MB, max difference '
+        'to vislam_offline %.3g m over %d poses (offline: %d)' % (
+            stats['frames'], stats['twists'], stats.get('sequencer_late', -1), wall,
+            stats.get('peak_rss_mb', float('nan')), difference, len(T), len(T_offline)))
+    return {'case': 'soak through the nodelet at %gx' % rate, 'frames': stats['frames'],
+            'data_h': stats['data_s'] / 3600.0, 'ate_m': None, 'rpe_percent': None,
+            'peak_rss_mb': stats.get('peak_rss_mb'), 'process_wall_s': wall,
+            'estimator_wall_s': stats['wall_s'],
+            'peak_state_dimension': stats['peak_state_dimension'],
+            'peak_active_landmarks': stats['peak_active_landmarks'], 'map_size': stats['landmarks'],
+            'frame_ms_mean': stats['frame_ms']['mean'], 'frame_ms_p50': stats['frame_ms']['p50'],
+            'frame_ms_p99': stats['frame_ms']['p99'], 'frame_ms_max': stats['frame_ms']['max'],
+            'difference_to_offline_m': difference,
+            'trouble': {k: stats['counters'].get(k, stats.get(k, 0)) for k in TROUBLE_COUNTERS}}
+
+
 def soak(args, binary, out):
     data = os.path.join(out, 'data')
     os.makedirs(data, exist_ok=True)
@@ -218,6 +255,9 @@ def soak(args, binary, out):
                      data_h=rows[1]['data_h'] - rows[0]['data_h'],
                      path_km=rows[1]['path_km'] - rows[0]['path_km'],
                      peak_state_dimension=None, peak_active_landmarks=None))
+    if args.nodelet_rate > 0:
+        rows.append(soak_through_nodelet(prefix, out, args.nodelet_rate,
+                                         os.path.join(out, 'soak_full', 'trajectory.tum')))
     info = {'simulate_s': sim_wall, 'simulate_peak_mb': sim_rss, 'bag_s': bag_wall,
             'bag_peak_mb': bag_rss, 'half_bag_s': half_wall, 'simulation': summary.strip(),
             'bag_mb': os.path.getsize(prefix + '.bag') / 1e6,
@@ -301,8 +341,14 @@ def table(rows):
 def summary_lines(soak_rows, soak_info, outlier_rows):
     lines = []
     if soak_rows:
-        half, full, second = soak_rows
+        half, full, second = soak_rows[:3]
         lines.append('soak: %s' % soak_info['simulation'])
+        for row in soak_rows[3:]:
+            lines.append('soak: %s: %d frames, peak RSS %.0f MB, peak state dimension %d, p99 %.3f '
+                         'ms, max difference to vislam_offline %.3g m' % (
+                             row['case'], row['frames'], row['peak_rss_mb'],
+                             row['peak_state_dimension'], row['frame_ms_p99'],
+                             row['difference_to_offline_m']))
         lines.append('soak: inputs: simulation %.1f s (peak %.0f MB, npz %.0f MB), bag %.1f s '
                      '(peak %.0f MB, %.0f MB)' % (
                          soak_info['simulate_s'], soak_info['simulate_peak_mb'],
@@ -366,6 +412,9 @@ def main():
                              'simulator default)')
     parser.add_argument('--config', default=None, help='options YAML (default: the shipped one)')
     parser.add_argument('--out', default=os.path.join(HERE, '..', 'results', 'soak'))
+    parser.add_argument('--nodelet-rate', type=float, default=0.0,
+                        help='also play the whole drive through the nodelet at this rate '
+                             '(x real time; 20 takes about 3 min); 0 = skip (default)')
     parser.add_argument('--skip-soak', action='store_true')
     parser.add_argument('--skip-outliers', action='store_true')
     parser.add_argument('--keep-data', action='store_true',

@@ -18,6 +18,7 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, '..', 'src'))
 from ekf_vislam_tools import metrics, trajectory  # noqa: E402
+from ekf_vislam_tools.report import fmt, markdown_table  # noqa: E402
 
 MODES = ('slam', 'mapping', 'deadreckoning')
 PY = '/usr/bin/python3'
@@ -69,21 +70,18 @@ def evaluate_case(name, bag, groundtruth, out_dir, binary, config):
     return rows
 
 
-def fmt(v, spec):
-    return '-' if v is None else format(v, spec)
-
-
 def table(rows):
-    lines = ['| dataset | mode | ATE m | RPE % | rot deg | frames | landmarks | wall s | x real time | '
-             'p50 ms | p99 ms | peak MB |', '|' + '---|' * 12]
+    header = ['dataset', 'mode', 'ATE m', 'RPE %', 'rot deg', 'frames', 'landmarks', 'wall s',
+              'x real time', 'p50 ms', 'p99 ms', 'peak MB']
+    cells = []
     for r in rows:
         rt = r['data_s'] / r['estimator_wall_s'] if r['estimator_wall_s'] > 0 else None
-        lines.append('| %s | %s | %s | %s | %s | %d | %d | %s | %s | %s | %s | %s |' % (
+        cells.append([
             r['dataset'], r['mode'], fmt(r.get('ate_m'), '.2f'), fmt(r.get('rpe_percent'), '.2f'),
-            fmt(r.get('rot_rmse_deg'), '.2f'), r['frames'], r['landmarks'],
+            fmt(r.get('rot_rmse_deg'), '.2f'), '%d' % r['frames'], '%d' % r['landmarks'],
             fmt(r['estimator_wall_s'], '.3f'), fmt(rt, '.0f'), fmt(r['frame_ms_p50'], '.2f'),
-            fmt(r['frame_ms_p99'], '.2f'), fmt(r['peak_rss_mb'], '.0f')))
-    return '\n'.join(lines)
+            fmt(r['frame_ms_p99'], '.2f'), fmt(r['peak_rss_mb'], '.0f')])
+    return markdown_table(header, cells)
 
 
 def main():

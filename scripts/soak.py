@@ -38,6 +38,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, '..', 'src'))
 from ekf_vislam_tools import metrics, trajectory  # noqa: E402
+from ekf_vislam_tools.report import fmt, markdown_table  # noqa: E402
 
 PY = '/usr/bin/python3'
 DEFAULT_OUTLIER_RATE = 0.03  # simulator.DEFAULT_OPTIONS['outlier_rate']
@@ -318,24 +319,19 @@ def outlier_study(args, binary, out):
 # ---------------------------------------------------------------------------------------------
 # Report
 # ---------------------------------------------------------------------------------------------
-def fmt(v, spec):
-    return '-' if v is None else format(v, spec)
-
-
 def table(rows):
-    lines = ['| case | frames | data h | ATE m | ATE ratio | peak RSS MB | peak state dim | '
-             'peak active lm | map size | ms/frame mean | p50 ms | p99 ms | trouble counters |',
-             '|' + '---|' * 13]
+    header = ['case', 'frames', 'data h', 'ATE m', 'ATE ratio', 'peak RSS MB', 'peak state dim',
+              'peak active lm', 'map size', 'ms/frame mean', 'p50 ms', 'p99 ms', 'trouble counters']
+    cells = []
     for r in rows:
         trouble = ', '.join('%s %d' % (k, v) for k, v in r.get('trouble', {}).items() if v)
-        lines.append('| %s | %d | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |' % (
-            r['case'], r['frames'], fmt(r.get('data_h'), '.2f'), fmt(r.get('ate_m'), '.3f'),
+        cells.append([
+            r['case'], '%d' % r['frames'], fmt(r.get('data_h'), '.2f'), fmt(r.get('ate_m'), '.3f'),
             fmt(r.get('ratio'), '.2f'), fmt(r.get('peak_rss_mb'), '.0f'),
             fmt(r.get('peak_state_dimension'), 'd'), fmt(r.get('peak_active_landmarks'), 'd'),
             fmt(r.get('map_size'), 'd'), fmt(r.get('frame_ms_mean'), '.3f'),
-            fmt(r.get('frame_ms_p50'), '.3f'), fmt(r.get('frame_ms_p99'), '.3f'),
-            trouble or 'none'))
-    return '\n'.join(lines)
+            fmt(r.get('frame_ms_p50'), '.3f'), fmt(r.get('frame_ms_p99'), '.3f'), trouble or 'none'])
+    return markdown_table(header, cells)
 
 
 def summary_lines(soak_rows, soak_info, outlier_rows):

@@ -37,7 +37,7 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, '..', 'src'))
-from ekf_vislam_tools import metrics, trajectory  # noqa: E402
+from ekf_vislam_tools import metrics, package, trajectory  # noqa: E402
 from ekf_vislam_tools.report import fmt, markdown_table  # noqa: E402
 
 PY = '/usr/bin/python3'
@@ -110,10 +110,8 @@ def run_measured(cmd):
 
 
 def offline_binary():
-    out = subprocess.run(['catkin_find', '--first-only', '--libexec', 'ekf_vislam'],
-                         capture_output=True, text=True).stdout.strip()
-    path = os.path.join(out, 'vislam_offline')
-    if not os.path.exists(path):
+    path = package.vislam_offline_path()
+    if path is None:
         sys.exit('soak: vislam_offline not built; run scripts/setup.sh first')
     return path
 

@@ -634,19 +634,27 @@ Eigen::Matrix3d VislamEstimator::landmarkCovariance(size_t block) const {
   return M * joint * M.transpose();
 }
 
+void VislamEstimator::syncBlockToMap(size_t block) {
+  LandmarkEstimate& l = map_[blocks_[block].map_index];
+  l.p_world = p_world_.segment<3>(landmarkRow(block));
+  l.covariance = landmarkCovariance(block);
+}
+
 void VislamEstimator::syncBlocksToMap() {
   for (size_t k = 0; k < blocks_.size(); ++k) {
+    syncBlockToMap(k);
     LandmarkEstimate& l = map_[blocks_[k].map_index];
-    const int row = landmarkRow(k);
-    l.p_world = p_world_.segment<3>(row);
-    l.covariance = landmarkCovariance(k);
     l.active = true;
     if (blocks_[k].tracking) l.last_stamp = time_;
   }
 }
 
 void VislamEstimator::removeBlocks(const std::vector<bool>& remove, bool count_as_marginalized) {
-  syncBlocksToMap();
+  // Only the leaving blocks need their final estimate in the map now (the others are synced at
+  // the end of the frame); last_stamp stays the last frame the track was seen in.
+  for (size_t k = 0; k < blocks_.size(); ++k) {
+    if (remove[k]) syncBlockToMap(k);
+  }
   std::vector<int> keep_rows;
   keep_rows.reserve(dim_);
   for (int i = 0; i < kPoseDim + auxDim(); ++i) keep_rows.push_back(i);

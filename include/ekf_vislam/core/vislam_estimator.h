@@ -115,6 +115,8 @@ class VislamEstimator {
   void removeBlocks(const std::vector<bool>& remove, bool count_as_marginalized = true);
   void ensureCapacity(int dim);
   void syncBlocksToMap();
+  /// Mean and covariance of one block into its map entry.
+  void syncBlockToMap(size_t block);
   /// Covariance of the additive error of block k's landmark (dp = xi - p^ phi in SLAM mode).
   Eigen::Matrix3d landmarkCovariance(size_t block) const;
   void checkHealth(int candidates, int gated, FeedResult* result);

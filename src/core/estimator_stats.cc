@@ -30,6 +30,7 @@ const char* counterName(Counter counter) {
     case Counter::kObsIgnoredDeadReckoning: return "observation_ignored_deadreckoning";
     case Counter::kLandmarkInitialized: return "landmark_initialized";
     case Counter::kLandmarkReinitialized: return "landmark_reinitialized";
+    case Counter::kLandmarkSplit: return "landmark_split";
     case Counter::kLandmarkMarginalized: return "landmark_marginalized";
     case Counter::kCovarianceRepaired: return "covariance_repaired";
     case Counter::kDivergenceRecovery: return "divergence_recovery";

@@ -6,6 +6,7 @@
 #include <Eigen/Cholesky>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -21,6 +22,7 @@ struct VislamEstimator::Candidate {
   Eigen::VectorXd residual;
   Eigen::MatrixXd H_pose;      ///< rows x 6
   Eigen::MatrixXd H_landmark;  ///< rows x 3
+  Eigen::MatrixXd H_calibration;  ///< rows x calibrationDim()
 };
 
 namespace {
@@ -51,6 +53,8 @@ VislamEstimator::VislamEstimator(const VislamOptions& options) : options_(option
   if (options_.estimate_gyro_bias) bias_components_.insert(bias_components_.end(), {3, 4, 5});
   bias_dim_ = static_cast<int>(bias_components_.size());
   rotation_dim_ = options_.estimate_twist_rotation ? 3 : 0;
+  disparity_dim_ = options_.estimate_disparity_offset ? 1 : 0;
+  scale_dim_ = options_.estimate_baseline_scale ? 1 : 0;
   initializeState();
 }
 
@@ -60,9 +64,16 @@ bool VislamEstimator::setCalibration(const StereoCalibration& calibration, std::
     if (error != nullptr) *error = "invalid calibration: " + why;
     return false;
   }
-  camera_ = StereoCamera(calibration);
+  nominal_calibration_ = calibration;
   has_calibration_ = true;
+  applyBaselineScale();
   return true;
+}
+
+void VislamEstimator::applyBaselineScale() {
+  StereoCalibration scaled = nominal_calibration_;
+  scaled.baseline *= 1.0 + baseline_scale_error_;
+  camera_ = StereoCamera(scaled);
 }
 
 void VislamEstimator::setPriorCovariance() {
@@ -86,6 +97,14 @@ void VislamEstimator::setPriorCovariance() {
   for (int i = 0; i < rotation_dim_; ++i) {
     sigma_(kPoseDim + bias_dim_ + i, kPoseDim + bias_dim_ + i) = rot2;
   }
+  if (disparity_dim_ > 0) {
+    sigma_(disparityRow(), disparityRow()) =
+        options_.disparity_offset_prior_sigma * options_.disparity_offset_prior_sigma;
+  }
+  if (scale_dim_ > 0) {
+    sigma_(scaleRow(), scaleRow()) =
+        options_.baseline_scale_prior_sigma * options_.baseline_scale_prior_sigma;
+  }
 }
 
 void VislamEstimator::initializeState() {
@@ -99,6 +118,9 @@ void VislamEstimator::initializeState() {
   imu_T_world_.setIdentity();
   bias_ = Eigen::VectorXd::Zero(bias_dim_);
   imu_R_twist_.setIdentity();
+  disparity_offset_ = 0.0;
+  baseline_scale_error_ = 0.0;
+  if (has_calibration_) applyBaselineScale();
   dim_ = kPoseDim + auxDim();
   const int capacity = std::max(64, dim_);
   sigma_ = Eigen::MatrixXd::Zero(capacity, capacity);
@@ -129,15 +151,40 @@ Vector6d VislamEstimator::trueTwist(const TwistData& twist) const {
   const Eigen::Vector3d v_twist = twist.v_imu - b.head<3>();
   const Eigen::Vector3d w_twist = twist.w_imu - b.tail<3>();
   Vector6d u;
-  u.head<3>() = imu_R_twist_ * v_twist;
+  u.head<3>() = velocityPriorGain().head<3>().cwiseProduct(imu_R_twist_ * v_twist);
   u.tail<3>() = imu_R_twist_ * w_twist;
   return u;
+}
+
+Vector6d VislamEstimator::velocityPriorGain() const {
+  // A measured component (IMU frame; the noise is isotropic, so rotating by R_m keeps it) with
+  // per-sample variance r = sigma_v^2 / dt fused with a zero-mean prior of variance s^2: mean
+  // g * measured, variance g * r, with g = s^2 / (s^2 + r).
+  Vector6d gain = Vector6d::Ones();
+  const double r = options_.linear_velocity_noise * options_.linear_velocity_noise /
+                   std::max(1e-3, last_twist_dt_);
+  const double sigmas[2] = {options_.lateral_velocity_sigma, options_.vertical_velocity_sigma};
+  for (int axis = 1; axis <= 2; ++axis) {
+    const double s2 = sigmas[axis - 1] * sigmas[axis - 1];
+    if (s2 > 0.0 && r > 0.0) gain(axis) = s2 / (s2 + r);
+  }
+  return gain;
 }
 
 Vector6d VislamEstimator::biasVector() const {
   Vector6d b = Vector6d::Zero();
   for (int i = 0; i < bias_dim_; ++i) b(bias_components_[i]) = bias_(i);
   return b;
+}
+
+Matrix6d VislamEstimator::twistNoiseDensity() const {
+  // Body-frame noise density of u (W = density * tau), per axis reduced by the vehicle prior.
+  const double qv = options_.linear_velocity_noise * options_.linear_velocity_noise;
+  const double qw = options_.angular_velocity_noise * options_.angular_velocity_noise;
+  Vector6d q = velocityPriorGain();
+  q.head<3>() *= qv;
+  q.tail<3>() *= qw;
+  return q.asDiagonal();
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -252,14 +299,21 @@ void VislamEstimator::predict(double dt, const TwistData& twist, double noise_sc
   const int aux = auxDim();
   if (aux > 0) {
     // F = I + E on the auxiliary columns, E = D G (dim x aux), G = dt Ad J_l(xi) du/daux with
-    // du/db = -R_m (bias components) and du/dtheta = -[(R_m (v - b_v))^; (R_m (w - b_w))^].
+    // u = [Gv R_m (v - b_v); R_m (w - b_w)] (Gv: vehicle prior gains): du/db = -[Gv R_m; R_m]
+    // (bias components) and du/dtheta = -[Gv (R_m (v - b_v))^; (R_m (w - b_w))^].
     Eigen::MatrixXd du_daux = Eigen::MatrixXd::Zero(kPoseDim, aux);
+    const Eigen::Matrix3d Gv = velocityPriorGain().head<3>().asDiagonal();
     for (int i = 0; i < bias_dim_; ++i) {
       const int c = bias_components_[i];
-      du_daux.block<3, 1>(c < 3 ? 0 : 3, i) = -imu_R_twist_.col(c % 3);
+      if (c < 3) {
+        du_daux.block<3, 1>(0, i) = -Gv * imu_R_twist_.col(c);
+      } else {
+        du_daux.block<3, 1>(3, i) = -imu_R_twist_.col(c - 3);
+      }
     }
     if (rotation_dim_ > 0) {
-      du_daux.block<3, 3>(0, bias_dim_) = -se3::hat(Eigen::Vector3d(u.head<3>()));
+      const Eigen::Vector3d v_imu = imu_R_twist_ * (twist.v_imu - biasVector().head<3>());
+      du_daux.block<3, 3>(0, bias_dim_) = -Gv * se3::hat(v_imu);
       du_daux.block<3, 3>(3, bias_dim_) = -se3::hat(Eigen::Vector3d(u.tail<3>()));
     }
     const Eigen::MatrixXd G = dt * Ad * se3::leftJacobian(xi) * du_daux;
@@ -268,11 +322,7 @@ void VislamEstimator::predict(double dt, const TwistData& twist, double noise_sc
     const Eigen::MatrixXd sigma_aa = S.block(kPoseDim, kPoseDim, aux, aux);
     S += E_sigma + E_sigma.transpose() + E * sigma_aa * E.transpose();
   }
-  const double qv = options_.linear_velocity_noise * options_.linear_velocity_noise;
-  const double qw = options_.angular_velocity_noise * options_.angular_velocity_noise;
-  Vector6d q_body;
-  q_body << qv, qv, qv, qw, qw, qw;
-  const Matrix6d Q_world = (noise_scale * dt) * Ad * q_body.asDiagonal() * Ad.transpose();
+  const Matrix6d Q_world = (noise_scale * dt) * Ad * twistNoiseDensity() * Ad.transpose();
   S.noalias() += D * Q_world * D.transpose();
   for (int i = 0; i < bias_dim_; ++i) {
     const double rw = bias_components_[i] < 3 ? options_.velocity_bias_random_walk
@@ -282,6 +332,14 @@ void VislamEstimator::predict(double dt, const TwistData& twist, double noise_sc
   const double rot_rw = options_.twist_rotation_random_walk;
   for (int i = 0; i < rotation_dim_; ++i) {
     S(kPoseDim + bias_dim_ + i, kPoseDim + bias_dim_ + i) += dt * rot_rw * rot_rw;
+  }
+  if (disparity_dim_ > 0) {
+    const double rw = options_.disparity_offset_random_walk;
+    S(disparityRow(), disparityRow()) += dt * rw * rw;
+  }
+  if (scale_dim_ > 0) {
+    const double rw = options_.baseline_scale_random_walk;
+    S(scaleRow(), scaleRow()) += dt * rw * rw;
   }
 }
 
@@ -346,6 +404,7 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result
   std::unordered_set<uint32_t> present;
   present.reserve(2 * count);
   std::vector<Candidate> updates, initializations;
+  std::vector<size_t> split_blocks;
   updates.reserve(count);
   auto rejectObservation = [&](Counter counter) {
     stats_.increment(counter);
@@ -357,6 +416,7 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result
       rejectObservation(Counter::kObsDuplicateId);
       continue;
     }
+    if (auto seen = tracking_.find(f.id); seen != tracking_.end()) ++blocks_[seen->second].frames;
     if (!allFinite(f)) {
       rejectObservation(Counter::kObsNonFinite);
     } else if (!camera_.inImage(f.u_left, f.v_left) || !camera_.inImage(f.u_right, f.v_right)) {
@@ -369,7 +429,12 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result
       Candidate c;
       c.feature = f;
       auto it = tracking_.find(f.id);
-      if (it != tracking_.end()) {
+      if (it != tracking_.end() && options_.max_track_length > 0 &&
+          blocks_[it->second].frames > options_.max_track_length) {
+        // Long track: its landmark leaves the state and the track continues as a new landmark.
+        split_blocks.push_back(it->second);
+        initializations.push_back(std::move(c));
+      } else if (it != tracking_.end()) {
         c.block = it->second;
         updates.push_back(std::move(c));
       } else {
@@ -387,6 +452,8 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result
       any_ended = true;
     }
   }
+  for (size_t block : split_blocks) ended[block] = any_ended = true;
+  stats_.increment(Counter::kLandmarkSplit, split_blocks.size());
   if (any_ended) {
     if (options_.keep_all_landmarks_in_state) {
       for (size_t k = 0; k < blocks_.size(); ++k) {
@@ -426,6 +493,8 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
   const double pixel_var = options_.pixel_sigma * options_.pixel_sigma;
   const bool correct_pose = options_.mode == EstimatorMode::kSlam;
   auto S = sigma_.topLeftCorner(dim_, dim_);
+  const int nc = calibrationDim();
+  const int calibration_row = calibrationRow();
 
   // Predict each observation, gate it against its own innovation covariance.
   std::vector<Candidate*> accepted;
@@ -444,20 +513,32 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
     }
     const Eigen::Vector4d z(c.feature.u_left, c.feature.v_left, c.feature.u_right,
                             c.feature.v_right);
+    // d z / d calibration: the uR row only. Offset: measured uR = true uR - offset. Baseline
+    // scale: uR = fx (x - b0 (1 + beta)) / z + cx, d uR / d beta = -fx b0 / z.
+    Eigen::Matrix<double, 4, 2> H_calibration = Eigen::Matrix<double, 4, 2>::Zero();
+    if (disparity_dim_ > 0) H_calibration(2, 0) = -1.0;
+    if (scale_dim_ > 0) {
+      H_calibration(2, disparity_dim_) = -(z_pred(0) - z_pred(2)) / (1.0 + baseline_scale_error_);
+    }
+    c.H_calibration = M * H_calibration.leftCols(nc);
+    z_pred(2) -= disparity_offset_;
     c.residual = M * (z - z_pred);
     // Invariant error: p_imu = R^T (p_mean + xi - rho - p) to first order, so the observation
     // depends on rho through -H_landmark and not at all on phi.
     c.H_landmark = M * H_landmark;
     c.H_pose = Eigen::MatrixXd::Zero(r, kPoseDim);
     if (correct_pose) c.H_pose.leftCols<3>() = -c.H_landmark;
-    // S_i = H_i Sigma_[pose, landmark] H_i^T + R.
-    Eigen::MatrixXd Hi(r, 9);
-    Hi << c.H_pose, c.H_landmark;
-    Eigen::Matrix<double, 9, 9> sub;
-    sub.topLeftCorner<6, 6>() = S.topLeftCorner<6, 6>();
-    sub.topRightCorner<6, 3>() = S.block<6, 3>(0, row);
-    sub.bottomLeftCorner<3, 6>() = S.block<3, 6>(row, 0);
-    sub.bottomRightCorner<3, 3>() = S.block<3, 3>(row, row);
+    // S_i = H_i Sigma_[pose, calibration, landmark] H_i^T + R.
+    Eigen::MatrixXd Hi(r, 9 + nc);
+    Hi << c.H_pose, c.H_calibration, c.H_landmark;
+    std::array<int, 11> index{};
+    for (int a = 0; a < 6; ++a) index[a] = a;
+    for (int a = 0; a < nc; ++a) index[6 + a] = calibration_row + a;
+    for (int a = 0; a < 3; ++a) index[6 + nc + a] = row + a;
+    Eigen::MatrixXd sub(9 + nc, 9 + nc);
+    for (int a = 0; a < 9 + nc; ++a) {
+      for (int b = 0; b < 9 + nc; ++b) sub(a, b) = S(index[a], index[b]);
+    }
     Eigen::MatrixXd Si = Hi * sub * Hi.transpose();
     Si.diagonal().array() += pixel_var;
     const double d2 = c.residual.dot(Si.ldlt().solve(c.residual));
@@ -495,6 +576,10 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
       const int row = landmarkRow(c.block);
       PHt.middleCols(k * r, r).noalias() = S.middleCols(row, 3) * c.H_landmark.transpose();
       if (correct_pose) PHt.middleCols(k * r, r).noalias() += S.leftCols<6>() * c.H_pose.transpose();
+      if (nc > 0) {
+        PHt.middleCols(k * r, r).noalias() +=
+            S.middleCols(calibration_row, nc) * c.H_calibration.transpose();
+      }
     }
     // Innovation covariance H P H^T + R (m x m).
     Eigen::MatrixXd innovation_cov(m, m);
@@ -504,6 +589,10 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
       const int row = landmarkRow(c.block);
       innovation_cov.middleRows(k * r, r).noalias() = c.H_landmark * PHt.middleRows(row, 3);
       if (correct_pose) innovation_cov.middleRows(k * r, r).noalias() += c.H_pose * PHt.topRows<6>();
+      if (nc > 0) {
+        innovation_cov.middleRows(k * r, r).noalias() +=
+            c.H_calibration * PHt.middleRows(calibration_row, nc);
+      }
       residual.segment(k * r, r) = c.residual;
     }
     innovation_cov.diagonal().array() += pixel_var;
@@ -530,6 +619,11 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
         if (bias_dim_ > 0) bias_ += dx.segment(kPoseDim, bias_dim_);
         if (rotation_dim_ > 0) {
           imu_R_twist_ = se3::expSO3(dx.segment<3>(kPoseDim + bias_dim_)) * imu_R_twist_;
+        }
+        if (disparity_dim_ > 0) disparity_offset_ += dx(disparityRow());
+        if (scale_dim_ > 0) {
+          baseline_scale_error_ += dx(scaleRow());
+          applyBaselineScale();
         }
         // Landmarks: p <- exp(dphi^) p + J_l(dphi) dxi (the SE_K(3) exponential).
         const Eigen::Vector3d dphi = correct_pose ? Eigen::Vector3d(dx.segment<3>(3))
@@ -565,7 +659,8 @@ bool VislamEstimator::initializeLandmark(const Candidate& c, double stamp, FeedR
   const double v = options_.merge_stereo_rows ? 0.5 * (f.v_left + f.v_right) : f.v_left;
   Eigen::Vector3d p_cam;
   Eigen::Matrix3d J_uvu;
-  if (!camera_.triangulate(f.u_left, v, f.u_right, &p_cam, &J_uvu)) {
+  // Measured uR = true uR - offset.
+  if (!camera_.triangulate(f.u_left, v, f.u_right + disparity_offset_, &p_cam, &J_uvu)) {
     stats_.increment(Counter::kObsDisparity);
     ++result->observations_rejected;
     return false;
@@ -588,17 +683,25 @@ bool VislamEstimator::initializeLandmark(const Candidate& c, double stamp, FeedR
   const int row = dim_;
   ensureCapacity(dim_ + 3);
   auto S = sigma_.topLeftCorner(dim_ + 3, dim_ + 3);
-  if (options_.mode == EstimatorMode::kSlam) {
-    // Invariant error of the new landmark: xi = p_true - exp(phi^) p_mean = rho + R dp_imu to
-    // first order, so it is correlated with the state through rho only.
-    const Eigen::MatrixXd cross = S.topLeftCorner(3, dim_);  // Cov(rho, state)
-    S.block(row, 0, 3, dim_) = cross;
-    S.block(0, row, dim_, 3) = cross.transpose();
-    sigma_ll += S.topLeftCorner<3, 3>();
-  } else {
-    S.block(row, 0, 3, dim_).setZero();
-    S.block(0, row, dim_, 3).setZero();
+  // Error of the new landmark as a function of the state error: in SLAM mode the invariant error
+  // xi = p_true - exp(phi^) p_mean = rho + R dp_imu to first order (correlated through rho), and
+  // the triangulation also depends on the disparity offset: A = d xi / d state (3 x dim).
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(3, dim_);
+  if (options_.mode == EstimatorMode::kSlam) A.leftCols<3>().setIdentity();
+  if (disparity_dim_ > 0) {
+    // Element-wise: GCC 12 reports a false -Warray-bounds on a vectorized 3-vector copy here.
+    for (int i = 0; i < 3; ++i) A(i, disparityRow()) = J_z(i, 2);
   }
+  if (scale_dim_ > 0) {
+    // Every coordinate of the triangulated point scales with the baseline.
+    const Eigen::Vector3d dp_dbeta =
+        R_world_imu * imu_T_cam.topLeftCorner<3, 3>() * p_cam / (1.0 + baseline_scale_error_);
+    for (int i = 0; i < 3; ++i) A(i, scaleRow()) = dp_dbeta(i);
+  }
+  const Eigen::MatrixXd cross = A * S.topLeftCorner(dim_, dim_);  // Cov(xi, state)
+  S.block(row, 0, 3, dim_) = cross;
+  S.block(0, row, dim_, 3) = cross.transpose();
+  sigma_ll += cross * A.transpose();
   S.block<3, 3>(row, row) = sigma_ll;
   p_world_.segment<3>(row) = p_world;
   dim_ += 3;
@@ -773,12 +876,7 @@ TwistData VislamEstimator::correctedTwist() const {
 }
 
 Matrix6d VislamEstimator::correctedTwistCovariance() const {
-  Matrix6d cov = Matrix6d::Zero();
-  const double dt = std::max(1e-3, last_twist_dt_);
-  cov.diagonal().head<3>().setConstant(options_.linear_velocity_noise *
-                                       options_.linear_velocity_noise / dt);
-  cov.diagonal().tail<3>().setConstant(options_.angular_velocity_noise *
-                                       options_.angular_velocity_noise / dt);
+  Matrix6d cov = twistNoiseDensity() / std::max(1e-3, last_twist_dt_);
   for (int i = 0; i < bias_dim_; ++i) {
     for (int j = 0; j < bias_dim_; ++j) {
       cov(bias_components_[i], bias_components_[j]) +=
@@ -789,5 +887,13 @@ Matrix6d VislamEstimator::correctedTwistCovariance() const {
 }
 
 Vector6d VislamEstimator::twistBias() const { return biasVector(); }
+
+double VislamEstimator::baselineScaleSigma() const {
+  return scale_dim_ > 0 ? std::sqrt(sigma_(scaleRow(), scaleRow())) : 0.0;
+}
+
+double VislamEstimator::disparityOffsetSigma() const {
+  return disparity_dim_ > 0 ? std::sqrt(sigma_(disparityRow(), disparityRow())) : 0.0;
+}
 
 }  // namespace ekf_vislam

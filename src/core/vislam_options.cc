@@ -95,6 +95,12 @@ std::string VislamOptions::validate() const {
   non_negative("bias/velocity_random_walk", velocity_bias_random_walk);
   positive("extrinsic/twist_rotation_prior_sigma", twist_rotation_prior_sigma);
   non_negative("extrinsic/twist_rotation_random_walk", twist_rotation_random_walk);
+  positive("intrinsic/disparity_offset_prior_sigma", disparity_offset_prior_sigma);
+  non_negative("intrinsic/disparity_offset_random_walk", disparity_offset_random_walk);
+  positive("intrinsic/baseline_scale_prior_sigma", baseline_scale_prior_sigma);
+  non_negative("intrinsic/baseline_scale_random_walk", baseline_scale_random_walk);
+  non_negative("vehicle/lateral_velocity_sigma", lateral_velocity_sigma);
+  non_negative("vehicle/vertical_velocity_sigma", vertical_velocity_sigma);
   positive("landmarks/min_disparity_px", min_disparity_px);
   positive("landmarks/min_depth", min_depth);
   positive("landmarks/max_depth", max_depth);
@@ -111,6 +117,8 @@ std::string VislamOptions::validate() const {
       why << "'landmarks/gating_probability' must be in (0, 1)";
     } else if (reinitialize_after_gated < 0) {
       why << "'landmarks/reinitialize_after_gated' must be >= 0";
+    } else if (max_track_length < 0) {
+      why << "'landmarks/max_track_length' must be >= 0";
     } else if (max_features_per_frame < 0) {
       why << "'limits/max_features_per_frame' must be >= 0";
     } else if (max_rejected_frames < 1) {
@@ -143,11 +151,20 @@ bool parseVislamOptions(const ParameterSource& source, VislamOptions* o, std::st
   r.flag("extrinsic/estimate_twist_rotation", &o->estimate_twist_rotation);
   r.number("extrinsic/twist_rotation_prior_sigma", &o->twist_rotation_prior_sigma);
   r.number("extrinsic/twist_rotation_random_walk", &o->twist_rotation_random_walk);
+  r.flag("intrinsic/estimate_disparity_offset", &o->estimate_disparity_offset);
+  r.number("intrinsic/disparity_offset_prior_sigma", &o->disparity_offset_prior_sigma);
+  r.number("intrinsic/disparity_offset_random_walk", &o->disparity_offset_random_walk);
+  r.flag("intrinsic/estimate_baseline_scale", &o->estimate_baseline_scale);
+  r.number("intrinsic/baseline_scale_prior_sigma", &o->baseline_scale_prior_sigma);
+  r.number("intrinsic/baseline_scale_random_walk", &o->baseline_scale_random_walk);
+  r.number("vehicle/lateral_velocity_sigma", &o->lateral_velocity_sigma);
+  r.number("vehicle/vertical_velocity_sigma", &o->vertical_velocity_sigma);
   r.number("landmarks/min_disparity_px", &o->min_disparity_px);
   r.number("landmarks/min_depth", &o->min_depth);
   r.number("landmarks/max_depth", &o->max_depth);
   r.number("landmarks/gating_probability", &o->gating_probability);
   r.integer("landmarks/reinitialize_after_gated", &o->reinitialize_after_gated);
+  r.integer("landmarks/max_track_length", &o->max_track_length);
   r.flag("landmarks/keep_all_in_state", &o->keep_all_landmarks_in_state);
   r.number("limits/max_linear_speed", &o->max_linear_speed);
   r.number("limits/max_angular_speed", &o->max_angular_speed);

@@ -11,10 +11,26 @@ TEST(VislamOptions, ShippedConfigParsesAndMatchesBuiltInDefaults) {
   const YamlParameterSource source(std::string(EKF_VISLAM_SOURCE_DIR) + "/config/default.yaml");
   ASSERT_TRUE(source.ok()) << source.error();
   VislamOptions parsed;
+  // Start the newer keys away from their defaults: the file itself must set them.
+  parsed.estimate_disparity_offset = !parsed.estimate_disparity_offset;
+  parsed.disparity_offset_prior_sigma = 7.0;
+  parsed.estimate_baseline_scale = !parsed.estimate_baseline_scale;
+  parsed.baseline_scale_prior_sigma = 7.0;
+  parsed.lateral_velocity_sigma = parsed.vertical_velocity_sigma = 7.0;
+  parsed.max_track_length = 77;
   std::string error;
   ASSERT_TRUE(parseVislamOptions(source, &parsed, &error)) << error;
   // The file documents the defaults: both must agree.
   const VislamOptions defaults;
+  EXPECT_EQ(parsed.estimate_disparity_offset, defaults.estimate_disparity_offset);
+  EXPECT_DOUBLE_EQ(parsed.disparity_offset_prior_sigma, defaults.disparity_offset_prior_sigma);
+  EXPECT_DOUBLE_EQ(parsed.disparity_offset_random_walk, defaults.disparity_offset_random_walk);
+  EXPECT_EQ(parsed.estimate_baseline_scale, defaults.estimate_baseline_scale);
+  EXPECT_DOUBLE_EQ(parsed.baseline_scale_prior_sigma, defaults.baseline_scale_prior_sigma);
+  EXPECT_DOUBLE_EQ(parsed.baseline_scale_random_walk, defaults.baseline_scale_random_walk);
+  EXPECT_DOUBLE_EQ(parsed.lateral_velocity_sigma, defaults.lateral_velocity_sigma);
+  EXPECT_DOUBLE_EQ(parsed.vertical_velocity_sigma, defaults.vertical_velocity_sigma);
+  EXPECT_EQ(parsed.max_track_length, defaults.max_track_length);
   EXPECT_EQ(parsed.mode, defaults.mode);
   EXPECT_DOUBLE_EQ(parsed.pixel_sigma, defaults.pixel_sigma);
   EXPECT_EQ(parsed.merge_stereo_rows, defaults.merge_stereo_rows);

@@ -41,6 +41,7 @@ enum class Counter : int {
   kLandmarkInitialized,
   kLandmarkReinitialized,    ///< a landmark whose first observation was gated out restarted
   kLandmarkMarginalized,
+  kLandmarkSplit,            ///< a track reached landmarks/max_track_length: continued as a new landmark
   // Filter health
   kCovarianceRepaired,       ///< covariance lost symmetry/positivity and was repaired
   kDivergenceRecovery,       ///< divergence detected; recovery policy applied

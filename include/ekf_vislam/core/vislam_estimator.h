@@ -81,6 +81,14 @@ class VislamEstimator {
   /// Estimated rotation from the twist's measurement frame to the IMU frame (identity when not
   /// estimated).
   const Eigen::Matrix3d& twistRotation() const { return imu_R_twist_; }
+  /// Estimated stereo disparity offset, px: measured uL - uR minus the true disparity (0 when not
+  /// estimated), and its standard deviation.
+  double disparityOffset() const { return disparity_offset_; }
+  double disparityOffsetSigma() const;
+  /// Estimated stereo baseline scale (true baseline / calibrated baseline; 1 when not estimated)
+  /// and the standard deviation of that ratio.
+  double baselineScale() const { return 1.0 + baseline_scale_error_; }
+  double baselineScaleSigma() const;
 
   /// Every landmark ever initialized (active ones carry their current estimate).
   const std::vector<LandmarkEstimate>& landmarks() const { return map_; }
@@ -99,6 +107,7 @@ class VislamEstimator {
     size_t map_index = 0;
     bool tracking = true;  ///< false: its track ended but the block stays (keep_all_in_state)
     int consecutive_gated = 0;  ///< frames in a row whose observation failed the gate
+    int frames = 1;  ///< frames its track has been seen in since this landmark started
   };
 
   void initializeState();
@@ -122,11 +131,22 @@ class VislamEstimator {
   void checkHealth(int candidates, int gated, FeedResult* result);
   void recoverFromDivergence(const std::string& why, FeedResult* result);
   void setPriorCovariance();
-  int auxDim() const { return bias_dim_ + rotation_dim_; }
+  int auxDim() const { return bias_dim_ + rotation_dim_ + calibrationDim(); }
+  /// Stereo calibration states (disparity offset, then baseline scale) start at this row.
+  int calibrationRow() const { return kPoseDim + bias_dim_ + rotation_dim_; }
+  int calibrationDim() const { return disparity_dim_ + scale_dim_; }
+  int disparityRow() const { return calibrationRow(); }
+  int scaleRow() const { return calibrationRow() + disparity_dim_; }
+  /// camera_ from the nominal calibration with the baseline scaled by the current estimate.
+  void applyBaselineScale();
   int landmarkRow(size_t block) const { return kPoseDim + auxDim() + 3 * static_cast<int>(block); }
   Vector6d biasVector() const;
   /// u_true = R_m (u_measured - b) for the current estimates.
   Vector6d trueTwist(const TwistData& twist) const;
+  /// Per-component factor of the vehicle prior on u = [v; w] (1 where there is none).
+  Vector6d velocityPriorGain() const;
+  /// Noise density of the corrected twist in the IMU frame (process noise W = density * tau).
+  Matrix6d twistNoiseDensity() const;
 
   static constexpr int kPoseDim = 6;
 
@@ -153,6 +173,11 @@ class VislamEstimator {
   int bias_dim_ = 0;
   Eigen::Matrix3d imu_R_twist_ = Eigen::Matrix3d::Identity();  ///< R_m
   int rotation_dim_ = 0;     ///< 3 when R_m is estimated (state rows after the bias)
+  double disparity_offset_ = 0.0;  ///< px, measured minus true disparity
+  int disparity_dim_ = 0;    ///< 1 when it is estimated (state row after R_m)
+  double baseline_scale_error_ = 0.0;  ///< beta: baseline = calibrated baseline x (1 + beta)
+  int scale_dim_ = 0;        ///< 1 when beta is estimated (row after the disparity offset)
+  StereoCalibration nominal_calibration_;
   int dim_ = 0;              ///< active state dimension
   Eigen::VectorXd p_world_;  ///< landmark means at their state rows (capacity sized)
   Eigen::MatrixXd sigma_;    ///< capacity >= dim_; only the top-left dim_ x dim_ block is live

@@ -59,6 +59,28 @@ struct VislamOptions {
   double twist_rotation_prior_sigma = 0.05;   ///< rad
   double twist_rotation_random_walk = 0.0;    ///< rad/sqrt(s)
 
+  // intrinsic/
+  /// Estimate a constant offset of the measured stereo disparity (uL - uR = true + offset), e.g.
+  /// from a right principal point that is off by a fraction of a pixel. It biases every
+  /// triangulated depth and with it the scale of the trajectory; the KITTI tracks carry about
+  /// +0.5 to +1 px.
+  bool estimate_disparity_offset = true;
+  double disparity_offset_prior_sigma = 1.0;   ///< px
+  double disparity_offset_random_walk = 0.0;   ///< px/sqrt(s)
+  /// Estimate a scale factor of the stereo baseline (every triangulated depth scales with it);
+  /// made observable by the twist's speed.
+  bool estimate_baseline_scale = false;
+  double baseline_scale_prior_sigma = 0.05;  ///< relative (0.05 = 5 %)
+  double baseline_scale_random_walk = 0.0;   ///< 1/sqrt(s)
+
+  // vehicle/
+  /// Ground-vehicle (non-holonomic) prior on the IMU-frame velocity (x forward): a wheeled
+  /// vehicle barely moves sideways or vertically, so the measured lateral (y) and vertical (z)
+  /// velocity is fused with a zero-mean prior of this std before it drives the prediction
+  /// (shrinks the noisy component and its process noise). 0 = no prior on that axis.
+  double lateral_velocity_sigma = 0.1;   ///< m/s
+  double vertical_velocity_sigma = 0.1;  ///< m/s
+
   // landmarks/
   double min_disparity_px = 1.0;      ///< smaller (or negative) disparity: not initialized
   double min_depth = 1.0;             ///< m
@@ -68,6 +90,10 @@ struct VislamOptions {
   /// many frames in a row restarts from its current observation (feature tracks that jump);
   /// 0 = never.
   int reinitialize_after_gated = 1;
+  /// A landmark whose track has been seen in this many frames leaves the state (its estimate stays in
+  /// the map) and its track continues as a new landmark (a new map entry with the same id): real
+  /// feature tracks drift away from the physical point over time (README, "Accuracy"). 0 = never.
+  int max_track_length = 7;
   bool keep_all_landmarks_in_state = false;  ///< never marginalize (exact, O(N^2) memory)
 
   // limits/ (input sanity)

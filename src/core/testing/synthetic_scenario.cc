@@ -14,6 +14,7 @@ VislamOptions matchedOptions(const ScenarioOptions& scenario) {
   o.pixel_sigma = scenario.pixel_sigma;
   o.linear_velocity_noise = scenario.linear_velocity_noise * std::sqrt(scenario.dt);
   o.angular_velocity_noise = scenario.angular_velocity_noise * std::sqrt(scenario.dt);
+  o.max_track_length = 0;
   return o;
 }
 
@@ -87,7 +88,7 @@ Scenario makeScenario(const ScenarioOptions& o) {
     f.id = id;
     f.u_left = z(0) + o.pixel_sigma * normal(rng);
     f.v_left = z(1) + o.pixel_sigma * normal(rng);
-    f.u_right = z(2) + o.pixel_sigma * normal(rng);
+    f.u_right = z(2) - o.disparity_offset_px + o.pixel_sigma * normal(rng);
     f.v_right = z(3) + o.pixel_sigma * normal(rng);
     return f;
   };

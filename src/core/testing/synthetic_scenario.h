@@ -22,6 +22,8 @@ struct ScenarioOptions {
   double angular_velocity_noise = 0.05;  ///< per sample, rad/s
   Eigen::Vector3d gyro_bias = Eigen::Vector3d(0.006, -0.008, 0.007);
   double outlier_rate = 0.0;
+  /// Measured disparity minus the true one, px (uR shifted by minus this; real tracks: ~+0.5).
+  double disparity_offset_px = 0.0;
   int target_observations = 70;
   uint32_t seed = 1;
 };
@@ -40,7 +42,8 @@ struct Scenario {
 Scenario makeScenario(const ScenarioOptions& options);
 
 /// The shipped defaults with the noise matched to the scenario's (pixel sigma; per-sample twist
-/// noise turned into densities with the frame period): a correctly specified filter.
+/// noise turned into densities with the frame period): a correctly specified filter. Its tracks
+/// do not drift, so landmarks are not split (landmarks/max_track_length = 0).
 VislamOptions matchedOptions(const ScenarioOptions& scenario);
 
 /// KITTI-like calibration (fx 707, baseline 0.537 m, image 1241x376).

@@ -110,6 +110,14 @@ RunSummary EstimatorRunner::summary() const {
   s.extra["sequencer_late"] = static_cast<double>(sequencer_.late());
   s.extra["frames_without_calibration"] = static_cast<double>(frames_without_calibration_);
   s.extra["trajectory_poses"] = static_cast<double>(trajectory_.size());
+  // Online calibration estimates at the end of the run.
+  s.extra["disparity_offset_px"] = estimator_.disparityOffset();
+  s.extra["disparity_offset_sigma_px"] = estimator_.disparityOffsetSigma();
+  s.extra["baseline_scale"] = estimator_.baselineScale();
+  const Vector6d bias = estimator_.twistBias();
+  for (int i = 0; i < 3; ++i) {
+    s.extra[std::string("gyro_bias_") + "xyz"[i]] = bias(3 + i);
+  }
   struct rusage usage {};
   if (getrusage(RUSAGE_SELF, &usage) == 0) {
     s.extra["peak_rss_mb"] = usage.ru_maxrss / 1024.0;  // Linux: kilobytes; whole process

@@ -509,6 +509,8 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
   status.add("active_landmarks", estimator.activeLandmarkCount());
   status.add("total_landmarks", estimator.landmarks().size());
   status.add("state_dimension", estimator.stateDimension());
+  status.add("disparity_offset_px", estimator.disparityOffset());
+  status.add("baseline_scale", estimator.baselineScale());
   status.add("observations_rejected", stats.observationsRejected());
   for (int i = 0; i < static_cast<int>(Counter::kCount); ++i) {
     status.add(counterName(static_cast<Counter>(i)), stats.get(static_cast<Counter>(i)));

@@ -404,7 +404,6 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result
   std::unordered_set<uint32_t> present;
   present.reserve(2 * count);
   std::vector<Candidate> updates, initializations;
-  std::vector<size_t> split_blocks;
   updates.reserve(count);
   auto rejectObservation = [&](Counter counter) {
     stats_.increment(counter);
@@ -429,12 +428,7 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result
       Candidate c;
       c.feature = f;
       auto it = tracking_.find(f.id);
-      if (it != tracking_.end() && options_.max_track_length > 0 &&
-          blocks_[it->second].frames > options_.max_track_length) {
-        // Long track: its landmark leaves the state and the track continues as a new landmark.
-        split_blocks.push_back(it->second);
-        initializations.push_back(std::move(c));
-      } else if (it != tracking_.end()) {
+      if (it != tracking_.end()) {
         c.block = it->second;
         updates.push_back(std::move(c));
       } else {
@@ -452,8 +446,6 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result
       any_ended = true;
     }
   }
-  for (size_t block : split_blocks) ended[block] = any_ended = true;
-  stats_.increment(Counter::kLandmarkSplit, split_blocks.size());
   if (any_ended) {
     if (options_.keep_all_landmarks_in_state) {
       for (size_t k = 0; k < blocks_.size(); ++k) {
@@ -498,7 +490,7 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
 
   // Predict each observation, gate it against its own innovation covariance.
   std::vector<Candidate*> accepted;
-  std::vector<size_t> remove_for_reinit;
+  std::vector<size_t> remove_for_reinit, remove_for_split;
   accepted.reserve(candidates->size());
   for (Candidate& c : *candidates) {
     const int row = landmarkRow(c.block);
@@ -563,6 +555,14 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
       continue;
     }
     blocks_[c.block].consecutive_gated = 0;
+    if (options_.max_track_length > 0 && blocks_[c.block].frames > options_.max_track_length) {
+      // Long track (real tracks drift off their point): the landmark leaves the state and the
+      // track goes on as a new landmark (new map entry) from this observation, which has just
+      // passed the gate, so an outlier never starts the new segment.
+      remove_for_split.push_back(c.block);
+      reinitialize->push_back(c);
+      continue;
+    }
     accepted.push_back(&c);
   }
 
@@ -646,11 +646,15 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
     }
   }
 
-  if (!remove_for_reinit.empty()) {
+  if (!remove_for_reinit.empty() || !remove_for_split.empty()) {
     std::vector<bool> remove(blocks_.size(), false);
     for (size_t b : remove_for_reinit) remove[b] = true;
+    for (size_t b : remove_for_split) remove[b] = true;
     removeBlocks(remove, /*count_as_marginalized=*/false);
     stats_.increment(Counter::kLandmarkReinitialized, remove_for_reinit.size());
+    stats_.increment(Counter::kLandmarkSplit, remove_for_split.size());
+    stats_.increment(Counter::kLandmarkMarginalized, remove_for_split.size());
+    result->landmarks_marginalized += static_cast<int>(remove_for_split.size());
   }
 }
 

@@ -93,7 +93,7 @@ struct VislamOptions {
   /// A landmark whose track has been seen in this many frames leaves the state (its estimate stays in
   /// the map) and its track continues as a new landmark (a new map entry with the same id): real
   /// feature tracks drift away from the physical point over time (README, "Accuracy"). 0 = never.
-  int max_track_length = 12;
+  int max_track_length = 0;
   bool keep_all_landmarks_in_state = false;  ///< never marginalize (exact, O(N^2) memory)
 
   // limits/ (input sanity)

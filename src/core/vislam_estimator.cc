@@ -689,8 +689,11 @@ bool VislamEstimator::initializeLandmark(const Candidate& c, double stamp, FeedR
   auto S = sigma_.topLeftCorner(dim_ + 3, dim_ + 3);
   // Error of the new landmark as a function of the state error: in SLAM mode the invariant error
   // xi = p_true - exp(phi^) p_mean = rho + R dp_imu to first order (correlated through rho), and
-  // the triangulation also depends on the disparity offset: A = d xi / d state (3 x dim).
-  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(3, dim_);
+  // the triangulation also depends on the calibration states: A = d xi / d state. Only the
+  // pose and auxiliary columns of A can be non-zero, so A is kept to those (3 x head): the cross
+  // covariance costs O(head dim), not O(dim^2).
+  const int head = kPoseDim + auxDim();
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(3, head);
   if (options_.mode == EstimatorMode::kSlam) A.leftCols<3>().setIdentity();
   if (disparity_dim_ > 0) {
     // Element-wise: GCC 12 reports a false -Warray-bounds on a vectorized 3-vector copy here.
@@ -702,10 +705,10 @@ bool VislamEstimator::initializeLandmark(const Candidate& c, double stamp, FeedR
         R_world_imu * imu_T_cam.topLeftCorner<3, 3>() * p_cam / (1.0 + baseline_scale_error_);
     for (int i = 0; i < 3; ++i) A(i, scaleRow()) = dp_dbeta(i);
   }
-  const Eigen::MatrixXd cross = A * S.topLeftCorner(dim_, dim_);  // Cov(xi, state)
+  const Eigen::MatrixXd cross = A * S.topLeftCorner(head, dim_);  // Cov(xi, state)
   S.block(row, 0, 3, dim_) = cross;
   S.block(0, row, dim_, 3) = cross.transpose();
-  sigma_ll += cross * A.transpose();
+  sigma_ll += cross.leftCols(head) * A.transpose();
   S.block<3, 3>(row, row) = sigma_ll;
   p_world_.segment<3>(row) = p_world;
   dim_ += 3;

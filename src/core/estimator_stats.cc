@@ -15,6 +15,7 @@ const char* counterName(Counter counter) {
     case Counter::kFrameStale: return "frame_stale";
     case Counter::kFrameNoCalibration: return "frame_no_calibration";
     case Counter::kFrameBeforeTwist: return "frame_before_twist";
+    case Counter::kFrameRepeated: return "frame_repeated";
     case Counter::kFrameCapped: return "frame_capped";
     case Counter::kFrameNonFiniteStamp: return "frame_non_finite_stamp";
     case Counter::kObservationUpdate: return "observation_update";
@@ -31,6 +32,7 @@ const char* counterName(Counter counter) {
     case Counter::kLandmarkInitialized: return "landmark_initialized";
     case Counter::kLandmarkReinitialized: return "landmark_reinitialized";
     case Counter::kLandmarkSplit: return "landmark_split";
+    case Counter::kLandmarkJump: return "landmark_jump";
     case Counter::kLandmarkMarginalized: return "landmark_marginalized";
     case Counter::kCovarianceRepaired: return "covariance_repaired";
     case Counter::kDivergenceRecovery: return "divergence_recovery";

@@ -353,6 +353,11 @@ constexpr size_t kGapFrames = 15;
 TEST(FaultHandling, TwistGapBeyondMaxTwistGapPredictPolicy) {
   VislamOptions o = faultOptions();
   o.gap_policy = GapPolicy::kPredict;
+  // Measured against the clean drive with the same options. The jump test is off here: it lowers
+  // the clean drive's final error to 0.487 m (0.642 m without) but not the heading error that
+  // 1+ s of prediction on a held twist adds (1.101 m with it, 1.225 m without), so 2x the clean
+  // figure would measure the jump test, not the gap handling.
+  o.jump_threshold_px = 0.0;
   VislamEstimator e = startedEstimator(o);
   const size_t resume = kFault + kGapFrames;
   ASSERT_GT(twistAt(resume).stamp - twistAt(kFault - 1).stamp, o.max_twist_gap);
@@ -567,6 +572,9 @@ TEST_F(ObservationFault, IdReappearingAfterItsTrackEndedIsANewLandmark) {
   const LandmarkEstimate old = e_->landmarks()[old_index];
   ASSERT_FALSE(old.active);
   const size_t map_before = e_->landmarks().size();
+  // Entries with this id so far (a track restarted by the jump test has more than one).
+  size_t entries_before = 0;
+  for (const LandmarkEstimate& l : e_->landmarks()) entries_before += l.id == back.id ? 1 : 0;
   faulty_.features.push_back(back);
   const TwinResult r = feed();
   EXPECT_EQ(r.extra(Counter::kLandmarkInitialized), 1);
@@ -580,7 +588,7 @@ TEST_F(ObservationFault, IdReappearingAfterItsTrackEndedIsANewLandmark) {
     ++entries;
     if (&l != &e_->landmarks()[old_index]) fresh = &l;
   }
-  EXPECT_EQ(entries, 2u);
+  EXPECT_EQ(entries, entries_before + 1);
   const LandmarkEstimate& after = e_->landmarks()[old_index];
   EXPECT_EQ(after.p_world, old.p_world);
   EXPECT_EQ(after.covariance, old.covariance);

@@ -2,6 +2,7 @@
 
 #include "ekf_vislam/core/chi_square.h"
 #include "ekf_vislam/core/se3.h"
+#include "ekf_vislam/core/track_jump_detector.h"
 
 #include <Eigen/Cholesky>
 
@@ -23,6 +24,9 @@ struct VislamEstimator::Candidate {
   Eigen::MatrixXd H_pose;      ///< rows x 6
   Eigen::MatrixXd H_landmark;  ///< rows x 3
   Eigen::MatrixXd H_calibration;  ///< rows x calibrationDim()
+  double mahalanobis2 = 0.0;   ///< of the residual against its own innovation covariance
+  bool predicted = false;      ///< false: the landmark is not in front of the camera
+  bool jumped = false;         ///< the track-jump test flagged it
 };
 
 namespace {
@@ -43,10 +47,17 @@ Eigen::MatrixXd observationSelector(bool merge_rows) {
   return M;
 }
 
+// Covariance of the observation rows (observationSelector): each pixel_sigma, independent.
+Eigen::MatrixXd observationNoise(const VislamOptions& options) {
+  const int rows = options.merge_stereo_rows ? 3 : 4;
+  return options.pixel_sigma * options.pixel_sigma * Eigen::MatrixXd::Identity(rows, rows);
+}
+
 }  // namespace
 
 VislamEstimator::VislamEstimator(const VislamOptions& options) : options_(options) {
   rows_per_observation_ = options_.merge_stereo_rows ? 3 : 4;
+  observation_noise_ = observationNoise(options_);
   gate_threshold_ = chiSquareQuantile(options_.gating_probability, rows_per_observation_);
   restart_threshold_ = chiSquareQuantile(0.9999, rows_per_observation_);
   if (options_.estimate_velocity_bias) bias_components_.insert(bias_components_.end(), {0, 1, 2});
@@ -113,6 +124,8 @@ void VislamEstimator::initializeState() {
   last_twist_stamp_ = 0.0;
   in_twist_gap_ = false;
   has_frame_ = false;
+  repeated_frames_.reset();
+  jump_test_paused_frames_ = 0;
   last_frame_stamp_ = 0.0;
   held_twist_ = TwistData();
   imu_T_world_.setIdentity();
@@ -250,6 +263,7 @@ void VislamEstimator::advanceTo(double stamp, const TwistData& twist, double twi
   if (since_twist > options_.max_twist_gap) {
     // No twist for too long (whether frames kept coming or not): once per gap, apply the policy.
     noise_scale = options_.gap_noise_scale;
+    jump_test_paused_frames_ = kJumpTestPauseAfterGap;
     if (!in_twist_gap_) {
       in_twist_gap_ = true;
       stats_.increment(Counter::kTwistGap);
@@ -379,6 +393,15 @@ FeedResult VislamEstimator::feedFeatures(const FeatureFrame& frame) {
   last_frame_stamp_ = frame.stamp;
   stats_.increment(Counter::kFrameUsed);
   if (frame.features.empty()) stats_.increment(Counter::kFrameEmpty);
+  if (repeated_frames_.isRepeat(frame)) {
+    stats_.increment(Counter::kFrameRepeated);
+    if (options_.skip_repeated_frames) {
+      // Predicted to its stamp (the trajectory has a pose there) but not used: its tracks stay.
+      result.message =
+          "feature frame repeats the previous one (every shared track identical): skipped";
+      return result;
+    }
+  }
   if (options_.mode == EstimatorMode::kDeadReckoning) {
     stats_.increment(Counter::kObsIgnoredDeadReckoning, frame.features.size());
     return result;
@@ -469,9 +492,13 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result
   // 3. Joint update with the re-observed landmarks; 4. new landmarks from the corrected pose.
   std::vector<Candidate> reinitialize;
   const int candidates = static_cast<int>(updates.size());
-  const uint64_t gated_before = stats_.get(Counter::kObsGated);
+  // Observations that disagree with the filter: gated, or restarted by the jump test.
+  auto disagreeing = [this]() {
+    return stats_.get(Counter::kObsGated) + stats_.get(Counter::kLandmarkJump);
+  };
+  const uint64_t gated_before = disagreeing();
   if (!updates.empty()) update(&updates, &reinitialize, result);
-  const int gated = static_cast<int>(stats_.get(Counter::kObsGated) - gated_before);
+  const int gated = static_cast<int>(disagreeing() - gated_before);
   for (const Candidate& c : reinitialize) initializeLandmark(c, frame.stamp, result);
   for (const Candidate& c : initializations) initializeLandmark(c, frame.stamp, result);
   syncBlocksToMap();
@@ -482,15 +509,14 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
                              std::vector<Candidate>* reinitialize, FeedResult* result) {
   const int r = rows_per_observation_;
   const Eigen::MatrixXd M = observationSelector(options_.merge_stereo_rows);
-  const double pixel_var = options_.pixel_sigma * options_.pixel_sigma;
   const bool correct_pose = options_.mode == EstimatorMode::kSlam;
   auto S = sigma_.topLeftCorner(dim_, dim_);
   const int nc = calibrationDim();
   const int calibration_row = calibrationRow();
 
-  // Predict each observation, gate it against its own innovation covariance.
+  // Predict each observation and its Mahalanobis distance against its own innovation covariance.
   std::vector<Candidate*> accepted;
-  std::vector<size_t> remove_for_reinit, remove_for_split;
+  std::vector<size_t> remove_for_reinit, remove_for_split, remove_for_jump;
   accepted.reserve(candidates->size());
   for (Candidate& c : *candidates) {
     const int row = landmarkRow(c.block);
@@ -501,8 +527,10 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
                          options_.min_depth * 0.5)) {
       stats_.increment(Counter::kObsBehindCamera);
       ++result->observations_rejected;
+      blocks_[c.block].has_flow_reference = false;
       continue;
     }
+    c.predicted = true;
     const Eigen::Vector4d z(c.feature.u_left, c.feature.v_left, c.feature.u_right,
                             c.feature.v_right);
     // d z / d calibration: the uR row only. Offset: measured uR = true uR - offset. Baseline
@@ -532,8 +560,21 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
       for (int b = 0; b < 9 + nc; ++b) sub(a, b) = S(index[a], index[b]);
     }
     Eigen::MatrixXd Si = Hi * sub * Hi.transpose();
-    Si.diagonal().array() += pixel_var;
-    const double d2 = c.residual.dot(Si.ldlt().solve(c.residual));
+    Si += observation_noise_;
+    c.mahalanobis2 = c.residual.dot(Si.ldlt().solve(c.residual));
+  }
+  detectJumps(candidates);
+
+  for (Candidate& c : *candidates) {
+    if (!c.predicted) continue;
+    if (c.jumped) {
+      // The track slid onto another point: the landmark leaves the state (its estimate stays in
+      // the map) and the track goes on as a new landmark from this observation.
+      remove_for_jump.push_back(c.block);
+      reinitialize->push_back(c);
+      continue;
+    }
+    const double d2 = c.mahalanobis2;
     if (!(d2 <= gate_threshold_)) {
       stats_.increment(Counter::kObsGated);
       ++result->observations_rejected;
@@ -541,6 +582,7 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
       // that keeps failing the gate has jumped (seen in the KITTI tracks): restart either from
       // its current observation instead of gating the rest of its track away.
       StateBlock& block = blocks_[c.block];
+      block.has_flow_reference = false;
       // Only gross disagreement counts towards a restart: chance gatings of a good track (5 % at
       // a 95 % gate) must not throw its accumulated information away.
       if (d2 > restart_threshold_) ++block.consecutive_gated;
@@ -595,7 +637,7 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
       }
       residual.segment(k * r, r) = c.residual;
     }
-    innovation_cov.diagonal().array() += pixel_var;
+    for (int k = 0; k < n; ++k) innovation_cov.block(k * r, k * r, r, r) += observation_noise_;
     Eigen::LLT<Eigen::MatrixXd> llt(innovation_cov);
     if (llt.info() != Eigen::Success) {
       stats_.increment(Counter::kUpdateNonFinite);
@@ -646,16 +688,71 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
     }
   }
 
-  if (!remove_for_reinit.empty() || !remove_for_split.empty()) {
+  for (const Candidate* c : accepted) setFlowReference(c->block, c->feature);
+
+  if (!remove_for_reinit.empty() || !remove_for_split.empty() || !remove_for_jump.empty()) {
     std::vector<bool> remove(blocks_.size(), false);
     for (size_t b : remove_for_reinit) remove[b] = true;
     for (size_t b : remove_for_split) remove[b] = true;
+    for (size_t b : remove_for_jump) remove[b] = true;
     removeBlocks(remove, /*count_as_marginalized=*/false);
+    const size_t ended = remove_for_split.size() + remove_for_jump.size();
     stats_.increment(Counter::kLandmarkReinitialized, remove_for_reinit.size());
     stats_.increment(Counter::kLandmarkSplit, remove_for_split.size());
-    stats_.increment(Counter::kLandmarkMarginalized, remove_for_split.size());
-    result->landmarks_marginalized += static_cast<int>(remove_for_split.size());
+    stats_.increment(Counter::kLandmarkJump, remove_for_jump.size());
+    stats_.increment(Counter::kLandmarkMarginalized, ended);
+    result->landmarks_marginalized += static_cast<int>(ended);
   }
+}
+
+void VislamEstimator::detectJumps(std::vector<Candidate>* candidates) {
+  if (options_.jump_threshold_px <= 0.0) return;
+  if (jump_test_paused_frames_ > 0) {
+    --jump_test_paused_frames_;
+    return;
+  }
+  auto S = sigma_.topLeftCorner(dim_, dim_);
+  std::vector<FlowCheck> checks;
+  std::vector<Candidate*> checked;
+  checks.reserve(candidates->size());
+  checked.reserve(candidates->size());
+  for (Candidate& c : *candidates) {
+    const StateBlock& block = blocks_[c.block];
+    if (!c.predicted || !block.has_flow_reference) continue;
+    const int row = landmarkRow(c.block);
+    FlowCheck check;
+    check.residual_change = c.residual.head<2>() - block.flow_residual;
+    // Pose error exp(eps^) world_T_imu with the landmark fixed: d p_world = -rho - phi x p.
+    const Eigen::Matrix<double, 2, 3> H = c.H_landmark.topRows<2>();
+    check.H_pose.leftCols<3>() = -H;
+    check.H_pose.rightCols<3>() = H * se3::hat(Eigen::Vector3d(p_world_.segment<3>(row)));
+    // The landmark's own error moves both predictions: (H_now - H_before) Sigma_l (...)^T.
+    const Eigen::Matrix<double, 2, 3> D = H - block.flow_H_landmark;
+    check.landmark_variance = (D * S.block<3, 3>(row, row) * D.transpose()).diagonal();
+    checks.push_back(check);
+    checked.push_back(&c);
+  }
+  TrackJumpOptions jump_options;
+  jump_options.threshold_px = options_.jump_threshold_px;
+  jump_options.threshold_sigmas = options_.jump_threshold_sigmas;
+  const TrackJumpResult jumps = detectTrackJumps(checks, jump_options);
+  for (size_t i = 0; i < checked.size(); ++i) checked[i]->jumped = jumps.jumped[i];
+}
+
+void VislamEstimator::setFlowReference(size_t block, const StereoObservation& f) {
+  StateBlock& b = blocks_[block];
+  Eigen::Vector4d z_pred;
+  Matrix43d H_landmark;
+  b.has_flow_reference = camera_.project(imu_T_world_, p_world_.segment<3>(landmarkRow(block)),
+                                         &z_pred, nullptr, &H_landmark, options_.min_depth * 0.5);
+  if (!b.has_flow_reference) return;
+  const double v_pred = options_.merge_stereo_rows ? 0.5 * (z_pred(1) + z_pred(3)) : z_pred(1);
+  const double v = options_.merge_stereo_rows ? 0.5 * (f.v_left + f.v_right) : f.v_left;
+  b.flow_residual = Eigen::Vector2d(f.u_left - z_pred(0), v - v_pred);
+  b.flow_H_landmark.row(0) = H_landmark.row(0);
+  b.flow_H_landmark.row(1) = options_.merge_stereo_rows
+                                 ? Eigen::RowVector3d(0.5 * (H_landmark.row(1) + H_landmark.row(3)))
+                                 : Eigen::RowVector3d(H_landmark.row(1));
 }
 
 bool VislamEstimator::initializeLandmark(const Candidate& c, double stamp, FeedResult* result) {
@@ -680,9 +777,9 @@ bool VislamEstimator::initializeLandmark(const Candidate& c, double stamp, FeedR
   const Eigen::Vector3d p_world =
       R_world_imu * (p_imu - imu_T_world_.topRightCorner<3, 1>());
 
-  const double pixel_var = options_.pixel_sigma * options_.pixel_sigma;
+  // Noise of (uL, v, uR): the first three observation rows in either layout.
   const Eigen::Matrix3d J_z = R_world_imu * imu_T_cam.topLeftCorner<3, 3>() * J_uvu;
-  Eigen::Matrix3d sigma_ll = pixel_var * J_z * J_z.transpose();
+  Eigen::Matrix3d sigma_ll = J_z * observation_noise_.topLeftCorner<3, 3>() * J_z.transpose();
 
   const int row = dim_;
   ensureCapacity(dim_ + 3);
@@ -723,6 +820,7 @@ bool VislamEstimator::initializeLandmark(const Candidate& c, double stamp, FeedR
   estimate.first_stamp = estimate.last_stamp = stamp;
   blocks_.push_back(StateBlock{reuse ? c.reuse_map_index : map_.size() - 1, true});
   tracking_[f.id] = blocks_.size() - 1;
+  setFlowReference(blocks_.size() - 1, f);
   stats_.increment(Counter::kLandmarkInitialized);
   stats_.increment(Counter::kObservationInitialized);
   ++result->landmarks_initialized;

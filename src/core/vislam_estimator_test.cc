@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
+
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -369,6 +371,92 @@ TEST(VislamEstimator, LongTracksAreSplitIntoNewLandmarks) {
   EXPECT_TRUE(estimator.landmarks()[2].active);
   EXPECT_EQ(estimator.stats().get(Counter::kLandmarkSplit), 2u);
   EXPECT_EQ(estimator.activeLandmarkCount(), 1u);
+}
+
+TEST(VislamEstimator, TrackJumpsBecomeNewLandmarks) {
+  // Every tenth track slides onto another point at its 5th frame (a constant 5 px / 3 px shift
+  // from then on, as real KLT tracks do): the flow test restarts those tracks as new landmarks,
+  // and the drive is more accurate than with the test off.
+  ScenarioOptions so;
+  so.frames = 400;
+  so.pixel_sigma = 0.3;
+  Scenario s = makeScenario(so);
+  std::map<uint32_t, int> seen;
+  int slides = 0;
+  for (FeatureFrame& frame : s.frames) {
+    for (StereoObservation& f : frame.features) {
+      if (f.id % 10 != 3) continue;
+      const int count = ++seen[f.id];
+      if (count == 5) ++slides;
+      if (count >= 5) {
+        f.u_left += 5.0;
+        f.u_right += 5.0;
+        f.v_left += 3.0;
+        f.v_right += 3.0;
+      }
+    }
+  }
+  ASSERT_GT(slides, 50);
+  auto runWith = [&](double threshold_px, uint64_t* jumps) {
+    VislamOptions o = testing::matchedOptions(so);
+    o.jump_threshold_px = threshold_px;
+    VislamEstimator estimator(o);
+    EXPECT_TRUE(estimator.setCalibration(s.calibration));
+    double sq = 0.0;
+    for (size_t k = 0; k < s.frames.size(); ++k) {
+      estimator.feedTwist(s.twists[k]);
+      estimator.feedFeatures(s.frames[k]);
+      sq += (estimator.worldTImu().translation() - s.world_T_imu[k].topRightCorner<3, 1>())
+                .squaredNorm();
+    }
+    *jumps = estimator.stats().get(Counter::kLandmarkJump);
+    return std::sqrt(sq / s.frames.size());
+  };
+  uint64_t jumps_on = 0, jumps_off = 0;
+  const double ate_on = runWith(0.5, &jumps_on);
+  const double ate_off = runWith(0.0, &jumps_off);
+  std::printf("%d slides: %lu jumps found, ATE %.3f m (test off: %.3f m)\n", slides,
+              static_cast<unsigned long>(jumps_on), ate_on, ate_off);
+  EXPECT_EQ(jumps_off, 0u);
+  EXPECT_GE(jumps_on, static_cast<uint64_t>(0.8 * slides));
+  EXPECT_LE(jumps_on, static_cast<uint64_t>(3 * slides));  // few false alarms on the clean tracks
+  EXPECT_LT(ate_on, ate_off);
+}
+
+TEST(VislamEstimator, RepeatedFramesAreCountedAndOptionallySkipped) {
+  // Frame 11 replaced by a copy of frame 10 (a re-published tracker output, re-stamped): counted
+  // either way; skipped, the estimate equals that of a run that never received frame 11; used,
+  // it differs.
+  ScenarioOptions so;
+  so.frames = 20;
+  const Scenario s = makeScenario(so);
+  enum class Frame11 { kRepeated, kAbsent };
+  auto runWith = [&](bool skip, Frame11 frame11, uint64_t* repeated) {
+    VislamOptions o = testing::matchedOptions(so);
+    o.skip_repeated_frames = skip;
+    VislamEstimator estimator(o);
+    EXPECT_TRUE(estimator.setCalibration(s.calibration));
+    for (size_t k = 0; k < s.frames.size(); ++k) {
+      estimator.feedTwist(s.twists[k]);
+      FeatureFrame frame = s.frames[k];
+      if (k == 11) {
+        if (frame11 == Frame11::kAbsent) continue;
+        frame.features = s.frames[10].features;
+      }
+      estimator.feedFeatures(frame);
+    }
+    *repeated = estimator.stats().get(Counter::kFrameRepeated);
+    return Eigen::Matrix4d(estimator.worldTImu().matrix());
+  };
+  uint64_t n_skip = 0, n_use = 0, n_absent = 0;
+  const Eigen::Matrix4d skipped = runWith(true, Frame11::kRepeated, &n_skip);
+  const Eigen::Matrix4d used = runWith(false, Frame11::kRepeated, &n_use);
+  const Eigen::Matrix4d absent = runWith(true, Frame11::kAbsent, &n_absent);
+  EXPECT_EQ(n_skip, 1u);
+  EXPECT_EQ(n_use, 1u);
+  EXPECT_EQ(n_absent, 0u);
+  EXPECT_LT((skipped - absent).norm(), 1e-12);
+  EXPECT_GT((skipped - used).norm(), 1e-6);
 }
 
 TEST(VislamEstimator, LandmarkLifeCycleAugmentMarginalizeKeepInMap) {

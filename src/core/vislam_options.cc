@@ -104,6 +104,8 @@ std::string VislamOptions::validate() const {
   positive("landmarks/min_disparity_px", min_disparity_px);
   positive("landmarks/min_depth", min_depth);
   positive("landmarks/max_depth", max_depth);
+  non_negative("landmarks/jump_threshold_px", jump_threshold_px);
+  positive("landmarks/jump_threshold_sigmas", jump_threshold_sigmas);
   positive("limits/max_linear_speed", max_linear_speed);
   positive("limits/max_angular_speed", max_angular_speed);
   positive("limits/max_twist_gap", max_twist_gap);
@@ -165,6 +167,8 @@ bool parseVislamOptions(const ParameterSource& source, VislamOptions* o, std::st
   r.number("landmarks/gating_probability", &o->gating_probability);
   r.integer("landmarks/reinitialize_after_gated", &o->reinitialize_after_gated);
   r.integer("landmarks/max_track_length", &o->max_track_length);
+  r.number("landmarks/jump_threshold_px", &o->jump_threshold_px);
+  r.number("landmarks/jump_threshold_sigmas", &o->jump_threshold_sigmas);
   r.flag("landmarks/keep_all_in_state", &o->keep_all_landmarks_in_state);
   r.number("limits/max_linear_speed", &o->max_linear_speed);
   r.number("limits/max_angular_speed", &o->max_angular_speed);
@@ -173,6 +177,7 @@ bool parseVislamOptions(const ParameterSource& source, VislamOptions* o, std::st
            {{"predict", GapPolicy::kPredict}, {"reset", GapPolicy::kReset}});
   r.number("limits/gap_noise_scale", &o->gap_noise_scale);
   r.number("limits/max_row_difference_px", &o->max_row_difference_px);
+  r.flag("limits/skip_repeated_frames", &o->skip_repeated_frames);
   r.integer("limits/max_features_per_frame", &o->max_features_per_frame);
   r.number("health/max_position_sigma", &o->max_position_sigma);
   r.integer("health/max_rejected_frames", &o->max_rejected_frames);

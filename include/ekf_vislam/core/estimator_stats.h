@@ -23,6 +23,7 @@ enum class Counter : int {
   kFrameStale,               ///< stamp older than the filter time: rejected
   kFrameNoCalibration,       ///< calibration missing or invalid: rejected
   kFrameBeforeTwist,         ///< no twist yet: rejected (the filter has no time origin)
+  kFrameRepeated,            ///< every shared track identical to the previous frame: skipped
   kFrameCapped,              ///< more than limits/max_features_per_frame: extra features dropped
   kFrameNonFiniteStamp,      ///< stamp NaN/Inf: rejected
   // Observations (one feature of one frame)
@@ -42,6 +43,7 @@ enum class Counter : int {
   kLandmarkReinitialized,    ///< a landmark whose first observation was gated out restarted
   kLandmarkMarginalized,
   kLandmarkSplit,            ///< a track reached landmarks/max_track_length: continued as a new landmark
+  kLandmarkJump,             ///< a track jumped (flow test): continued as a new landmark
   // Filter health
   kCovarianceRepaired,       ///< covariance lost symmetry/positivity and was repaired
   kDivergenceRecovery,       ///< divergence detected; recovery policy applied

@@ -22,6 +22,7 @@
 #pragma once
 
 #include "ekf_vislam/core/estimator_stats.h"
+#include "ekf_vislam/core/repeated_frame_detector.h"
 #include "ekf_vislam/core/stereo_camera.h"
 #include "ekf_vislam/core/types.h"
 #include "ekf_vislam/core/vislam_options.h"
@@ -108,6 +109,11 @@ class VislamEstimator {
     bool tracking = true;  ///< false: its track ended but the block stays (keep_all_in_state)
     int consecutive_gated = 0;  ///< frames in a row whose observation failed the gate
     int frames = 1;  ///< frames its track has been seen in since this landmark started
+    /// Residual [uL, v] (px) left after the last update that used it: the reference of the next
+    /// frame's track-jump test. Valid only when has_flow_reference.
+    Eigen::Vector2d flow_residual = Eigen::Vector2d::Zero();
+    Eigen::Matrix<double, 2, 3> flow_H_landmark = Eigen::Matrix<double, 2, 3>::Zero();
+    bool has_flow_reference = false;
   };
 
   void initializeState();
@@ -120,6 +126,11 @@ class VislamEstimator {
   void update(std::vector<Candidate>* candidates, std::vector<Candidate>* reinitialize,
               FeedResult* result);
   bool initializeLandmark(const Candidate& candidate, double stamp, FeedResult* result);
+  /// Flags the candidates whose track jumped (options jump_threshold_*; track_jump_detector.h).
+  void detectJumps(std::vector<Candidate>* candidates);
+  /// Residual [uL, v] of observation f against block's landmark at the current state: the
+  /// reference of the next frame's jump test.
+  void setFlowReference(size_t block, const StereoObservation& f);
   /// Removes the blocks whose flag is set (their final estimate stays in the map).
   void removeBlocks(const std::vector<bool>& remove, bool count_as_marginalized = true);
   void ensureCapacity(int dim);
@@ -154,6 +165,7 @@ class VislamEstimator {
   StereoCamera camera_;
   bool has_calibration_ = false;
   int rows_per_observation_ = 3;
+  Eigen::MatrixXd observation_noise_;  ///< covariance of one observation's rows
   double gate_threshold_ = 0.0;
   double restart_threshold_ = 0.0;  ///< chi-square 0.9999: gross disagreement (track jumped)
   std::vector<int> bias_components_;  ///< entries of u = [v; w] whose bias is estimated
@@ -166,6 +178,11 @@ class VislamEstimator {
   bool has_frame_ = false;
   double last_frame_stamp_ = 0.0;
   TwistData held_twist_;
+  RepeatedFrameDetector repeated_frames_;
+  /// Set by a prediction across a twist gap: the next frame's pose error is too large for the
+  /// linearized common-motion fit of the jump test, which is skipped for this many frames.
+  static constexpr int kJumpTestPauseAfterGap = 1;
+  int jump_test_paused_frames_ = 0;
 
   // State.
   Eigen::Matrix4d imu_T_world_ = Eigen::Matrix4d::Identity();

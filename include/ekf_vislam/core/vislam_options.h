@@ -94,6 +94,13 @@ struct VislamOptions {
   /// the map) and its track continues as a new landmark (a new map entry with the same id): real
   /// feature tracks drift away from the physical point over time (README, "Accuracy"). 0 = never.
   int max_track_length = 0;
+  /// Track-jump test (track_jump_detector.h): once the pose error common to all landmarks is
+  /// removed, a re-observed landmark whose frame-to-frame flow error in uL or v exceeds
+  /// jump_threshold_px and jump_threshold_sigmas robust standard deviations has jumped to another
+  /// point: its landmark leaves the state and the track continues as a new landmark.
+  /// jump_threshold_px = 0: off.
+  double jump_threshold_px = 0.5;
+  double jump_threshold_sigmas = 3.0;
   bool keep_all_landmarks_in_state = false;  ///< never marginalize (exact, O(N^2) memory)
 
   // limits/ (input sanity)
@@ -103,6 +110,9 @@ struct VislamOptions {
   GapPolicy gap_policy = GapPolicy::kPredict;
   double gap_noise_scale = 10.0;        ///< process noise multiplier across a gap
   double max_row_difference_px = 5.0;   ///< |vL - vR| beyond: rejected (rectified pair)
+  /// A feature frame in which every track shared with the previous frame has identical
+  /// coordinates (a re-published tracker result) is skipped (repeated_frame_detector.h).
+  bool skip_repeated_frames = false;
   int max_features_per_frame = 400;     ///< 0 = unlimited; extra features of a frame dropped
 
   // health/

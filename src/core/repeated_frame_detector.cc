@@ -1,0 +1,24 @@
+#include "ekf_vislam/core/repeated_frame_detector.h"
+
+namespace ekf_vislam {
+
+bool RepeatedFrameDetector::isRepeat(const FeatureFrame& frame) {
+  int shared = 0;
+  bool identical = true;
+  std::unordered_map<uint32_t, Eigen::Vector4d> current;
+  current.reserve(frame.features.size());
+  for (const StereoObservation& f : frame.features) {
+    const Eigen::Vector4d z(f.u_left, f.v_left, f.u_right, f.v_right);
+    current.emplace(f.id, z);
+    auto it = previous_.find(f.id);
+    if (it == previous_.end()) continue;
+    ++shared;
+    // Bit-identical (NaN never is): a fresh measurement of a real tracker differs at least in
+    // its sub-pixel digits.
+    if (!(it->second.array() == z.array()).all()) identical = false;
+  }
+  previous_.swap(current);
+  return identical && shared >= min_shared_;
+}
+
+}  // namespace ekf_vislam

@@ -1,0 +1,54 @@
+#include "ekf_vislam/core/repeated_frame_detector.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace ekf_vislam {
+namespace {
+
+FeatureFrame frameOf(int first_id, int count, double shift) {
+  FeatureFrame frame;
+  for (int i = 0; i < count; ++i) {
+    StereoObservation f;
+    f.id = first_id + i;
+    f.u_left = 100.0 + 7.0 * i + shift;
+    f.v_left = f.v_right = 50.0 + 3.0 * i;
+    f.u_right = f.u_left - 20.0;
+    frame.features.push_back(f);
+  }
+  return frame;
+}
+
+TEST(RepeatedFrameDetector, IdenticalSharedTracksAreARepeat) {
+  RepeatedFrameDetector detector;
+  EXPECT_FALSE(detector.isRepeat(frameOf(0, 10, 0.0)));  // nothing to compare with
+  EXPECT_FALSE(detector.isRepeat(frameOf(0, 10, 0.5)));  // moved
+  // Same tracks, same coordinates, plus tracks that are new in this frame: still a repeat.
+  FeatureFrame again = frameOf(0, 10, 0.5);
+  const FeatureFrame extra = frameOf(100, 3, 0.0);
+  again.features.insert(again.features.end(), extra.features.begin(), extra.features.end());
+  EXPECT_TRUE(detector.isRepeat(again));
+  EXPECT_FALSE(detector.isRepeat(frameOf(0, 10, 0.6)));
+}
+
+TEST(RepeatedFrameDetector, OneMovedTrackOrTooFewSharedIsNotARepeat) {
+  RepeatedFrameDetector detector(5);
+  detector.isRepeat(frameOf(0, 10, 0.0));
+  FeatureFrame almost = frameOf(0, 10, 0.0);
+  almost.features[4].v_right += 1e-9;
+  EXPECT_FALSE(detector.isRepeat(almost));
+  detector.isRepeat(frameOf(0, 10, 0.0));
+  EXPECT_FALSE(detector.isRepeat(frameOf(6, 10, 0.0 + 7.0 * 6)));  // 4 shared, all moved...
+  detector.isRepeat(frameOf(0, 10, 0.0));
+  EXPECT_FALSE(detector.isRepeat(frameOf(0, 4, 0.0)));  // 4 identical shared: below 5
+  detector.isRepeat(frameOf(0, 10, 0.0));
+  FeatureFrame nan = frameOf(0, 10, 0.0);
+  nan.features[0].u_left = std::nan("");
+  detector.isRepeat(nan);
+  EXPECT_FALSE(detector.isRepeat(nan));  // NaN never compares equal
+  EXPECT_FALSE(detector.isRepeat(FeatureFrame{}));
+}
+
+}  // namespace
+}  // namespace ekf_vislam

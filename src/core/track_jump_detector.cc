@@ -26,7 +26,6 @@ TrackJumpResult detectTrackJumps(const std::vector<FlowCheck>& checks,
                                  const TrackJumpOptions& options) {
   TrackJumpResult result;
   result.jumped.assign(checks.size(), false);
-  result.normalized_error.assign(checks.size(), 0.0);
   if (options.threshold_px <= 0.0 || static_cast<int>(checks.size()) < options.min_checks) {
     return result;
   }
@@ -78,7 +77,6 @@ TrackJumpResult detectTrackJumps(const std::vector<FlowCheck>& checks,
           std::sqrt(result.sigma_px * result.sigma_px + checks[i].landmark_variance(j));
       const double threshold = std::max(options.threshold_px, options.threshold_sigmas * sigma);
       if (std::fabs(e(j)) > threshold) result.jumped[i] = true;
-      result.normalized_error[i] = std::max(result.normalized_error[i], std::fabs(e(j)) / sigma);
     }
     if (result.jumped[i]) ++flagged;
   }

@@ -47,17 +47,11 @@ Eigen::MatrixXd observationSelector(bool merge_rows) {
   return M;
 }
 
-// Covariance of the observation rows (observationSelector): each pixel_sigma, independent.
-Eigen::MatrixXd observationNoise(const VislamOptions& options) {
-  const int rows = options.merge_stereo_rows ? 3 : 4;
-  return options.pixel_sigma * options.pixel_sigma * Eigen::MatrixXd::Identity(rows, rows);
-}
-
 }  // namespace
 
 VislamEstimator::VislamEstimator(const VislamOptions& options) : options_(options) {
   rows_per_observation_ = options_.merge_stereo_rows ? 3 : 4;
-  observation_noise_ = observationNoise(options_);
+  observation_selector_ = observationSelector(options_.merge_stereo_rows);
   gate_threshold_ = chiSquareQuantile(options_.gating_probability, rows_per_observation_);
   restart_threshold_ = chiSquareQuantile(0.9999, rows_per_observation_);
   if (options_.estimate_velocity_bias) bias_components_.insert(bias_components_.end(), {0, 1, 2});
@@ -125,7 +119,7 @@ void VislamEstimator::initializeState() {
   in_twist_gap_ = false;
   has_frame_ = false;
   repeated_frames_.reset();
-  jump_test_paused_frames_ = 0;
+  jump_test_paused_ = false;
   last_frame_stamp_ = 0.0;
   held_twist_ = TwistData();
   imu_T_world_.setIdentity();
@@ -263,7 +257,7 @@ void VislamEstimator::advanceTo(double stamp, const TwistData& twist, double twi
   if (since_twist > options_.max_twist_gap) {
     // No twist for too long (whether frames kept coming or not): once per gap, apply the policy.
     noise_scale = options_.gap_noise_scale;
-    jump_test_paused_frames_ = kJumpTestPauseAfterGap;
+    jump_test_paused_ = true;
     if (!in_twist_gap_) {
       in_twist_gap_ = true;
       stats_.increment(Counter::kTwistGap);
@@ -508,7 +502,8 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result
 void VislamEstimator::update(std::vector<Candidate>* candidates,
                              std::vector<Candidate>* reinitialize, FeedResult* result) {
   const int r = rows_per_observation_;
-  const Eigen::MatrixXd M = observationSelector(options_.merge_stereo_rows);
+  const Eigen::MatrixXd& M = observation_selector_;
+  const double pixel_var = options_.pixel_sigma * options_.pixel_sigma;
   const bool correct_pose = options_.mode == EstimatorMode::kSlam;
   auto S = sigma_.topLeftCorner(dim_, dim_);
   const int nc = calibrationDim();
@@ -560,7 +555,7 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
       for (int b = 0; b < 9 + nc; ++b) sub(a, b) = S(index[a], index[b]);
     }
     Eigen::MatrixXd Si = Hi * sub * Hi.transpose();
-    Si += observation_noise_;
+    Si.diagonal().array() += pixel_var;
     c.mahalanobis2 = c.residual.dot(Si.ldlt().solve(c.residual));
   }
   detectJumps(candidates);
@@ -637,7 +632,7 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
       }
       residual.segment(k * r, r) = c.residual;
     }
-    for (int k = 0; k < n; ++k) innovation_cov.block(k * r, k * r, r, r) += observation_noise_;
+    innovation_cov.diagonal().array() += pixel_var;
     Eigen::LLT<Eigen::MatrixXd> llt(innovation_cov);
     if (llt.info() != Eigen::Success) {
       stats_.increment(Counter::kUpdateNonFinite);
@@ -707,8 +702,8 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
 
 void VislamEstimator::detectJumps(std::vector<Candidate>* candidates) {
   if (options_.jump_threshold_px <= 0.0) return;
-  if (jump_test_paused_frames_ > 0) {
-    --jump_test_paused_frames_;
+  if (jump_test_paused_) {
+    jump_test_paused_ = false;
     return;
   }
   auto S = sigma_.topLeftCorner(dim_, dim_);
@@ -746,13 +741,11 @@ void VislamEstimator::setFlowReference(size_t block, const StereoObservation& f)
   b.has_flow_reference = camera_.project(imu_T_world_, p_world_.segment<3>(landmarkRow(block)),
                                          &z_pred, nullptr, &H_landmark, options_.min_depth * 0.5);
   if (!b.has_flow_reference) return;
-  const double v_pred = options_.merge_stereo_rows ? 0.5 * (z_pred(1) + z_pred(3)) : z_pred(1);
-  const double v = options_.merge_stereo_rows ? 0.5 * (f.v_left + f.v_right) : f.v_left;
-  b.flow_residual = Eigen::Vector2d(f.u_left - z_pred(0), v - v_pred);
-  b.flow_H_landmark.row(0) = H_landmark.row(0);
-  b.flow_H_landmark.row(1) = options_.merge_stereo_rows
-                                 ? Eigen::RowVector3d(0.5 * (H_landmark.row(1) + H_landmark.row(3)))
-                                 : Eigen::RowVector3d(H_landmark.row(1));
+  // Rows uL and v of the observation (the first two of observationSelector in either layout).
+  const Eigen::Matrix<double, 2, 4> M2 = observation_selector_.topRows<2>();
+  const Eigen::Vector4d z(f.u_left, f.v_left, f.u_right, f.v_right);
+  b.flow_residual = M2 * (z - z_pred);
+  b.flow_H_landmark = M2 * H_landmark;
 }
 
 bool VislamEstimator::initializeLandmark(const Candidate& c, double stamp, FeedResult* result) {
@@ -777,9 +770,9 @@ bool VislamEstimator::initializeLandmark(const Candidate& c, double stamp, FeedR
   const Eigen::Vector3d p_world =
       R_world_imu * (p_imu - imu_T_world_.topRightCorner<3, 1>());
 
-  // Noise of (uL, v, uR): the first three observation rows in either layout.
+  const double pixel_var = options_.pixel_sigma * options_.pixel_sigma;
   const Eigen::Matrix3d J_z = R_world_imu * imu_T_cam.topLeftCorner<3, 3>() * J_uvu;
-  Eigen::Matrix3d sigma_ll = J_z * observation_noise_.topLeftCorner<3, 3>() * J_z.transpose();
+  Eigen::Matrix3d sigma_ll = pixel_var * J_z * J_z.transpose();
 
   const int row = dim_;
   ensureCapacity(dim_ + 3);

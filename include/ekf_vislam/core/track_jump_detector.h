@@ -29,8 +29,6 @@ struct TrackJumpOptions {
 
 struct TrackJumpResult {
   std::vector<bool> jumped;  ///< per check
-  /// per check: largest component of the remaining flow error in robust standard deviations
-  std::vector<double> normalized_error;
   bool tested = false;  ///< false: too few checks (or off); nothing flagged
   Eigen::Matrix<double, 6, 1> common_pose_error = Eigen::Matrix<double, 6, 1>::Zero();
   double sigma_px = 0.0;  ///< robust standard deviation of the flow errors (MAD)

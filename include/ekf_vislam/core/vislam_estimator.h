@@ -165,7 +165,7 @@ class VislamEstimator {
   StereoCamera camera_;
   bool has_calibration_ = false;
   int rows_per_observation_ = 3;
-  Eigen::MatrixXd observation_noise_;  ///< covariance of one observation's rows
+  Eigen::MatrixXd observation_selector_;  ///< observationSelector(merge_stereo_rows): rows x 4
   double gate_threshold_ = 0.0;
   double restart_threshold_ = 0.0;  ///< chi-square 0.9999: gross disagreement (track jumped)
   std::vector<int> bias_components_;  ///< entries of u = [v; w] whose bias is estimated
@@ -180,9 +180,8 @@ class VislamEstimator {
   TwistData held_twist_;
   RepeatedFrameDetector repeated_frames_;
   /// Set by a prediction across a twist gap: the next frame's pose error is too large for the
-  /// linearized common-motion fit of the jump test, which is skipped for this many frames.
-  static constexpr int kJumpTestPauseAfterGap = 1;
-  int jump_test_paused_frames_ = 0;
+  /// linearized common-motion fit of the jump test, which is skipped once.
+  bool jump_test_paused_ = false;
 
   // State.
   Eigen::Matrix4d imu_T_world_ = Eigen::Matrix4d::Identity();

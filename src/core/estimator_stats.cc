@@ -33,6 +33,7 @@ const char* counterName(Counter counter) {
     case Counter::kLandmarkReinitialized: return "landmark_reinitialized";
     case Counter::kLandmarkSplit: return "landmark_split";
     case Counter::kLandmarkJump: return "landmark_jump";
+    case Counter::kLandmarkShifted: return "landmark_shifted";
     case Counter::kLandmarkMarginalized: return "landmark_marginalized";
     case Counter::kCovarianceRepaired: return "covariance_repaired";
     case Counter::kDivergenceRecovery: return "divergence_recovery";

@@ -389,10 +389,15 @@ FeedResult VislamEstimator::feedFeatures(const FeatureFrame& frame) {
   if (frame.features.empty()) stats_.increment(Counter::kFrameEmpty);
   if (repeated_frames_.isRepeat(frame)) {
     stats_.increment(Counter::kFrameRepeated);
-    if (options_.skip_repeated_frames) {
-      // Predicted to its stamp (the trajectory has a pose there) but not used: its tracks stay.
+    if (options_.repeated_frames != RepeatedFramePolicy::kUse) {
+      // Predicted to its stamp (the trajectory has a pose there); its observations are copies.
+      if (options_.repeated_frames == RepeatedFramePolicy::kShift &&
+          options_.mode != EstimatorMode::kDeadReckoning) {
+        shiftRepeatedTracks(frame, &result);
+      }
       result.message =
           "feature frame repeats the previous one (every shared track identical): skipped";
+      imu_T_world_last_frame_ = imu_T_world_;
       return result;
     }
   }
@@ -401,7 +406,39 @@ FeedResult VislamEstimator::feedFeatures(const FeatureFrame& frame) {
     return result;
   }
   processFrame(frame, &result);
+  imu_T_world_last_frame_ = imu_T_world_;
   return result;
+}
+
+void VislamEstimator::shiftRepeatedTracks(const FeatureFrame& frame, FeedResult* result) {
+  // Measured on the course files (README, "Repeated frames"): a track that runs through a
+  // repeated frame reports, from the next frame on, where its landmark was one frame earlier
+  // (pixel position and disparity). The landmark that explains those observations from the
+  // current poses is the old one carried along by one frame of motion, delta * p, with
+  // delta = world_T_imu(now) * imu_T_world(previous frame) (constant motion over a track).
+  // That motion is the filter's own one-frame prediction, so the moved landmark gets extra
+  // uncertainty along the camera ray (limits/repeated_frame_depth_sigma, relative to distance).
+  const Eigen::Matrix4d world_T_imu = se3::inverse(imu_T_world_);
+  const Eigen::Matrix4d delta = world_T_imu * imu_T_world_last_frame_;
+  const Eigen::Matrix3d R = delta.topLeftCorner<3, 3>();
+  const Eigen::Vector3d t = delta.topRightCorner<3, 1>();
+  const Eigen::Vector3d p_camera_world =
+      world_T_imu.topLeftCorner<3, 3>() * camera_.imuTCam().topRightCorner<3, 1>() +
+      world_T_imu.topRightCorner<3, 1>();
+  const double relative_var =
+      options_.repeated_frame_depth_sigma * options_.repeated_frame_depth_sigma;
+  for (const StereoObservation& f : frame.features) {
+    auto it = tracking_.find(f.id);
+    if (it == tracking_.end()) continue;
+    const int row = landmarkRow(it->second);
+    auto p_world = p_world_.segment<3>(row);
+    p_world = R * p_world + t;
+    const Eigen::Vector3d ray = p_world - p_camera_world;
+    sigma_.block<3, 3>(row, row) += relative_var * ray * ray.transpose();
+    blocks_[it->second].has_flow_reference = false;  // the next flow test starts afresh
+    stats_.increment(Counter::kLandmarkShifted);
+    ++result->landmarks_shifted;
+  }
 }
 
 void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result) {

@@ -177,7 +177,11 @@ bool parseVislamOptions(const ParameterSource& source, VislamOptions* o, std::st
            {{"predict", GapPolicy::kPredict}, {"reset", GapPolicy::kReset}});
   r.number("limits/gap_noise_scale", &o->gap_noise_scale);
   r.number("limits/max_row_difference_px", &o->max_row_difference_px);
-  r.flag("limits/skip_repeated_frames", &o->skip_repeated_frames);
+  r.choice("limits/repeated_frames", &o->repeated_frames,
+           {{"use", RepeatedFramePolicy::kUse},
+            {"skip", RepeatedFramePolicy::kSkip},
+            {"shift", RepeatedFramePolicy::kShift}});
+  r.number("limits/repeated_frame_depth_sigma", &o->repeated_frame_depth_sigma);
   r.integer("limits/max_features_per_frame", &o->max_features_per_frame);
   r.number("health/max_position_sigma", &o->max_position_sigma);
   r.integer("health/max_rejected_frames", &o->max_rejected_frames);

@@ -18,6 +18,8 @@ TEST(VislamOptions, ShippedConfigParsesAndMatchesBuiltInDefaults) {
   parsed.baseline_scale_prior_sigma = 7.0;
   parsed.lateral_velocity_sigma = parsed.vertical_velocity_sigma = 7.0;
   parsed.max_track_length = 77;
+  parsed.repeated_frames = RepeatedFramePolicy::kUse;
+  parsed.repeated_frame_depth_sigma = 7.0;
   std::string error;
   ASSERT_TRUE(parseVislamOptions(source, &parsed, &error)) << error;
   // The file documents the defaults: both must agree.
@@ -46,6 +48,8 @@ TEST(VislamOptions, ShippedConfigParsesAndMatchesBuiltInDefaults) {
   EXPECT_EQ(parsed.reinitialize_after_gated, defaults.reinitialize_after_gated);
   EXPECT_DOUBLE_EQ(parsed.max_row_difference_px, defaults.max_row_difference_px);
   EXPECT_EQ(parsed.max_features_per_frame, defaults.max_features_per_frame);
+  EXPECT_EQ(parsed.repeated_frames, defaults.repeated_frames);
+  EXPECT_DOUBLE_EQ(parsed.repeated_frame_depth_sigma, defaults.repeated_frame_depth_sigma);
   EXPECT_EQ(parsed.gap_policy, defaults.gap_policy);
   EXPECT_EQ(parsed.divergence_policy, defaults.divergence_policy);
   EXPECT_EQ(parsed.estimate_twist_rotation, defaults.estimate_twist_rotation);

@@ -23,7 +23,7 @@ enum class Counter : int {
   kFrameStale,               ///< stamp older than the filter time: rejected
   kFrameNoCalibration,       ///< calibration missing or invalid: rejected
   kFrameBeforeTwist,         ///< no twist yet: rejected (the filter has no time origin)
-  kFrameRepeated,            ///< every shared track identical to the previous frame: skipped
+  kFrameRepeated,            ///< every shared track identical to the previous frame (limits/repeated_frames)
   kFrameCapped,              ///< more than limits/max_features_per_frame: extra features dropped
   kFrameNonFiniteStamp,      ///< stamp NaN/Inf: rejected
   // Observations (one feature of one frame)
@@ -44,6 +44,7 @@ enum class Counter : int {
   kLandmarkMarginalized,
   kLandmarkSplit,            ///< a track reached landmarks/max_track_length: continued as a new landmark
   kLandmarkJump,             ///< a track jumped (flow test): continued as a new landmark
+  kLandmarkShifted,          ///< tracked through a repeated frame: moved by one frame of motion
   // Filter health
   kCovarianceRepaired,       ///< covariance lost symmetry/positivity and was repaired
   kDivergenceRecovery,       ///< divergence detected; recovery policy applied

@@ -43,6 +43,7 @@ struct FeedResult {
   int observations_rejected = 0;  ///< dropped, for any reason (see stats for reasons)
   int landmarks_initialized = 0;
   int landmarks_marginalized = 0;
+  int landmarks_shifted = 0;  ///< moved for a repeated frame (limits/repeated_frames: shift)
 };
 
 class VislamEstimator {
@@ -123,6 +124,9 @@ class VislamEstimator {
   double positionSigma() const;
   void predict(double dt, const TwistData& twist, double noise_scale);
   void processFrame(const FeatureFrame& frame, FeedResult* result);
+  /// Moves each landmark tracked through the repeated `frame` by the motion since the previous
+  /// frame (world_T_imu now * imu_T_world then): its track now reports it one frame late.
+  void shiftRepeatedTracks(const FeatureFrame& frame, FeedResult* result);
   void update(std::vector<Candidate>* candidates, std::vector<Candidate>* reinitialize,
               FeedResult* result);
   bool initializeLandmark(const Candidate& candidate, double stamp, FeedResult* result);
@@ -185,6 +189,7 @@ class VislamEstimator {
 
   // State.
   Eigen::Matrix4d imu_T_world_ = Eigen::Matrix4d::Identity();
+  Eigen::Matrix4d imu_T_world_last_frame_ = Eigen::Matrix4d::Identity();  ///< at the last frame
   Eigen::VectorXd bias_;     ///< estimated bias components (size bias_dim_)
   int bias_dim_ = 0;
   Eigen::Matrix3d imu_R_twist_ = Eigen::Matrix3d::Identity();  ///< R_m

@@ -18,6 +18,14 @@ enum class EstimatorMode {
 const char* modeName(EstimatorMode mode);
 bool parseMode(const std::string& name, EstimatorMode* mode);
 
+/// What to do with a feature frame that repeats the previous one (repeated_frame_detector.h).
+enum class RepeatedFramePolicy {
+  kUse,    ///< process it like any frame
+  kSkip,   ///< predict to its stamp, do not use its observations (its tracks stay alive)
+  kShift,  ///< skip it and move the landmarks tracked through it by the motion since the previous
+           ///< frame: their later observations lag one frame (the course files, see README)
+};
+
 /// What to do when twist messages stop for longer than limits/max_twist_gap.
 enum class GapPolicy {
   kPredict,  ///< predict across the gap with the last twist and process noise x gap_noise_scale
@@ -111,8 +119,11 @@ struct VislamOptions {
   double gap_noise_scale = 10.0;        ///< process noise multiplier across a gap
   double max_row_difference_px = 5.0;   ///< |vL - vR| beyond: rejected (rectified pair)
   /// A feature frame in which every track shared with the previous frame has identical
-  /// coordinates (a re-published tracker result) is skipped (repeated_frame_detector.h).
-  bool skip_repeated_frames = false;
+  /// coordinates (a re-published tracker result; repeated_frame_detector.h) is always counted.
+  RepeatedFramePolicy repeated_frames = RepeatedFramePolicy::kShift;
+  /// shift: standard deviation added to a moved landmark along the camera ray, relative to its
+  /// distance (the motion carried over is the filter's own one-frame prediction).
+  double repeated_frame_depth_sigma = 0.1;
   int max_features_per_frame = 400;     ///< 0 = unlimited; extra features of a frame dropped
 
   // health/

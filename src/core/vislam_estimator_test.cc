@@ -519,7 +519,8 @@ TEST(VislamEstimator, ShiftPolicyFollowsTracksThatLagAfterARepeatedFrame) {
   const double ate_shift = runWith(RepeatedFramePolicy::kShift, &shifted);
   const double ate_skip = runWith(RepeatedFramePolicy::kSkip, &none);
   const double ate_use = runWith(RepeatedFramePolicy::kUse, &none);
-  std::printf("%d repeated frames, %lu landmarks shifted: ATE shift %.3f m, skip %.3f m, use %.3f m\n",
+  std::printf("%d repeated frames, %lu landmarks shifted: ATE shift %.3f m, skip %.3f m, "
+              "use %.3f m\n",
               repeated_frames, static_cast<unsigned long>(shifted), ate_shift, ate_skip, ate_use);
   EXPECT_EQ(none, 0u);
   EXPECT_GT(shifted, 20u * static_cast<uint64_t>(repeated_frames));

@@ -23,7 +23,7 @@ enum class Counter : int {
   kFrameStale,               ///< stamp older than the filter time: rejected
   kFrameNoCalibration,       ///< calibration missing or invalid: rejected
   kFrameBeforeTwist,         ///< no twist yet: rejected (the filter has no time origin)
-  kFrameRepeated,            ///< every shared track identical to the previous frame (limits/repeated_frames)
+  kFrameRepeated,            ///< shared tracks all identical to the previous frame's
   kFrameCapped,              ///< more than limits/max_features_per_frame: extra features dropped
   kFrameNonFiniteStamp,      ///< stamp NaN/Inf: rejected
   // Observations (one feature of one frame)

@@ -25,6 +25,7 @@ struct RunResult {
   double final_error_m = 0.0;
   double mean_nees = 0.0;    ///< 6-dof pose NEES averaged over frames
   std::vector<Eigen::Matrix4d> world_T_imu;
+  EstimatorStats stats;      ///< the estimator's counters at the end of the run
 };
 
 Eigen::Matrix4d toMatrix(const Eigen::Isometry3d& T) { return T.matrix(); }
@@ -61,6 +62,7 @@ RunResult run(const Scenario& s, const VislamOptions& options, int first_frames 
   }
   r.ate_m = std::sqrt(sq / n);
   r.mean_nees = nees / (n - 1);
+  r.stats = estimator.stats();
   return r;
 }
 
@@ -401,17 +403,9 @@ TEST(VislamEstimator, TrackJumpsBecomeNewLandmarks) {
   auto runWith = [&](double threshold_px, uint64_t* jumps) {
     VislamOptions o = testing::matchedOptions(so);
     o.jump_threshold_px = threshold_px;
-    VislamEstimator estimator(o);
-    EXPECT_TRUE(estimator.setCalibration(s.calibration));
-    double sq = 0.0;
-    for (size_t k = 0; k < s.frames.size(); ++k) {
-      estimator.feedTwist(s.twists[k]);
-      estimator.feedFeatures(s.frames[k]);
-      sq += (estimator.worldTImu().translation() - s.world_T_imu[k].topRightCorner<3, 1>())
-                .squaredNorm();
-    }
-    *jumps = estimator.stats().get(Counter::kLandmarkJump);
-    return std::sqrt(sq / s.frames.size());
+    const RunResult r = run(s, o);
+    *jumps = r.stats.get(Counter::kLandmarkJump);
+    return r.ate_m;
   };
   uint64_t jumps_on = 0, jumps_off = 0;
   const double ate_on = runWith(0.5, &jumps_on);
@@ -501,19 +495,10 @@ TEST(VislamEstimator, ShiftPolicyFollowsTracksThatLagAfterARepeatedFrame) {
   auto runWith = [&](RepeatedFramePolicy policy, uint64_t* shifted) {
     VislamOptions o = testing::matchedOptions(so);
     o.repeated_frames = policy;
-    VislamEstimator estimator(o);
-    EXPECT_TRUE(estimator.setCalibration(s.calibration));
-    double sq = 0.0;
-    for (size_t k = 0; k < s.frames.size(); ++k) {
-      estimator.feedTwist(s.twists[k]);
-      estimator.feedFeatures(s.frames[k]);
-      sq += (estimator.worldTImu().translation() - s.world_T_imu[k].topRightCorner<3, 1>())
-                .squaredNorm();
-    }
-    EXPECT_EQ(estimator.stats().get(Counter::kFrameRepeated),
-              static_cast<uint64_t>(repeated_frames));
-    *shifted = estimator.stats().get(Counter::kLandmarkShifted);
-    return std::sqrt(sq / s.frames.size());
+    const RunResult r = run(s, o);
+    EXPECT_EQ(r.stats.get(Counter::kFrameRepeated), static_cast<uint64_t>(repeated_frames));
+    *shifted = r.stats.get(Counter::kLandmarkShifted);
+    return r.ate_m;
   };
   uint64_t shifted = 0, none = 0;
   const double ate_shift = runWith(RepeatedFramePolicy::kShift, &shifted);

@@ -2,16 +2,21 @@
 
 namespace ekf_vislam {
 
-bool RepeatedFrameDetector::isRepeat(const FeatureFrame& frame) {
+bool RepeatedFrameDetector::isRepeat(const FeatureFrame& frame, std::vector<size_t>* new_tracks) {
+  if (new_tracks != nullptr) new_tracks->clear();
   int shared = 0;
   bool identical = true;
   std::unordered_map<uint32_t, Eigen::Vector4d> current;
   current.reserve(frame.features.size());
-  for (const StereoObservation& f : frame.features) {
+  for (size_t i = 0; i < frame.features.size(); ++i) {
+    const StereoObservation& f = frame.features[i];
     const Eigen::Vector4d z(f.u_left, f.v_left, f.u_right, f.v_right);
     current.emplace(f.id, z);
     auto it = previous_.find(f.id);
-    if (it == previous_.end()) continue;
+    if (it == previous_.end()) {
+      if (new_tracks != nullptr) new_tracks->push_back(i);
+      continue;
+    }
     ++shared;
     // Bit-identical (NaN never is): a fresh measurement of a real tracker differs at least in
     // its sub-pixel digits.

@@ -28,8 +28,11 @@ TEST(RepeatedFrameDetector, IdenticalSharedTracksAreARepeat) {
   FeatureFrame again = frameOf(0, 10, 0.5);
   const FeatureFrame extra = frameOf(100, 3, 0.0);
   again.features.insert(again.features.end(), extra.features.begin(), extra.features.end());
-  EXPECT_TRUE(detector.isRepeat(again));
-  EXPECT_FALSE(detector.isRepeat(frameOf(0, 10, 0.6)));
+  std::vector<size_t> new_tracks;
+  EXPECT_TRUE(detector.isRepeat(again, &new_tracks));
+  EXPECT_EQ(new_tracks, (std::vector<size_t>{10, 11, 12}));  // the indices of ids 100-102
+  EXPECT_FALSE(detector.isRepeat(frameOf(0, 10, 0.6), &new_tracks));
+  EXPECT_TRUE(new_tracks.empty());  // ids 0-9 were all in the previous frame
 }
 
 TEST(RepeatedFrameDetector, OneMovedTrackOrTooFewSharedIsNotARepeat) {

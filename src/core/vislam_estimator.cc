@@ -24,6 +24,10 @@ struct VislamEstimator::Candidate {
   Eigen::MatrixXd H_pose;      ///< rows x 6
   Eigen::MatrixXd H_landmark;  ///< rows x 3
   Eigen::MatrixXd H_calibration;  ///< rows x calibrationDim()
+  Eigen::MatrixXd H_clone;     ///< rows x 6, when via_clone in SLAM mode
+  /// The track ran through the last repeated frame: this observation shows its landmark from
+  /// the clone (the pose at that frame), not from the current pose.
+  bool via_clone = false;
   double mahalanobis2 = 0.0;   ///< of the residual against its own innovation covariance
   bool predicted = false;      ///< false: the landmark is not in front of the camera
   bool jumped = false;         ///< the track-jump test flagged it
@@ -58,6 +62,10 @@ VislamEstimator::VislamEstimator(const VislamOptions& options) : options_(option
   if (options_.estimate_gyro_bias) bias_components_.insert(bias_components_.end(), {3, 4, 5});
   bias_dim_ = static_cast<int>(bias_components_.size());
   rotation_dim_ = options_.estimate_twist_rotation ? 3 : 0;
+  clone_dim_ = options_.repeated_frames == RepeatedFramePolicy::kShift &&
+                       options_.mode == EstimatorMode::kSlam
+                   ? kPoseDim
+                   : 0;
   disparity_dim_ = options_.estimate_disparity_offset ? 1 : 0;
   scale_dim_ = options_.estimate_baseline_scale ? 1 : 0;
   initializeState();
@@ -110,6 +118,19 @@ void VislamEstimator::setPriorCovariance() {
     sigma_(scaleRow(), scaleRow()) =
         options_.baseline_scale_prior_sigma * options_.baseline_scale_prior_sigma;
   }
+  crossing_ids_.clear();
+  clonePose();
+}
+
+void VislamEstimator::clonePose() {
+  imu_T_world_clone_ = imu_T_world_;
+  if (clone_dim_ == 0) return;
+  // The clone's error equals the pose error now: rows, then columns (which sets the clone block
+  // to the pose block).
+  auto S = sigma_.topLeftCorner(dim_, dim_);
+  const int c = cloneRow();
+  S.middleRows(c, kPoseDim) = S.topRows(kPoseDim);
+  S.middleCols(c, kPoseDim) = S.leftCols(kPoseDim);
 }
 
 void VislamEstimator::initializeState() {
@@ -387,17 +408,17 @@ FeedResult VislamEstimator::feedFeatures(const FeatureFrame& frame) {
   last_frame_stamp_ = frame.stamp;
   stats_.increment(Counter::kFrameUsed);
   if (frame.features.empty()) stats_.increment(Counter::kFrameEmpty);
-  if (repeated_frames_.isRepeat(frame)) {
+  std::vector<size_t> new_tracks;
+  if (repeated_frames_.isRepeat(frame, &new_tracks)) {
     stats_.increment(Counter::kFrameRepeated);
     if (options_.repeated_frames != RepeatedFramePolicy::kUse) {
-      // Predicted to its stamp (the trajectory has a pose there); its observations are copies.
-      if (options_.repeated_frames == RepeatedFramePolicy::kShift &&
-          options_.mode != EstimatorMode::kDeadReckoning) {
-        shiftRepeatedTracks(frame, &result);
-      }
+      // Predicted to its stamp (the trajectory has a pose there); its shared tracks are copies.
       result.message =
           "feature frame repeats the previous one (every shared track identical): skipped";
-      imu_T_world_last_frame_ = imu_T_world_;
+      if (options_.repeated_frames == RepeatedFramePolicy::kShift &&
+          options_.mode != EstimatorMode::kDeadReckoning) {
+        holdRepeatedFrame(frame, new_tracks, &result);
+      }
       return result;
     }
   }
@@ -406,39 +427,105 @@ FeedResult VislamEstimator::feedFeatures(const FeatureFrame& frame) {
     return result;
   }
   processFrame(frame, &result);
-  imu_T_world_last_frame_ = imu_T_world_;
   return result;
 }
 
-void VislamEstimator::shiftRepeatedTracks(const FeatureFrame& frame, FeedResult* result) {
-  // Measured on the course files (README, "Repeated frames"): a track that runs through a
-  // repeated frame reports, from the next frame on, where its landmark was one frame earlier
-  // (pixel position and disparity). The landmark that explains those observations from the
-  // current poses is the old one carried along by one frame of motion, delta * p, with
-  // delta = world_T_imu(now) * imu_T_world(previous frame) (constant motion over a track).
-  // That motion is the filter's own one-frame prediction, so the moved landmark gets extra
-  // uncertainty along the camera ray (limits/repeated_frame_depth_sigma, relative to distance).
-  const Eigen::Matrix4d world_T_imu = se3::inverse(imu_T_world_);
-  const Eigen::Matrix4d delta = world_T_imu * imu_T_world_last_frame_;
+void VislamEstimator::holdRepeatedFrame(const FeatureFrame& frame,
+                                        const std::vector<size_t>& new_tracks,
+                                        FeedResult* result) {
+  // Measured on the course files (README, "Repeated frames"): at the frame after a repeated one,
+  // each track through it reports its landmark as seen from the pose at the repeated frame, and
+  // from then on a point moved by that frame's motion. The tracks that start in the repeated
+  // frame are fresh measurements at its stamp.
+  if (!crossing_ids_.empty()) shiftCrossingTracks(result);  // two repeated frames in a row
+  for (const StereoObservation& f : frame.features) {
+    auto it = tracking_.find(f.id);
+    if (it == tracking_.end()) continue;
+    crossing_ids_.insert(f.id);
+    blocks_[it->second].has_flow_reference = false;  // its next observation is not comparable
+  }
+  clonePose();
+  for (size_t i : new_tracks) {
+    const StereoObservation& f = frame.features[i];
+    if (tracking_.count(f.id) || !screenObservation(f, result)) continue;
+    Candidate c;
+    c.feature = f;
+    initializeLandmark(c, frame.stamp, result);
+  }
+  syncBlocksToMap();
+}
+
+void VislamEstimator::shiftCrossingTracks(FeedResult* result) {
+  // p' = Delta p with Delta = world_T_imu * imu_T_world(clone). With the invariant errors
+  // (p = exp(phi^) p_mean + xi for the current pose, clone error [rho_c; phi_c]) the new error is
+  // xi' = R_D xi + rho - R_D p^ phi - R_D rho_c + R_D p^ phi_c (first order; R_D of Delta), and
+  // in mapping mode (no pose errors) xi' = R_D xi. Sigma <- J Sigma J^T, J the identity except
+  // the moved landmarks' rows: rows first (each new row uses its own old row and the pose and
+  // clone rows, which do not change), then columns the same way.
+  const Eigen::Matrix4d delta = se3::inverse(imu_T_world_) * imu_T_world_clone_;
   const Eigen::Matrix3d R = delta.topLeftCorner<3, 3>();
   const Eigen::Vector3d t = delta.topRightCorner<3, 1>();
+  auto S = sigma_.topLeftCorner(dim_, dim_);
+  const bool slam = clone_dim_ > 0;
+  const int c = cloneRow();
+  std::vector<std::pair<int, Eigen::Matrix3d>> moved;  // landmark row, R_D p^ (old mean)
+  for (uint32_t id : crossing_ids_) {
+    auto it = tracking_.find(id);
+    if (it == tracking_.end()) continue;  // ended, or restarted from its new observation
+    const int row = landmarkRow(it->second);
+    const Eigen::Vector3d p = p_world_.segment<3>(row);
+    const Eigen::Matrix3d Rp = R * se3::hat(p);
+    Eigen::MatrixXd rows = R * S.middleRows(row, 3);
+    if (slam) {
+      rows += S.topRows(3) - Rp * S.middleRows(3, 3) - R * S.middleRows(c, 3) +
+              Rp * S.middleRows(c + 3, 3);
+    }
+    S.middleRows(row, 3) = rows;
+    p_world_.segment<3>(row) = R * p + t;
+    moved.emplace_back(row, Rp);
+    blocks_[it->second].has_flow_reference = false;
+    stats_.increment(Counter::kLandmarkShifted);
+    ++result->landmarks_shifted;
+  }
+  for (const auto& [row, Rp] : moved) {
+    Eigen::MatrixXd cols = S.middleCols(row, 3) * R.transpose();
+    if (slam) {
+      cols += S.leftCols(3) - S.middleCols(3, 3) * Rp.transpose() -
+              S.middleCols(c, 3) * R.transpose() + S.middleCols(c + 3, 3) * Rp.transpose();
+    }
+    S.middleCols(row, 3) = cols;
+  }
+  const Eigen::Matrix4d world_T_imu = se3::inverse(imu_T_world_);
   const Eigen::Vector3d p_camera_world =
       world_T_imu.topLeftCorner<3, 3>() * camera_.imuTCam().topRightCorner<3, 1>() +
       world_T_imu.topRightCorner<3, 1>();
   const double relative_var =
       options_.repeated_frame_depth_sigma * options_.repeated_frame_depth_sigma;
-  for (const StereoObservation& f : frame.features) {
-    auto it = tracking_.find(f.id);
-    if (it == tracking_.end()) continue;
-    const int row = landmarkRow(it->second);
-    auto p_world = p_world_.segment<3>(row);
-    p_world = R * p_world + t;
-    const Eigen::Vector3d ray = p_world - p_camera_world;
-    sigma_.block<3, 3>(row, row) += relative_var * ray * ray.transpose();
-    blocks_[it->second].has_flow_reference = false;  // the next flow test starts afresh
-    stats_.increment(Counter::kLandmarkShifted);
-    ++result->landmarks_shifted;
+  for (const auto& moved_row : moved) {
+    const int row = moved_row.first;
+    S.middleRows(row, 3) = S.middleCols(row, 3).transpose();
+    const Eigen::Vector3d ray = p_world_.segment<3>(row) - p_camera_world;
+    S.block<3, 3>(row, row) += relative_var * ray * ray.transpose();
   }
+  crossing_ids_.clear();
+}
+
+bool VislamEstimator::screenObservation(const StereoObservation& f, FeedResult* result) {
+  Counter reason;
+  if (!allFinite(f)) {
+    reason = Counter::kObsNonFinite;
+  } else if (!camera_.inImage(f.u_left, f.v_left) || !camera_.inImage(f.u_right, f.v_right)) {
+    reason = Counter::kObsOutsideImage;
+  } else if (std::fabs(f.v_left - f.v_right) > options_.max_row_difference_px) {
+    reason = Counter::kObsRowMismatch;
+  } else if (f.u_left - f.u_right < options_.min_disparity_px) {
+    reason = Counter::kObsDisparity;
+  } else {
+    return true;
+  }
+  stats_.increment(reason);
+  ++result->observations_rejected;
+  return false;
 }
 
 void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result) {
@@ -470,24 +557,16 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result
       continue;
     }
     if (auto seen = tracking_.find(f.id); seen != tracking_.end()) ++blocks_[seen->second].frames;
-    if (!allFinite(f)) {
-      rejectObservation(Counter::kObsNonFinite);
-    } else if (!camera_.inImage(f.u_left, f.v_left) || !camera_.inImage(f.u_right, f.v_right)) {
-      rejectObservation(Counter::kObsOutsideImage);
-    } else if (std::fabs(f.v_left - f.v_right) > options_.max_row_difference_px) {
-      rejectObservation(Counter::kObsRowMismatch);
-    } else if (f.u_left - f.u_right < options_.min_disparity_px) {
-      rejectObservation(Counter::kObsDisparity);
+    if (!screenObservation(f, result)) continue;
+    Candidate c;
+    c.feature = f;
+    auto it = tracking_.find(f.id);
+    if (it != tracking_.end()) {
+      c.block = it->second;
+      c.via_clone = crossing_ids_.count(f.id) > 0;
+      updates.push_back(std::move(c));
     } else {
-      Candidate c;
-      c.feature = f;
-      auto it = tracking_.find(f.id);
-      if (it != tracking_.end()) {
-        c.block = it->second;
-        updates.push_back(std::move(c));
-      } else {
-        initializations.push_back(std::move(c));
-      }
+      initializations.push_back(std::move(c));
     }
   }
 
@@ -530,6 +609,9 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result
   const uint64_t gated_before = disagreeing();
   if (!updates.empty()) update(&updates, &reinitialize, result);
   const int gated = static_cast<int>(disagreeing() - gated_before);
+  // Tracks through the last repeated frame have been seen from the clone: from now on they
+  // report their landmark moved by the clone-to-now motion.
+  if (!crossing_ids_.empty()) shiftCrossingTracks(result);
   for (const Candidate& c : reinitialize) initializeLandmark(c, frame.stamp, result);
   for (const Candidate& c : initializations) initializeLandmark(c, frame.stamp, result);
   syncBlocksToMap();
@@ -545,6 +627,7 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
   auto S = sigma_.topLeftCorner(dim_, dim_);
   const int nc = calibrationDim();
   const int calibration_row = calibrationRow();
+  const int clone_row = cloneRow();
 
   // Predict each observation and its Mahalanobis distance against its own innovation covariance.
   std::vector<Candidate*> accepted;
@@ -555,7 +638,8 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
     const Eigen::Vector3d p_world = p_world_.segment<3>(row);
     Eigen::Vector4d z_pred;
     Matrix43d H_landmark;
-    if (!camera_.project(imu_T_world_, p_world, &z_pred, nullptr, &H_landmark,
+    const Eigen::Matrix4d& imu_T_world = c.via_clone ? imu_T_world_clone_ : imu_T_world_;
+    if (!camera_.project(imu_T_world, p_world, &z_pred, nullptr, &H_landmark,
                          options_.min_depth * 0.5)) {
       stats_.increment(Counter::kObsBehindCamera);
       ++result->observations_rejected;
@@ -579,17 +663,35 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
     // depends on rho through -H_landmark and not at all on phi.
     c.H_landmark = M * H_landmark;
     c.H_pose = Eigen::MatrixXd::Zero(r, kPoseDim);
-    if (correct_pose) c.H_pose.leftCols<3>() = -c.H_landmark;
-    // S_i = H_i Sigma_[pose, calibration, landmark] H_i^T + R.
-    Eigen::MatrixXd Hi(r, 9 + nc);
-    Hi << c.H_pose, c.H_calibration, c.H_landmark;
-    std::array<int, 11> index{};
-    for (int a = 0; a < 6; ++a) index[a] = a;
-    for (int a = 0; a < nc; ++a) index[6 + a] = calibration_row + a;
-    for (int a = 0; a < 3; ++a) index[6 + nc + a] = row + a;
-    Eigen::MatrixXd sub(9 + nc, 9 + nc);
-    for (int a = 0; a < 9 + nc; ++a) {
-      for (int b = 0; b < 9 + nc; ++b) sub(a, b) = S(index[a], index[b]);
+    const bool clone_columns = c.via_clone && clone_dim_ > 0;
+    if (clone_columns) {
+      // Seen from the clone (error [rho_c; phi_c]): p_imu = R_c^T (p_mean + xi - rho_c +
+      // p^ (phi_c - phi) - t_c) to first order, so the current pose enters through phi only.
+      const Eigen::MatrixXd H_p = c.H_landmark * se3::hat(p_world);
+      c.H_pose.rightCols<3>() = -H_p;
+      c.H_clone = Eigen::MatrixXd::Zero(r, kPoseDim);
+      c.H_clone.leftCols<3>() = -c.H_landmark;
+      c.H_clone.rightCols<3>() = H_p;
+    } else if (correct_pose) {
+      c.H_pose.leftCols<3>() = -c.H_landmark;
+    }
+    // S_i = H_i Sigma_[pose, calibration, (clone,) landmark] H_i^T + R.
+    const int ni = 9 + nc + (clone_columns ? kPoseDim : 0);
+    Eigen::MatrixXd Hi(r, ni);
+    std::array<int, 17> index{};
+    int used = 0;
+    for (int a = 0; a < 6; ++a) index[used++] = a;
+    for (int a = 0; a < nc; ++a) index[used++] = calibration_row + a;
+    if (clone_columns) {
+      for (int a = 0; a < kPoseDim; ++a) index[used++] = clone_row + a;
+      Hi << c.H_pose, c.H_calibration, c.H_clone, c.H_landmark;
+    } else {
+      Hi << c.H_pose, c.H_calibration, c.H_landmark;
+    }
+    for (int a = 0; a < 3; ++a) index[used++] = row + a;
+    Eigen::MatrixXd sub(ni, ni);
+    for (int a = 0; a < ni; ++a) {
+      for (int b = 0; b < ni; ++b) sub(a, b) = S(index[a], index[b]);
     }
     Eigen::MatrixXd Si = Hi * sub * Hi.transpose();
     Si.diagonal().array() += pixel_var;
@@ -650,6 +752,10 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
       const int row = landmarkRow(c.block);
       PHt.middleCols(k * r, r).noalias() = S.middleCols(row, 3) * c.H_landmark.transpose();
       if (correct_pose) PHt.middleCols(k * r, r).noalias() += S.leftCols<6>() * c.H_pose.transpose();
+      if (c.via_clone && clone_dim_ > 0) {
+        PHt.middleCols(k * r, r).noalias() +=
+            S.middleCols(clone_row, kPoseDim) * c.H_clone.transpose();
+      }
       if (nc > 0) {
         PHt.middleCols(k * r, r).noalias() +=
             S.middleCols(calibration_row, nc) * c.H_calibration.transpose();
@@ -663,6 +769,10 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
       const int row = landmarkRow(c.block);
       innovation_cov.middleRows(k * r, r).noalias() = c.H_landmark * PHt.middleRows(row, 3);
       if (correct_pose) innovation_cov.middleRows(k * r, r).noalias() += c.H_pose * PHt.topRows<6>();
+      if (c.via_clone && clone_dim_ > 0) {
+        innovation_cov.middleRows(k * r, r).noalias() +=
+            c.H_clone * PHt.middleRows(clone_row, kPoseDim);
+      }
       if (nc > 0) {
         innovation_cov.middleRows(k * r, r).noalias() +=
             c.H_calibration * PHt.middleRows(calibration_row, nc);
@@ -689,6 +799,10 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
           // world_T_imu <- exp(eps^) world_T_imu  <=>  imu_T_world <- imu_T_world exp(-eps^).
           imu_T_world_ = imu_T_world_ * se3::exp(-dx.head<6>());
           se3::normalizeRotation(&imu_T_world_);
+        }
+        if (clone_dim_ > 0) {
+          imu_T_world_clone_ = imu_T_world_clone_ * se3::exp(-dx.segment<6>(clone_row));
+          se3::normalizeRotation(&imu_T_world_clone_);
         }
         if (bias_dim_ > 0) bias_ += dx.segment(kPoseDim, bias_dim_);
         if (rotation_dim_ > 0) {

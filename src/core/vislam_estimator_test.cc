@@ -283,14 +283,17 @@ TEST(VislamEstimator, LandmarkInitializationCovarianceFromJacobians) {
   }
   const double var = o.pixel_sigma * o.pixel_sigma;
   const Eigen::MatrixXd full = estimator.stateCovariance();
-  ASSERT_EQ(full.rows(), 11);
+  // Pose, offset, scale, the pose clone of the repeated-frame policy (a copy of the pose at the
+  // last frame), the landmark.
+  ASSERT_EQ(full.rows(), 17);
+  EXPECT_LT((full.block<6, 6>(8, 8) - full.topLeftCorner<6, 6>()).norm(), 1e-15);
   const Eigen::Matrix<double, 8, 8> P = full.topLeftCorner<8, 8>();
   const Eigen::Matrix3d expected = var * Jz * Jz.transpose() + Jx * P * Jx.transpose();
   const Eigen::Matrix3d actual = estimator.landmarks()[0].covariance;
   EXPECT_LT((actual - expected).norm(), 1e-6 * expected.norm());
   // Cross-covariance with pose and calibration, of the additive error dp = xi - p^ phi.
   const Eigen::Matrix<double, 3, 8> cross =
-      full.block<3, 8>(8, 0) - se3::hat(estimator.landmarks()[0].p_world) * full.block<3, 8>(3, 0);
+      full.block<3, 8>(14, 0) - se3::hat(estimator.landmarks()[0].p_world) * full.block<3, 8>(3, 0);
   EXPECT_LT((cross - Jx * P).norm(), 1e-6 * (Jx * P).norm() + 1e-15);
 }
 
@@ -456,36 +459,41 @@ TEST(VislamEstimator, RepeatedFramesAreCountedAndOptionallySkipped) {
 
 TEST(VislamEstimator, ShiftPolicyFollowsTracksThatLagAfterARepeatedFrame) {
   // The course files' pattern, reproduced on a synthetic drive: every 12th frame repeats the
-  // previous one for the tracks they share (new tracks start in it), and from then on each of
-  // those tracks reports its landmark one frame late (its projection from the previous pose,
-  // same pixel noise); a track through two repeated frames lags two frames.
+  // previous one for the tracks they share (new tracks start in it, at their true coordinates),
+  // and from then on each of those tracks reports the point its landmark would be if carried
+  // along by the repeated frame's motion, p' = world_T_imu(repeated) imu_T_world(previous) p
+  // (again for every later repeat it runs through).
   ScenarioOptions so;
   so.frames = 300;
   so.pixel_sigma = 0.5;
   Scenario s = makeScenario(so);
   const StereoCamera camera(s.calibration);
-  std::map<uint32_t, int> lag;  // frames of lag of each track so far
+  std::map<uint32_t, Eigen::Vector3d> p_reported;  // the point each track reports
   int repeated_frames = 0;
-  auto project = [&](size_t k, uint32_t id, Eigen::Vector4d* z) {
-    return camera.project(se3::inverse(s.world_T_imu[k]), s.p_world.at(id), z);
-  };
   for (size_t k = 1; k < s.frames.size(); ++k) {
     const bool repeat = k % 12 == 0;
     std::map<uint32_t, StereoObservation> previous;
     for (const StereoObservation& f : s.frames[k - 1].features) previous[f.id] = f;
+    const Eigen::Matrix4d delta =
+        s.world_T_imu[k].matrix() * se3::inverse(s.world_T_imu[k - 1].matrix());
     std::vector<StereoObservation> kept;
     for (StereoObservation f : s.frames[k].features) {
       const auto before = previous.find(f.id);
+      Eigen::Vector3d& p = p_reported.try_emplace(f.id, s.p_world.at(f.id)).first->second;
       if (repeat && before != previous.end()) {
         f = before->second;  // a copy of the previous frame's coordinates
-        ++lag[f.id];
-      } else if (lag[f.id] > 0) {
-        Eigen::Vector4d z_true, z_lagged;
-        if (!project(k, f.id, &z_true) || !project(k - lag[f.id], f.id, &z_lagged)) continue;
-        f.u_left += z_lagged(0) - z_true(0);
-        f.v_left += z_lagged(1) - z_true(1);
-        f.u_right += z_lagged(2) - z_true(2);
-        f.v_right += z_lagged(3) - z_true(3);
+        p = delta.topLeftCorner<3, 3>() * p + delta.topRightCorner<3, 1>();
+      } else if (p != s.p_world.at(f.id)) {
+        Eigen::Vector4d z_true, z_reported;
+        const Eigen::Matrix4d imu_T_world = se3::inverse(s.world_T_imu[k].matrix());
+        if (!camera.project(imu_T_world, s.p_world.at(f.id), &z_true) ||
+            !camera.project(imu_T_world, p, &z_reported)) {
+          continue;
+        }
+        f.u_left += z_reported(0) - z_true(0);
+        f.v_left += z_reported(1) - z_true(1);
+        f.u_right += z_reported(2) - z_true(2);
+        f.v_right += z_reported(3) - z_true(3);
       }
       kept.push_back(f);
     }
@@ -523,8 +531,8 @@ TEST(VislamEstimator, LandmarkLifeCycleAugmentMarginalizeKeepInMap) {
   estimator.feedFeatures(s.frames[0]);
   const size_t initial = estimator.activeLandmarkCount();
   ASSERT_GT(initial, 20u);
-  // Pose, gyro bias, R_m, disparity offset, landmarks.
-  EXPECT_EQ(estimator.stateDimension(), 6 + 3 + 3 + 1 + 3 * static_cast<int>(initial));
+  // Pose, gyro bias, R_m, disparity offset, pose clone (repeated frames), landmarks.
+  EXPECT_EQ(estimator.stateDimension(), 6 + 3 + 3 + 1 + 6 + 3 * static_cast<int>(initial));
   // Next frame without the first feature: its landmark leaves the state, stays in the map, and
   // marginalization changes neither its estimate nor the pose covariance.
   estimator.feedTwist(s.twists[1]);

@@ -82,11 +82,10 @@ class SyntheticDriveTest(unittest.TestCase):
 
 @unittest.skipUnless(paths.data_dir(), 'course datasets not found (../shared/data or EKF_VISLAM_DATA)')
 class KittiRegressionTest(unittest.TestCase):
-    # Measured with config/default.yaml (scripts/benchmark.sh): 0027 5.461 m / 2.618 %, 0034
-    # 4.953 m / 2.391 %. Three targets are asserted as they stand (0027 RPE <= 3 %, 0034 <= 8.0 m
-    # and <= 5 %); the 0027 ATE target (3.0 m) is not met, its bound guards today's figure with a
-    # margin (ATE moves by +-1 m with small option changes; README).
-    BOUNDS = {'0027': (6.5, 3.0), '0034': (8.0, 5.0)}  # (ATE m, RPE %)
+    # Measured with config/default.yaml (scripts/benchmark.sh): 0027 2.94 m / 1.66 %, 0034
+    # 7.60 m / 3.39 % (README). The targets are asserted; both ATE figures are close to
+    # them (ATE moves by +-1 m with small option changes; README), the run is deterministic.
+    BOUNDS = {'0027': (3.0, 3.0), '0034': (8.0, 5.0)}  # (ATE m, RPE %): the targets
 
     def check(self, name):
         data = paths.data_dir()

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <unordered_map>
+#include <vector>
 
 namespace ekf_vislam {
 
@@ -19,8 +20,10 @@ class RepeatedFrameDetector {
   /// A repeat must share at least `min_shared` tracks with the previous frame.
   explicit RepeatedFrameDetector(int min_shared = 5) : min_shared_(min_shared) {}
 
-  /// True when `frame` repeats the frame given in the previous call; remembers `frame`.
-  bool isRepeat(const FeatureFrame& frame);
+  /// True when `frame` repeats the frame given in the previous call; remembers `frame`. When
+  /// `new_tracks` is given, it receives the indices of the features whose id the previous frame
+  /// did not have (tracks that start in `frame`).
+  bool isRepeat(const FeatureFrame& frame, std::vector<size_t>* new_tracks = nullptr);
   void reset() { previous_.clear(); }
 
  private:

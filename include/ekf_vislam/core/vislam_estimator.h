@@ -31,6 +31,7 @@
 
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 namespace ekf_vislam {
@@ -124,9 +125,20 @@ class VislamEstimator {
   double positionSigma() const;
   void predict(double dt, const TwistData& twist, double noise_scale);
   void processFrame(const FeatureFrame& frame, FeedResult* result);
-  /// Moves each landmark tracked through the repeated `frame` by the motion since the previous
-  /// frame (world_T_imu now * imu_T_world then): its track now reports it one frame late.
-  void shiftRepeatedTracks(const FeatureFrame& frame, FeedResult* result);
+  /// Repeated frame (policy shift): keeps a copy of the pose at its stamp (the clone), remembers
+  /// the tracks that run through it and starts the tracks that are new in it (new_tracks: indices
+  /// into frame.features); its other observations are copies and are not used.
+  void holdRepeatedFrame(const FeatureFrame& frame, const std::vector<size_t>& new_tracks,
+                         FeedResult* result);
+  /// Copies the current pose (mean and covariance rows) into the clone.
+  void clonePose();
+  /// Moves each landmark of a track through the last repeated frame by the motion from the
+  /// clone to now, p <- world_T_imu imu_T_world(clone) p, with its covariance through the exact
+  /// Jacobian: from now on its track reports that point (README, "Repeated frames").
+  void shiftCrossingTracks(FeedResult* result);
+  /// Screens one observation (finite, in both images, rows agree, positive disparity): false
+  /// with the reason counted.
+  bool screenObservation(const StereoObservation& f, FeedResult* result);
   void update(std::vector<Candidate>* candidates, std::vector<Candidate>* reinitialize,
               FeedResult* result);
   bool initializeLandmark(const Candidate& candidate, double stamp, FeedResult* result);
@@ -146,7 +158,10 @@ class VislamEstimator {
   void checkHealth(int candidates, int gated, FeedResult* result);
   void recoverFromDivergence(const std::string& why, FeedResult* result);
   void setPriorCovariance();
-  int auxDim() const { return bias_dim_ + rotation_dim_ + calibrationDim(); }
+  /// Rows between the pose and the landmarks: bias, R_m, calibration, clone.
+  int auxDim() const { return bias_dim_ + rotation_dim_ + calibrationDim() + clone_dim_; }
+  /// The pose clone (6 rows, policy shift in SLAM mode) follows the calibration states.
+  int cloneRow() const { return calibrationRow() + calibrationDim(); }
   /// Stereo calibration states (disparity offset, then baseline scale) start at this row.
   int calibrationRow() const { return kPoseDim + bias_dim_ + rotation_dim_; }
   int calibrationDim() const { return disparity_dim_ + scale_dim_; }
@@ -189,7 +204,11 @@ class VislamEstimator {
 
   // State.
   Eigen::Matrix4d imu_T_world_ = Eigen::Matrix4d::Identity();
-  Eigen::Matrix4d imu_T_world_last_frame_ = Eigen::Matrix4d::Identity();  ///< at the last frame
+  /// Pose at the last repeated frame (the clone). Its tracks report, at the next frame, where
+  /// their landmarks appeared from this pose; its error has state rows when clone_dim_ is 6.
+  Eigen::Matrix4d imu_T_world_clone_ = Eigen::Matrix4d::Identity();
+  int clone_dim_ = 0;
+  std::unordered_set<uint32_t> crossing_ids_;  ///< tracks through the last repeated frame
   Eigen::VectorXd bias_;     ///< estimated bias components (size bias_dim_)
   int bias_dim_ = 0;
   Eigen::Matrix3d imu_R_twist_ = Eigen::Matrix3d::Identity();  ///< R_m

@@ -22,8 +22,9 @@ bool parseMode(const std::string& name, EstimatorMode* mode);
 enum class RepeatedFramePolicy {
   kUse,    ///< process it like any frame
   kSkip,   ///< predict to its stamp, do not use its observations (its tracks stay alive)
-  kShift,  ///< skip it and move the landmarks tracked through it by the motion since the previous
-           ///< frame: their later observations lag one frame (the course files, see README)
+  kShift,  ///< start its new tracks, clone the pose; at the next frame update its other tracks
+           ///< against the clone, then move their landmarks by the clone-to-now motion (the
+           ///< course files' tracks through a repeated frame lag by its motion, see README)
 };
 
 /// What to do when twist messages stop for longer than limits/max_twist_gap.
@@ -122,7 +123,7 @@ struct VislamOptions {
   /// coordinates (a re-published tracker result; repeated_frame_detector.h) is always counted.
   RepeatedFramePolicy repeated_frames = RepeatedFramePolicy::kShift;
   /// shift: standard deviation added to a moved landmark along the camera ray, relative to its
-  /// distance (the motion carried over is the filter's own one-frame prediction).
+  /// distance (the move assumes equal motion over the repeated frame and the next one).
   double repeated_frame_depth_sigma = 0.1;
   int max_features_per_frame = 400;     ///< 0 = unlimited; extra features of a frame dropped
 

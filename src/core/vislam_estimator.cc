@@ -149,7 +149,7 @@ void VislamEstimator::initializeState() {
   disparity_offset_ = 0.0;
   baseline_scale_error_ = 0.0;
   if (has_calibration_) applyBaselineScale();
-  dim_ = kPoseDim + auxDim();
+  dim_ = headDim();
   const int capacity = std::max(64, dim_);
   sigma_ = Eigen::MatrixXd::Zero(capacity, capacity);
   p_world_ = Eigen::VectorXd::Zero(capacity);
@@ -433,10 +433,12 @@ FeedResult VislamEstimator::feedFeatures(const FeatureFrame& frame) {
 void VislamEstimator::holdRepeatedFrame(const FeatureFrame& frame,
                                         const std::vector<size_t>& new_tracks,
                                         FeedResult* result) {
-  // Measured on the course files (README, "Repeated frames"): at the frame after a repeated one,
-  // each track through it reports its landmark as seen from the pose at the repeated frame, and
-  // from then on a point moved by that frame's motion. The tracks that start in the repeated
-  // frame are fresh measurements at its stamp.
+  // Measured on the course files (README, "Repeated frames"): from the next frame on, each track
+  // through a repeated frame reports its landmark carried along by that frame's motion. With
+  // equal motion over the repeated frame and the next one, its next observation is the landmark
+  // seen from the pose at the repeated frame (the clone), which bridges the frame; then the
+  // landmark is moved by the clone-to-now motion (shiftCrossingTracks). The tracks that start in
+  // the repeated frame are fresh measurements at its stamp.
   if (!crossing_ids_.empty()) shiftCrossingTracks(result);  // two repeated frames in a row
   for (const StereoObservation& f : frame.features) {
     auto it = tracking_.find(f.id);
@@ -462,7 +464,8 @@ void VislamEstimator::shiftCrossingTracks(FeedResult* result) {
   // in mapping mode (no pose errors) xi' = R_D xi. Sigma <- J Sigma J^T, J the identity except
   // the moved landmarks' rows: rows first (each new row uses its own old row and the pose and
   // clone rows, which do not change), then columns the same way.
-  const Eigen::Matrix4d delta = se3::inverse(imu_T_world_) * imu_T_world_clone_;
+  const Eigen::Matrix4d world_T_imu = se3::inverse(imu_T_world_);
+  const Eigen::Matrix4d delta = world_T_imu * imu_T_world_clone_;
   const Eigen::Matrix3d R = delta.topLeftCorner<3, 3>();
   const Eigen::Vector3d t = delta.topRightCorner<3, 1>();
   auto S = sigma_.topLeftCorner(dim_, dim_);
@@ -495,7 +498,6 @@ void VislamEstimator::shiftCrossingTracks(FeedResult* result) {
     }
     S.middleCols(row, 3) = cols;
   }
-  const Eigen::Matrix4d world_T_imu = se3::inverse(imu_T_world_);
   const Eigen::Vector3d p_camera_world =
       world_T_imu.topLeftCorner<3, 3>() * camera_.imuTCam().topRightCorner<3, 1>() +
       world_T_imu.topRightCorner<3, 1>();
@@ -1009,7 +1011,7 @@ void VislamEstimator::removeBlocks(const std::vector<bool>& remove, bool count_a
   }
   std::vector<int> keep_rows;
   keep_rows.reserve(dim_);
-  for (int i = 0; i < kPoseDim + auxDim(); ++i) keep_rows.push_back(i);
+  for (int i = 0; i < headDim(); ++i) keep_rows.push_back(i);
   std::vector<StateBlock> kept_blocks;
   for (size_t k = 0; k < blocks_.size(); ++k) {
     if (remove[k]) {

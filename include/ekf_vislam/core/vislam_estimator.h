@@ -158,10 +158,13 @@ class VislamEstimator {
   void checkHealth(int candidates, int gated, FeedResult* result);
   void recoverFromDivergence(const std::string& why, FeedResult* result);
   void setPriorCovariance();
-  /// Rows between the pose and the landmarks: bias, R_m, calibration, clone.
-  int auxDim() const { return bias_dim_ + rotation_dim_ + calibrationDim() + clone_dim_; }
-  /// The pose clone (6 rows, policy shift in SLAM mode) follows the calibration states.
-  int cloneRow() const { return calibrationRow() + calibrationDim(); }
+  /// States the prediction moves besides the pose: bias, R_m, calibration.
+  int auxDim() const { return bias_dim_ + rotation_dim_ + calibrationDim(); }
+  /// The pose clone (6 rows, policy shift in SLAM mode) follows the auxiliary states; the
+  /// prediction leaves it alone.
+  int cloneRow() const { return kPoseDim + auxDim(); }
+  /// Rows before the first landmark: pose, auxiliary states, clone.
+  int headDim() const { return kPoseDim + auxDim() + clone_dim_; }
   /// Stereo calibration states (disparity offset, then baseline scale) start at this row.
   int calibrationRow() const { return kPoseDim + bias_dim_ + rotation_dim_; }
   int calibrationDim() const { return disparity_dim_ + scale_dim_; }
@@ -169,7 +172,7 @@ class VislamEstimator {
   int scaleRow() const { return calibrationRow() + disparity_dim_; }
   /// camera_ from the nominal calibration with the baseline scaled by the current estimate.
   void applyBaselineScale();
-  int landmarkRow(size_t block) const { return kPoseDim + auxDim() + 3 * static_cast<int>(block); }
+  int landmarkRow(size_t block) const { return headDim() + 3 * static_cast<int>(block); }
   Vector6d biasVector() const;
   /// u_true = R_m (u_measured - b) for the current estimates.
   Vector6d trueTwist(const TwistData& twist) const;

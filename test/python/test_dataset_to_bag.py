@@ -559,7 +559,7 @@ class PlayTest(ConverterTestCase):
     def start_roscore(self, env):
         core = subprocess.Popen(['roscore', '-p', env['ROS_MASTER_URI'].rsplit(':', 1)[1]],
                                 env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                                start_new_session=True)
+                                process_group=0)
 
         def stop():
             os.killpg(core.pid, signal.SIGINT)

@@ -43,3 +43,28 @@ if(CATKIN_ENABLE_TESTING)
   target_compile_definitions(ekf_vislam_tracker_test PRIVATE
     EKF_VISLAM_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
 endif()
+
+# ROS layer of the tracker (thin: messages in and out).
+add_library(ekf_vislam_tracker_ros src/ros/stereo_tracker_ros.cc)
+target_include_directories(ekf_vislam_tracker_ros SYSTEM PUBLIC
+  ${cv_bridge_INCLUDE_DIRS} ${image_transport_INCLUDE_DIRS} ${message_filters_INCLUDE_DIRS})
+target_link_libraries(ekf_vislam_tracker_ros ekf_vislam_tracker ekf_vislam_ros
+  ${cv_bridge_LIBRARIES} ${image_transport_LIBRARIES} ${message_filters_LIBRARIES}
+  ${catkin_LIBRARIES})
+add_dependencies(ekf_vislam_tracker_ros ${PROJECT_NAME}_generate_messages_cpp)
+
+add_library(ekf_vislam_tracker_nodelet src/ros/stereo_tracker_nodelet.cc)
+target_link_libraries(ekf_vislam_tracker_nodelet ekf_vislam_tracker_ros)
+
+add_executable(stereo_tracker_node src/ros/stereo_tracker_node.cc)
+target_link_libraries(stereo_tracker_node ekf_vislam_tracker_ros)
+
+install(TARGETS ekf_vislam_tracker_ros ekf_vislam_tracker_nodelet stereo_tracker_node
+  ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
+  LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
+  RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
+install(PROGRAMS scripts/play_stereo_images.py scripts/render_stereo_drive.py
+  DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
+if(TARGET tests)
+  add_dependencies(tests ekf_vislam_tracker_nodelet stereo_tracker_node track_stereo_images)
+endif()

@@ -23,6 +23,8 @@ PACKAGES=(
   python3-std-msgs python3-geometry-msgs python3-sensor-msgs python3-nav-msgs
   python3-visualization-msgs python3-tf2-msgs python3-diagnostic-msgs python3-std-srvs
   python3-numpy python3-matplotlib python3-scipy python3-yaml
+  libopencv-dev python3-opencv libcv-bridge-dev python3-cv-bridge libimage-transport-dev
+  libmessage-filters-dev python3-message-filters
 )
 
 missing=()

@@ -1,0 +1,70 @@
+# Stereo front end (included from CMakeLists.txt after the estimator targets):
+#  - ekf_vislam_tracker: the ROS-free tracker core (OpenCV + Eigen), src/tracker;
+#  - track_stereo_images: the offline tool over a KITTI-layout image folder;
+#  - ekf_vislam_tracker_nodelet (ekf_vislam/StereoTrackerNodelet) and stereo_tracker_node;
+#  - ekf_vislam_tracker_test (gtest), registered with ctest.
+find_package(OpenCV REQUIRED COMPONENTS core imgproc imgcodecs features2d video calib3d)
+find_package(cv_bridge REQUIRED)
+find_package(image_transport REQUIRED)
+find_package(message_filters REQUIRED)
+
+add_library(ekf_vislam_tracker
+  src/tracker/tracker_options.cc
+  src/tracker/feature_detector.cc
+  src/tracker/stereo_matcher.cc
+  src/tracker/motion_check.cc
+  src/tracker/stereo_tracker.cc
+  src/tracker/debug_drawing.cc
+  src/tracker/kitti_sequence.cc
+  src/tracker/npz_writer.cc
+  src/tracker/pose_twist.cc
+  src/tracker/track_quality.cc)
+target_include_directories(ekf_vislam_tracker SYSTEM PUBLIC ${OpenCV_INCLUDE_DIRS})
+target_link_libraries(ekf_vislam_tracker ekf_vislam_core ${OpenCV_LIBS})
+
+add_executable(track_stereo_images src/tracker/track_stereo_images.cc)
+target_link_libraries(track_stereo_images ekf_vislam_tracker)
+
+install(TARGETS ekf_vislam_tracker track_stereo_images
+  ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
+  LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
+  RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
+
+if(CATKIN_ENABLE_TESTING)
+  catkin_add_gtest(ekf_vislam_tracker_test
+    src/core/gtest_main.cc
+    src/tracker/tracker_options_test.cc
+    src/tracker/feature_detector_test.cc
+    src/tracker/npz_writer_test.cc
+    src/tracker/pose_twist_test.cc
+    src/tracker/stereo_tracker_test.cc
+    src/tracker/kitti_clips_test.cc)
+  target_link_libraries(ekf_vislam_tracker_test ekf_vislam_tracker)
+  target_compile_definitions(ekf_vislam_tracker_test PRIVATE
+    EKF_VISLAM_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+endif()
+
+# ROS layer of the tracker (thin: messages in and out).
+add_library(ekf_vislam_tracker_ros src/ros/stereo_tracker_ros.cc)
+target_include_directories(ekf_vislam_tracker_ros SYSTEM PUBLIC
+  ${cv_bridge_INCLUDE_DIRS} ${image_transport_INCLUDE_DIRS} ${message_filters_INCLUDE_DIRS})
+target_link_libraries(ekf_vislam_tracker_ros ekf_vislam_tracker ekf_vislam_ros
+  ${cv_bridge_LIBRARIES} ${image_transport_LIBRARIES} ${message_filters_LIBRARIES}
+  ${catkin_LIBRARIES})
+add_dependencies(ekf_vislam_tracker_ros ${PROJECT_NAME}_generate_messages_cpp)
+
+add_library(ekf_vislam_tracker_nodelet src/ros/stereo_tracker_nodelet.cc)
+target_link_libraries(ekf_vislam_tracker_nodelet ekf_vislam_tracker_ros)
+
+add_executable(stereo_tracker_node src/ros/stereo_tracker_node.cc)
+target_link_libraries(stereo_tracker_node ekf_vislam_tracker_ros)
+
+install(TARGETS ekf_vislam_tracker_ros ekf_vislam_tracker_nodelet stereo_tracker_node
+  ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
+  LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
+  RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
+install(PROGRAMS scripts/play_stereo_images.py scripts/render_stereo_drive.py
+  DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
+if(TARGET tests)
+  add_dependencies(tests ekf_vislam_tracker_nodelet stereo_tracker_node track_stereo_images)
+endif()

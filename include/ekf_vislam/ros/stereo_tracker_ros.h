@@ -1,0 +1,90 @@
+// The ROS side of the stereo tracker, shared by StereoTrackerNodelet and stereo_tracker_node:
+// synchronized rectified images and their camera_info in, ekf_vislam/StereoFeatureArray out
+// (plus a debug image when someone listens), bad input warned about (throttled) and counted in
+// diagnostics. A thin layer over the ROS-free StereoTracker.
+#pragma once
+
+#include "ekf_vislam/tracker/stereo_tracker.h"
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <geometry_msgs/TwistStamped.h>
+#include <image_transport/image_transport.h>
+#include <message_filters/subscriber.h>
+#include <message_filters/sync_policies/approximate_time.h>
+#include <message_filters/synchronizer.h>
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <Eigen/Geometry>
+
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+
+namespace ekf_vislam {
+
+/// ROS-only options, read from the private namespace under ros/ (see config/tracker.yaml).
+struct StereoTrackerRosOptions {
+  int queue_size = 5;                 ///< image and synchronizer queues
+  double max_stamp_difference = 0.002;  ///< s, left and right stamps further apart: unsynchronized
+  bool use_twist = true;              ///< predict KLT start points from imu/twist (needs tf)
+  double diagnostic_period = 1.0;     ///< s
+};
+
+class StereoTrackerRos {
+ public:
+  /// Reads the tracker options from `pnh` (throws std::runtime_error when invalid).
+  StereoTrackerRos(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string& name);
+
+ private:
+  using SyncPolicy =
+      message_filters::sync_policies::ApproximateTime<sensor_msgs::Image, sensor_msgs::Image>;
+
+  void imageCallback(const sensor_msgs::ImageConstPtr& left, const sensor_msgs::ImageConstPtr& right);
+  void leftInfoCallback(const sensor_msgs::CameraInfoConstPtr& msg);
+  void rightInfoCallback(const sensor_msgs::CameraInfoConstPtr& msg);
+  void twistCallback(const geometry_msgs::TwistStampedConstPtr& msg);
+  bool toGray(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* why) const;
+  bool calibrationFor(const sensor_msgs::Image& left, RectifiedStereo* stereo, std::string* why);
+  std::optional<CameraMotionPrior> motionPrior(const std::string& camera_frame, double from,
+                                               double to);
+  void publish(const sensor_msgs::Image& left_msg, const cv::Mat& left, const cv::Mat& right,
+               const StereoFrame& frame);
+  void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
+
+  ros::NodeHandle nh_, pnh_;
+  std::string name_;
+  TrackerOptions options_;
+  StereoTrackerRosOptions ros_options_;
+  std::unique_ptr<StereoTracker> tracker_;
+  RectifiedStereo stereo_;
+
+  image_transport::ImageTransport image_transport_;
+  message_filters::Subscriber<sensor_msgs::Image> left_sub_, right_sub_;
+  std::unique_ptr<message_filters::Synchronizer<SyncPolicy>> sync_;
+  ros::Subscriber left_info_sub_, right_info_sub_, twist_sub_;
+  ros::Publisher features_pub_;
+  image_transport::Publisher debug_pub_;
+  tf2_ros::Buffer tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::WallTimer diagnostics_timer_;
+
+  std::mutex mutex_;
+  sensor_msgs::CameraInfoConstPtr left_info_, right_info_;
+  std::deque<geometry_msgs::TwistStamped> twists_;
+  double prev_stamp_ = -1;
+  // Counters (diagnostics).
+  uint64_t pairs_received_ = 0, pairs_tracked_ = 0, bad_encoding_ = 0, size_mismatch_ = 0;
+  uint64_t unsynchronized_ = 0, missing_camera_info_ = 0, bad_camera_info_ = 0;
+  uint64_t tracker_refused_ = 0, twist_used_ = 0;
+  int last_features_ = 0;
+  double last_ms_ = 0;
+};
+
+}  // namespace ekf_vislam

@@ -1,0 +1,31 @@
+// New corners on a grid: each cell is filled up to a count, every new corner keeps a minimum
+// distance from existing features and from the others. No ROS.
+#pragma once
+
+#include "ekf_vislam/tracker/tracker_options.h"
+
+#include <opencv2/core.hpp>
+
+#include <vector>
+
+namespace ekf_vislam {
+
+class GridFeatureDetector {
+ public:
+  explicit GridFeatureDetector(const TrackerOptions& options) : options_(options) {}
+
+  /// New corners of the 8-bit image in cells holding fewer than max_features_per_cell of
+  /// `existing`, strongest first within a cell, at least min_feature_distance from `existing`
+  /// and from each other, none within border_px of the image border.
+  std::vector<cv::Point2f> detect(const cv::Mat& image,
+                                  const std::vector<cv::Point2f>& existing) const;
+
+  /// Grid cell index of a point (row-major), -1 outside the image.
+  int cellOf(const cv::Point2f& point, const cv::Size& size) const;
+
+ private:
+  std::vector<cv::KeyPoint> candidates(const cv::Mat& image, const cv::Mat& free_mask) const;
+  TrackerOptions options_;
+};
+
+}  // namespace ekf_vislam

@@ -1,0 +1,31 @@
+// A body twist derived from ground-truth poses, as an "accurate twist" sensor would give it
+// (white noise per sample and a constant gyro offset, seeded), for complete course datasets
+// made from image folders. No ROS.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <vector>
+
+namespace ekf_vislam {
+
+/// cam_T_imu of an IMU frame with x forward, y left, z up, at the origin of the left camera's
+/// optical frame (z forward, x right, y down).
+Eigen::Matrix4d forwardLeftUpCamTImu();
+
+struct TwistNoise {
+  double linear_sigma = 0.05;    ///< m/s, white, per sample and axis
+  double angular_sigma = 0.005;  ///< rad/s, white, per sample and axis
+  double gyro_offset = 0.001;    ///< rad/s, constant, added to every axis
+  uint64_t seed = 0;
+};
+
+/// Body-frame twist (v, w) of world_T_body, one sample per pose: sample k+1 is the constant twist
+/// that moves pose k to pose k+1 over [t_k, t_k+1] (log(body_k_T_body_k+1) / dt); sample 0 copies
+/// sample 1. Noise is added as described by `noise` (all zero: the exact twist).
+void twistFromPoses(const std::vector<Eigen::Matrix4d>& world_T_body,
+                    const std::vector<double>& times, const TwistNoise& noise,
+                    std::vector<Eigen::Vector3d>* v, std::vector<Eigen::Vector3d>* w);
+
+}  // namespace ekf_vislam

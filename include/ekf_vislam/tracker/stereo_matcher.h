@@ -1,0 +1,32 @@
+// Left-to-right matching in a rectified pair by pyramidal KLT seeded on the same row, checked
+// by matching back right to left, by the row difference and by the disparity range. No ROS.
+#pragma once
+
+#include "ekf_vislam/tracker/tracker_options.h"
+
+#include <opencv2/core.hpp>
+
+#include <vector>
+
+namespace ekf_vislam {
+
+/// Why left points found no right match (counts over one call).
+struct StereoMatchCounts {
+  int klt_failed = 0;
+  int back_check_failed = 0;
+  int row_failed = 0;
+  int disparity_failed = 0;
+  int matched = 0;
+};
+
+/// Pyramids from cv::buildOpticalFlowPyramid (with derivatives) of the rectified left and right
+/// images; `seed_disparity[i]` is the initial guess of u_left - u_right for left[i] (0 without
+/// one). Returns the right points; ok[i] says whether left[i] was matched.
+std::vector<cv::Point2f> matchStereo(const std::vector<cv::Mat>& left_pyramid,
+                                     const std::vector<cv::Mat>& right_pyramid,
+                                     const std::vector<cv::Point2f>& left,
+                                     const std::vector<float>& seed_disparity,
+                                     const TrackerOptions& options, std::vector<uint8_t>* ok,
+                                     StereoMatchCounts* counts);
+
+}  // namespace ekf_vislam

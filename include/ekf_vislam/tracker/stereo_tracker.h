@@ -1,0 +1,74 @@
+// Stereo feature tracker over rectified image pairs: grid corners, pyramidal KLT frame to frame
+// with a forward-backward check, RANSAC over the temporal matches, a left-right KLT match on the
+// same row, persistent ids (never reused). The heart of the stereo front end; no ROS.
+#pragma once
+
+#include "ekf_vislam/tracker/feature_detector.h"
+#include "ekf_vislam/tracker/tracker_options.h"
+#include "ekf_vislam/tracker/tracker_types.h"
+
+#include <opencv2/core.hpp>
+
+#include <string>
+#include <vector>
+
+namespace ekf_vislam {
+
+class StereoTracker {
+ public:
+  /// `options` must pass validate() and `calibration` must be valid() (checked by the callers).
+  StereoTracker(const TrackerOptions& options, const RectifiedStereo& calibration);
+
+  /// Processes one rectified pair (8-bit single channel, same size) taken at `stamp` (s).
+  /// `prior` (optional) predicts the KLT start points. On bad input returns false, sets *why and
+  /// leaves the tracks as they were. An image size different from the previous pair's ends all
+  /// tracks (the pair is processed as a first frame).
+  bool process(const cv::Mat& left, const cv::Mat& right, double stamp,
+               const CameraMotionPrior* prior, StereoFrame* frame, std::string* why);
+
+  /// Ends every track (the next pair starts afresh; ids continue).
+  void reset();
+
+  const RectifiedStereo& calibration() const { return calibration_; }
+  const TrackerOptions& options() const { return options_; }
+
+ private:
+  struct Track {
+    uint32_t id = 0;  ///< valid once published
+    bool has_id = false;
+    cv::Point2f left, right;
+    int age = 0;
+    std::vector<cv::Point2f> trail;
+  };
+
+  std::vector<cv::Point2f> predictLeft(const CameraMotionPrior* prior, double dt,
+                                       CameraMotionPrior* used) const;
+  // KLT of the tracks into the new left image, forward-backward check and RANSAC; drops the
+  // lost tracks and returns each survivor's predicted disparity (the left-right KLT seed).
+  std::vector<float> trackTemporal(const std::vector<cv::Mat>& left_pyramid,
+                                   const CameraMotionPrior* prior, double dt,
+                                   TrackerFrameStats* stats);
+  void matchTracksInRight(const std::vector<cv::Mat>& left_pyramid,
+                          const std::vector<cv::Mat>& right_pyramid,
+                          const std::vector<float>& predicted_disparity, TrackerFrameStats* stats);
+  void addNewTracks(const cv::Mat& left, const std::vector<cv::Mat>& left_pyramid,
+                    const std::vector<cv::Mat>& right_pyramid, TrackerFrameStats* stats);
+  cv::Point3f pointOf(const Track& track) const;
+  void fillFrame(double stamp, StereoFrame* frame);
+
+  TrackerOptions options_;
+  RectifiedStereo calibration_;
+  GridFeatureDetector detector_;
+  std::vector<Track> tracks_;
+  std::vector<cv::Mat> prev_left_pyramid_;
+  cv::Size image_size_;
+  double prev_stamp_ = 0;
+  bool has_prev_ = false;
+  uint32_t next_id_ = 0;
+  // Motion of the last frame (for the next frame's KLT prediction) and its time step.
+  bool has_last_motion_ = false;
+  CameraMotionPrior last_motion_;
+  double last_dt_ = 0;
+};
+
+}  // namespace ekf_vislam

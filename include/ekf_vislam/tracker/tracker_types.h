@@ -1,0 +1,61 @@
+// Plain data of the stereo tracker: calibration in, tracked features and per-frame counters out.
+// No ROS.
+#pragma once
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include <cstdint>
+#include <vector>
+
+namespace ekf_vislam {
+
+/// Rectified stereo pair: both images share fx, fy, cx, cy; the right camera sits `baseline`
+/// metres along the left camera's +x axis (disparity u_left - u_right = fx * baseline / z).
+struct RectifiedStereo {
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  double baseline = 0;  ///< m
+  bool valid() const { return fx > 0 && fy > 0 && baseline > 0; }
+};
+
+/// Optional motion of the left camera between the previous and the current frame, e.g. from
+/// the gyro: p_cur = cur_R_prev * p_prev + cur_t_prev (points in the left camera frames).
+struct CameraMotionPrior {
+  Eigen::Matrix3d cur_R_prev = Eigen::Matrix3d::Identity();
+  bool has_translation = false;
+  Eigen::Vector3d cur_t_prev = Eigen::Vector3d::Zero();  ///< m, used when has_translation
+};
+
+/// One feature of a frame, matched in both images.
+struct TrackedFeature {
+  uint32_t id = 0;      ///< persistent track id, never reused
+  cv::Point2f left;     ///< rectified left image, px (u right, v down)
+  cv::Point2f right;    ///< rectified right image, px
+  int age = 0;          ///< frames since the track was first published (0 in that frame)
+  std::vector<cv::Point2f> trail;  ///< its last left positions, oldest first (for drawing)
+};
+
+/// Why features left or did not join, and where the time went, in one frame.
+struct TrackerFrameStats {
+  int tracks_in = 0;            ///< tracks of the previous frame
+  int klt_lost = 0;             ///< KLT failed or left the image
+  int forward_backward_rejected = 0;
+  int ransac_rejected = 0;      ///< temporal outliers
+  int stereo_lost = 0;          ///< tracked, but no left-right match in this frame
+  int disparity_rejected = 0;   ///< left-right match disagrees with the predicted disparity
+  int detected = 0;             ///< new corners found
+  int new_tracks = 0;           ///< of them, matched in the right image (new ids)
+  int published = 0;            ///< features of the frame
+  bool motion_estimated = false;  ///< PnP gave the camera motion of this frame
+  double ms_pyramids = 0, ms_temporal = 0, ms_ransac = 0, ms_stereo = 0, ms_detect = 0;
+  double ms_total = 0;
+};
+
+/// Result of one stereo pair.
+struct StereoFrame {
+  double stamp = 0;
+  std::vector<TrackedFeature> features;
+  TrackerFrameStats stats;
+};
+
+}  // namespace ekf_vislam

@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# Speed of the stereo tracker: runs track_stereo_images over a KITTI-layout folder (default: the
+# 1241x376 highway clip ../shared/data/kitti_clips/odometry_01_000000-000050) and prints the
+# median and p99 milliseconds per stereo pair (tracking only: image decoding excluded) and the
+# frame rate they mean, for each of --repeat runs.
+#   scripts/benchmark_tracker.sh [FOLDER] [--repeat N]
+set -eo pipefail
+export PATH=/usr/bin:/bin:${PATH}
+REPO=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+FOLDER=""
+REPEAT=3
+while (($#)); do
+  case "$1" in
+    --repeat) REPEAT=$2; shift 2 ;;
+    -h|--help) sed -n 2,6p "$0"; exit 0 ;;
+    *) FOLDER=$1; shift ;;
+  esac
+done
+DATA=${EKF_VISLAM_DATA:-${REPO}/../shared/data}
+FOLDER=${FOLDER:-${DATA}/kitti_clips/odometry_01_000000-000050}
+[[ -d "${FOLDER}/image_left" ]] || { echo "benchmark_tracker: no ${FOLDER}/image_left"; exit 2; }
+source "${REPO}/scripts/env.sh" >/dev/null 2>&1 || true
+TOOL=$(command -v track_stereo_images || true)
+[[ -n "${TOOL}" ]] || TOOL=$(ls "${EKF_VISLAM_WS:-${REPO}/build}"/devel/lib/ekf_vislam/track_stereo_images)
+TMP=$(mktemp -d)
+trap 'rm -rf "${TMP}"' EXIT
+for run in $(seq 1 "${REPEAT}"); do
+  "${TOOL}" --left "${FOLDER}/image_left" --right "${FOLDER}/image_right" --calib "${FOLDER}/calib.txt" \
+    --times "${FOLDER}/times.txt" --out "${TMP}/tracks.npz" --stats "${TMP}/stats.csv" --quiet
+  /usr/bin/python3 - "${TMP}/stats.csv" "${run}" "${FOLDER}" <<'PY'
+import csv, sys
+import numpy as np
+rows = list(csv.DictReader(open(sys.argv[1])))
+ms = np.array([float(r['ms_total']) for r in rows])
+features = np.array([int(r['published']) for r in rows])
+print('run %s: %d pairs of %s: ms per pair median %.2f, p99 %.2f, max %.2f -> %.1f fps at the '
+      'median, %.1f at p99; features per frame mean %.1f'
+      % (sys.argv[2], len(ms), sys.argv[3].rstrip('/').split('/')[-1], np.median(ms),
+         np.percentile(ms, 99), ms.max(), 1000 / np.median(ms), 1000 / np.percentile(ms, 99),
+         features.mean()))
+PY
+done

@@ -1,0 +1,109 @@
+"""Stereo image folders in the KITTI odometry layout (image_left/, image_right/, calib.txt with P0
+and P1, times.txt, optional poses.txt with world_T_cam0 per line) and the ground-truth twist of
+an IMU frame (x forward, y left, z up) rigidly attached at the left camera, as
+track_stereo_images writes it (sample k+1 drives [t_k, t_k+1]; white noise and a gyro offset)."""
+import collections
+import os
+
+import numpy as np
+
+from ekf_vislam_tools import se3
+
+IMAGE_EXTENSIONS = ('.png', '.jpg', '.jpeg', '.pgm', '.ppm')
+
+#: cam_T_imu of the IMU frame x forward, y left, z up at the left camera's origin.
+CAM_T_IMU = np.array([[0.0, -1.0, 0.0, 0.0],
+                      [0.0, 0.0, -1.0, 0.0],
+                      [1.0, 0.0, 0.0, 0.0],
+                      [0.0, 0.0, 0.0, 1.0]])
+
+StereoFolder = collections.namedtuple(
+    'StereoFolder', ['left', 'right', 'times', 'K', 'b', 'world_T_cam'])
+
+
+def list_images(folder):
+    names = sorted(n for n in os.listdir(folder) if n.lower().endswith(IMAGE_EXTENSIONS))
+    if not names:
+        raise ValueError('%s: no images' % folder)
+    return [os.path.join(folder, n) for n in names]
+
+
+def read_calib(path):
+    """calib.txt -> (K 3x3, baseline m), from P0 and P1 (optionally labelled 'P0:')."""
+    rows = {}
+    unlabeled = []
+    with open(path) as f:
+        for line in f:
+            parts = line.split()
+            if not parts:
+                continue
+            if parts[0].endswith(':'):
+                rows[parts[0][:-1]] = [float(x) for x in parts[1:]]
+            else:
+                unlabeled.append([float(x) for x in parts])
+    p0 = rows.get('P0', unlabeled[0] if unlabeled else None)
+    p1 = rows.get('P1', unlabeled[1] if len(unlabeled) > 1 else None)
+    if p0 is None or p1 is None or len(p0) != 12 or len(p1) != 12:
+        raise ValueError('%s: needs P0 and P1 (12 numbers each)' % path)
+    P0, P1 = np.reshape(p0, (3, 4)), np.reshape(p1, (3, 4))
+    return P0[:, :3].copy(), (P0[0, 3] - P1[0, 3]) / P0[0, 0]
+
+
+def read_poses(path):
+    """poses.txt -> (N, 4, 4) world_T_cam."""
+    rows = np.loadtxt(path, ndmin=2)
+    if rows.shape[1] != 12:
+        raise ValueError('%s: expected 12 numbers per line' % path)
+    T = np.tile(np.eye(4), (rows.shape[0], 1, 1))
+    T[:, :3, :] = rows.reshape(-1, 3, 4)
+    return T
+
+
+def load_folder(folder=None, left=None, right=None, calib=None, times=None, poses=None):
+    """A KITTI-layout folder (or its parts given one by one) -> StereoFolder."""
+    left = left or os.path.join(folder, 'image_left')
+    right = right or os.path.join(folder, 'image_right')
+    calib = calib or os.path.join(folder, 'calib.txt')
+    times = times or os.path.join(folder, 'times.txt')
+    if poses is None and folder is not None and os.path.exists(os.path.join(folder, 'poses.txt')):
+        poses = os.path.join(folder, 'poses.txt')
+    K, b = read_calib(calib)
+    t = np.loadtxt(times, ndmin=1)
+    lefts, rights = list_images(left), list_images(right)
+    world_T_cam = read_poses(poses) if poses else None
+    n = len(lefts)
+    if len(rights) != n or len(t) != n or (world_T_cam is not None and len(world_T_cam) != n):
+        raise ValueError('frame counts differ: %d left, %d right, %d times%s'
+                         % (n, len(rights), len(t), '' if world_T_cam is None
+                            else ', %d poses' % len(world_T_cam)))
+    return StereoFolder(lefts, rights, t, K, b, world_T_cam)
+
+
+def se3_log(T):
+    """4x4 -> xi = [rho; phi] with T = exp(hat(xi))."""
+    phi = se3.so3_log(T[:3, :3])
+    theta = np.linalg.norm(phi)
+    Phi = se3.hat(phi)
+    if theta < 1e-9:
+        V = np.eye(3) + 0.5 * Phi
+    else:
+        V = (np.eye(3) + (1 - np.cos(theta)) / theta ** 2 * Phi
+             + (theta - np.sin(theta)) / theta ** 3 * Phi @ Phi)
+    return np.concatenate([np.linalg.solve(V, T[:3, 3]), phi])
+
+
+def twist_from_poses(world_T_imu, times, linear_sigma=0.05, angular_sigma=0.005,
+                     gyro_offset=0.001, seed=0):
+    """(v, w), each (3, T): sample k+1 = log(inv(T_k) T_k+1) / dt; sample 0 copies sample 1;
+    plus white noise and a constant offset on every gyro axis."""
+    n = len(times)
+    xi = np.zeros((6, n))
+    for k in range(n - 1):
+        xi[:, k + 1] = se3_log(se3.inverse(world_T_imu[k]) @ world_T_imu[k + 1]) / (
+            times[k + 1] - times[k])
+    if n > 1:
+        xi[:, 0] = xi[:, 1]
+    rng = np.random.default_rng(seed)
+    v = xi[:3] + linear_sigma * rng.standard_normal((3, n))
+    w = xi[3:] + angular_sigma * rng.standard_normal((3, n)) + gyro_offset
+    return v, w

@@ -1,0 +1,282 @@
+#include "ekf_vislam/ros/stereo_tracker_ros.h"
+
+#include "ekf_vislam/core/se3.h"
+#include "ekf_vislam/ros/ros_parameter_source.h"
+#include "ekf_vislam/tracker/debug_drawing.h"
+
+#include <cv_bridge/cv_bridge.h>
+#include <ekf_vislam/StereoFeatureArray.h>
+#include <opencv2/imgproc.hpp>
+#include <sensor_msgs/image_encodings.h>
+#include <tf2_eigen/tf2_eigen.h>
+
+#include <cmath>
+#include <stdexcept>
+
+namespace ekf_vislam {
+
+namespace {
+
+constexpr double kWarnPeriod = 5.0;  // s, throttle of the bad-input warnings
+constexpr size_t kMaxTwists = 400;
+
+bool readRosOptions(const ros::NodeHandle& pnh, StereoTrackerRosOptions* o, std::string* why) {
+  pnh.param("ros/queue_size", o->queue_size, o->queue_size);
+  pnh.param("ros/max_stamp_difference", o->max_stamp_difference, o->max_stamp_difference);
+  pnh.param("ros/use_twist", o->use_twist, o->use_twist);
+  pnh.param("ros/diagnostic_period", o->diagnostic_period, o->diagnostic_period);
+  if (o->queue_size < 1) *why = "ros/queue_size must be >= 1";
+  if (!(o->max_stamp_difference >= 0)) *why = "ros/max_stamp_difference must be >= 0";
+  if (!(o->diagnostic_period > 0)) *why = "ros/diagnostic_period must be > 0";
+  return why->empty();
+}
+
+}  // namespace
+
+StereoTrackerRos::StereoTrackerRos(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string& name)
+    : nh_(nh), pnh_(pnh), name_(name), image_transport_(nh) {
+  RosParameterSource source(pnh_);
+  std::string error;
+  if (!parseTrackerOptions(source, &options_, &error) ||
+      !(error = options_.validate()).empty() || !readRosOptions(pnh_, &ros_options_, &error)) {
+    ROS_FATAL("%s: invalid parameters: %s", name_.c_str(), error.c_str());
+    throw std::runtime_error("invalid parameters: " + error);
+  }
+  ROS_INFO("%s: tracker options (from %s):\n%s", name_.c_str(), source.describe().c_str(),
+           describeOptions(options_).c_str());
+
+  features_pub_ = nh_.advertise<ekf_vislam::StereoFeatureArray>("stereo/features", 10);
+  debug_pub_ = image_transport_.advertise("stereo/debug_image", 1);
+  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_);
+
+  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
+  diagnostics_->setHardwareID("ekf_vislam");
+  diagnostics_->add("stereo tracker", this, &StereoTrackerRos::produceDiagnostics);
+  diagnostics_timer_ = nh_.createWallTimer(ros::WallDuration(ros_options_.diagnostic_period),
+                                           [this](const ros::WallTimerEvent&) {
+                                             diagnostics_->force_update();
+                                           });
+
+  const int queue = ros_options_.queue_size;
+  left_info_sub_ = nh_.subscribe("stereo/left/camera_info", 5, &StereoTrackerRos::leftInfoCallback, this);
+  right_info_sub_ =
+      nh_.subscribe("stereo/right/camera_info", 5, &StereoTrackerRos::rightInfoCallback, this);
+  if (ros_options_.use_twist) {
+    twist_sub_ = nh_.subscribe("imu/twist", 200, &StereoTrackerRos::twistCallback, this);
+  }
+  left_sub_.subscribe(nh_, "stereo/left/image_rect", queue);
+  right_sub_.subscribe(nh_, "stereo/right/image_rect", queue);
+  sync_ = std::make_unique<message_filters::Synchronizer<SyncPolicy>>(SyncPolicy(queue), left_sub_,
+                                                                      right_sub_);
+  sync_->registerCallback(&StereoTrackerRos::imageCallback, this);
+}
+
+void StereoTrackerRos::leftInfoCallback(const sensor_msgs::CameraInfoConstPtr& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  left_info_ = msg;
+}
+
+void StereoTrackerRos::rightInfoCallback(const sensor_msgs::CameraInfoConstPtr& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  right_info_ = msg;
+}
+
+void StereoTrackerRos::twistCallback(const geometry_msgs::TwistStampedConstPtr& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!twists_.empty() && msg->header.stamp <= twists_.back().header.stamp) return;
+  twists_.push_back(*msg);
+  while (twists_.size() > kMaxTwists) twists_.pop_front();
+}
+
+bool StereoTrackerRos::toGray(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray,
+                              std::string* why) const {
+  namespace enc = sensor_msgs::image_encodings;
+  try {
+    if (msg->encoding == enc::MONO8) {
+      *gray = cv_bridge::toCvShare(msg)->image;  // no copy
+    } else if (msg->encoding == enc::BGR8 || msg->encoding == enc::RGB8) {
+      cv::cvtColor(cv_bridge::toCvShare(msg)->image, *gray,
+                   msg->encoding == enc::BGR8 ? cv::COLOR_BGR2GRAY : cv::COLOR_RGB2GRAY);
+    } else {
+      *why = "encoding '" + msg->encoding + "' (expected mono8, bgr8 or rgb8)";
+      return false;
+    }
+  } catch (const cv_bridge::Exception& e) {
+    *why = std::string("cannot convert the image: ") + e.what();
+    return false;
+  }
+  return true;
+}
+
+bool StereoTrackerRos::calibrationFor(const sensor_msgs::Image& left, RectifiedStereo* stereo,
+                                      std::string* why) {
+  if (!left_info_ || !right_info_) {
+    ++missing_camera_info_;
+    *why = "no camera_info yet on stereo/left/camera_info and stereo/right/camera_info";
+    return false;
+  }
+  const auto& pl = left_info_->P;
+  const auto& pr = right_info_->P;
+  RectifiedStereo s;
+  s.fx = pl[0];
+  s.cx = pl[2];
+  s.fy = pl[5];
+  s.cy = pl[6];
+  // Rectified right camera: P[0,3] = -fx * baseline.
+  s.baseline = pr[0] > 0 ? -pr[3] / pr[0] : 0.0;
+  if (!s.valid() || !std::isfinite(s.baseline) || std::abs(pr[0] - pl[0]) > 1e-3 * pl[0] ||
+      std::abs(pr[2] - pl[2]) > 1.0 || std::abs(pr[6] - pl[6]) > 1.0) {
+    ++bad_camera_info_;
+    *why = "camera_info is not a rectified pair (P: fx, fy > 0, equal in both, right P[0,3] = "
+           "-fx * baseline < 0)";
+    return false;
+  }
+  if ((left_info_->width != 0 && left_info_->width != left.width) ||
+      (left_info_->height != 0 && left_info_->height != left.height)) {
+    ++size_mismatch_;
+    *why = "image size differs from its camera_info's";
+    return false;
+  }
+  *stereo = s;
+  return true;
+}
+
+std::optional<CameraMotionPrior> StereoTrackerRos::motionPrior(const std::string& camera_frame,
+                                                              double from, double to) {
+  if (twists_.empty() || from <= 0 || to <= from) return std::nullopt;
+  Eigen::Isometry3d cam_T_imu;
+  try {
+    cam_T_imu = tf2::transformToEigen(
+        tf_buffer_.lookupTransform(camera_frame, twists_.back().header.frame_id, ros::Time(0)));
+  } catch (const tf2::TransformException&) {
+    return std::nullopt;  // no tf between the twist and the camera: no prediction
+  }
+  // Sample k+1 drives [t_k, t_k+1]: integrate the twists over [from, to].
+  Eigen::Matrix4d prev_T_cur = Eigen::Matrix4d::Identity();
+  double t = from;
+  for (const auto& twist : twists_) {
+    const double stamp = twist.header.stamp.toSec();
+    if (stamp <= t) continue;
+    const double end = std::min(stamp, to);
+    Vector6d xi;
+    xi << twist.twist.linear.x, twist.twist.linear.y, twist.twist.linear.z,
+        twist.twist.angular.x, twist.twist.angular.y, twist.twist.angular.z;
+    prev_T_cur = prev_T_cur * se3::exp(xi * (end - t));
+    t = end;
+    if (t >= to) break;
+  }
+  if (t < to) return std::nullopt;  // twists do not reach the image yet
+  const Eigen::Matrix4d cam_prev_T_cam_cur =
+      cam_T_imu.matrix() * prev_T_cur * cam_T_imu.inverse().matrix();
+  const Eigen::Matrix4d cur_T_prev = se3::inverse(cam_prev_T_cam_cur);
+  CameraMotionPrior prior;
+  prior.cur_R_prev = cur_T_prev.block<3, 3>(0, 0);
+  prior.cur_t_prev = cur_T_prev.block<3, 1>(0, 3);
+  prior.has_translation = true;
+  return prior;
+}
+
+void StereoTrackerRos::imageCallback(const sensor_msgs::ImageConstPtr& left_msg,
+                                     const sensor_msgs::ImageConstPtr& right_msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++pairs_received_;
+  const double stamp = left_msg->header.stamp.toSec();
+  if (std::abs(stamp - right_msg->header.stamp.toSec()) > ros_options_.max_stamp_difference) {
+    ++unsynchronized_;
+    ROS_WARN_THROTTLE(kWarnPeriod, "%s: left and right images %.4f s apart (more than "
+                      "ros/max_stamp_difference): pair skipped (%lu so far)", name_.c_str(),
+                      std::abs(stamp - right_msg->header.stamp.toSec()), unsynchronized_);
+    return;
+  }
+  cv::Mat left, right;
+  std::string why;
+  if (!toGray(left_msg, &left, &why) || !toGray(right_msg, &right, &why)) {
+    ++bad_encoding_;
+    ROS_WARN_THROTTLE(kWarnPeriod, "%s: %s: pair skipped (%lu so far)", name_.c_str(),
+                      why.c_str(), bad_encoding_);
+    return;
+  }
+  if (left.size() != right.size()) {
+    ++size_mismatch_;
+    ROS_WARN_THROTTLE(kWarnPeriod, "%s: left image %dx%d, right %dx%d: pair skipped (%lu so far)",
+                      name_.c_str(), left.cols, left.rows, right.cols, right.rows, size_mismatch_);
+    return;
+  }
+  RectifiedStereo stereo;
+  if (!calibrationFor(*left_msg, &stereo, &why)) {
+    ROS_WARN_THROTTLE(kWarnPeriod, "%s: %s: pair skipped", name_.c_str(), why.c_str());
+    return;
+  }
+  if (!tracker_ || stereo.fx != stereo_.fx || stereo.baseline != stereo_.baseline ||
+      stereo.cx != stereo_.cx || stereo.cy != stereo_.cy) {
+    tracker_ = std::make_unique<StereoTracker>(options_, stereo);  // (new) calibration
+    stereo_ = stereo;
+    prev_stamp_ = -1;
+  }
+  std::optional<CameraMotionPrior> prior;
+  if (ros_options_.use_twist) prior = motionPrior(left_msg->header.frame_id, prev_stamp_, stamp);
+  if (prior) ++twist_used_;
+  StereoFrame frame;
+  if (!tracker_->process(left, right, stamp, prior ? &*prior : nullptr, &frame, &why)) {
+    ++tracker_refused_;
+    ROS_WARN_THROTTLE(kWarnPeriod, "%s: %s: pair skipped (%lu so far)", name_.c_str(),
+                      why.c_str(), tracker_refused_);
+    return;
+  }
+  prev_stamp_ = stamp;
+  ++pairs_tracked_;
+  last_features_ = frame.stats.published;
+  last_ms_ = frame.stats.ms_total;
+  publish(*left_msg, left, right, frame);
+}
+
+void StereoTrackerRos::publish(const sensor_msgs::Image& left_msg, const cv::Mat& left,
+                               const cv::Mat& right, const StereoFrame& frame) {
+  ekf_vislam::StereoFeatureArrayPtr msg = boost::make_shared<ekf_vislam::StereoFeatureArray>();
+  msg->header = left_msg.header;
+  if (msg->header.frame_id.empty() && left_info_) msg->header.frame_id = left_info_->header.frame_id;
+  msg->features.resize(frame.features.size());
+  for (size_t i = 0; i < frame.features.size(); ++i) {
+    const TrackedFeature& f = frame.features[i];
+    ekf_vislam::StereoFeature& out = msg->features[i];
+    out.id = f.id;
+    out.u_left = f.left.x;
+    out.v_left = f.left.y;
+    out.u_right = f.right.x;
+    out.v_right = f.right.y;
+  }
+  features_pub_.publish(msg);  // shared pointer: no copy inside a nodelet manager
+  if (debug_pub_.getNumSubscribers() > 0) {
+    cv_bridge::CvImage debug(left_msg.header, sensor_msgs::image_encodings::BGR8,
+                             drawStereoTracks(left, right, frame));
+    debug_pub_.publish(debug.toImageMsg());
+  }
+}
+
+void StereoTrackerRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const uint64_t bad = bad_encoding_ + size_mismatch_ + unsynchronized_ + missing_camera_info_ +
+                       bad_camera_info_ + tracker_refused_;
+  if (pairs_received_ == 0) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no synchronized stereo pair yet");
+  } else if (pairs_tracked_ == 0) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "no pair tracked (see counters)");
+  } else if (bad > 0) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "running; some pairs skipped");
+  } else {
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "running");
+  }
+  status.add("pairs_received", pairs_received_);
+  status.add("pairs_tracked", pairs_tracked_);
+  status.add("bad_encoding", bad_encoding_);
+  status.add("size_mismatch", size_mismatch_);
+  status.add("unsynchronized", unsynchronized_);
+  status.add("missing_camera_info", missing_camera_info_);
+  status.add("bad_camera_info", bad_camera_info_);
+  status.add("tracker_refused", tracker_refused_);
+  status.add("twist_predictions", twist_used_);
+  status.add("features_last", last_features_);
+  status.add("track_ms_last", last_ms_);
+}
+
+}  // namespace ekf_vislam

@@ -1,0 +1,66 @@
+#include "ekf_vislam/tracker/feature_detector.h"
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+
+namespace ekf_vislam {
+namespace {
+
+// Many overlapping rectangles of random gray levels: corners everywhere.
+cv::Mat rectangles(cv::Size size) {
+  cv::Mat image(size, CV_8UC1, cv::Scalar(128));
+  cv::RNG rng(11);
+  for (int i = 0; i < 600; ++i) {
+    const cv::Point corner(rng.uniform(-20, size.width), rng.uniform(-20, size.height));
+    const cv::Size extent(rng.uniform(8, 40), rng.uniform(8, 40));
+    cv::rectangle(image, cv::Rect(corner, extent), cv::Scalar(rng.uniform(0, 256)), -1);
+  }
+  return image;
+}
+
+class Detectors : public ::testing::TestWithParam<FeatureDetectorType> {};
+
+TEST_P(Detectors, FillsCellsUpToTheCountAndKeepsTheDistance) {
+  TrackerOptions options;
+  options.detector = GetParam();
+  options.grid_cols = 4;
+  options.grid_rows = 2;
+  options.max_features_per_cell = 4;
+  options.min_feature_distance = 10;
+  const cv::Mat image = rectangles(cv::Size(400, 200));
+  GridFeatureDetector detector(options);
+  // One cell (column 0, row 0) already holds 4 features: it gets none.
+  std::vector<cv::Point2f> existing;
+  for (int i = 0; i < 4; ++i) existing.emplace_back(20.f + 12 * i, 50.f);
+  const std::vector<cv::Point2f> added = detector.detect(image, existing);
+  std::vector<int> per_cell(8, 0);
+  for (const cv::Point2f& p : added) {
+    const int cell = detector.cellOf(p, image.size());
+    ASSERT_GE(cell, 0);
+    ++per_cell[cell];
+    EXPECT_GE(p.x, options.border_px);
+    EXPECT_GE(p.y, options.border_px);
+    for (const cv::Point2f& q : existing) EXPECT_GE(cv::norm(p - q), 9.5);
+    for (const cv::Point2f& q : added) {
+      if (&p != &q) {
+        EXPECT_GE(cv::norm(p - q), 9.5);
+      }
+    }
+  }
+  EXPECT_EQ(per_cell[0], 0);
+  for (int cell = 1; cell < 8; ++cell) EXPECT_EQ(per_cell[cell], 4) << "cell " << cell;
+}
+
+INSTANTIATE_TEST_SUITE_P(FastAndShiTomasi, Detectors,
+                         ::testing::Values(FeatureDetectorType::kFast,
+                                           FeatureDetectorType::kShiTomasi));
+
+TEST(GridFeatureDetector, FlatImageGivesNothing) {
+  GridFeatureDetector detector{TrackerOptions()};
+  EXPECT_TRUE(detector.detect(cv::Mat(200, 400, CV_8UC1, cv::Scalar(90)), {}).empty());
+}
+
+}  // namespace
+}  // namespace ekf_vislam

@@ -1,0 +1,174 @@
+#include "ekf_vislam/tracker/kitti_sequence.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace ekf_vislam {
+
+namespace {
+
+// Numbers of one line (a leading "NAME:" label is skipped); false on a non-number.
+bool parseNumbers(const std::string& line, std::vector<double>* numbers, std::string* label) {
+  std::istringstream in(line);
+  std::string token;
+  numbers->clear();
+  label->clear();
+  while (in >> token) {
+    if (numbers->empty() && label->empty() && token.back() == ':') {
+      *label = token.substr(0, token.size() - 1);
+      continue;
+    }
+    try {
+      size_t used = 0;
+      const double value = std::stod(token, &used);
+      if (used != token.size() || !std::isfinite(value)) return false;
+      numbers->push_back(value);
+    } catch (const std::exception&) {
+      return false;
+    }
+  }
+  return true;
+}
+
+bool openFile(const std::string& path, std::ifstream* in, std::string* error) {
+  in->open(path);
+  if (!*in) {
+    *error = path + ": cannot open";
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+bool readKittiCalibration(const std::string& path, RectifiedStereo* calibration,
+                          std::string* error) {
+  std::ifstream in;
+  if (!openFile(path, &in, error)) return false;
+  std::vector<std::vector<double>> unlabeled;
+  std::vector<double> p0, p1, numbers;
+  std::string line, label;
+  while (std::getline(in, line)) {
+    if (!parseNumbers(line, &numbers, &label)) {
+      *error = path + ": not a line of numbers: " + line.substr(0, 60);
+      return false;
+    }
+    if (numbers.empty()) continue;
+    if (label == "P0") p0 = numbers;
+    else if (label == "P1") p1 = numbers;
+    else if (label.empty()) unlabeled.push_back(numbers);
+  }
+  if (p0.empty() && unlabeled.size() >= 1) p0 = unlabeled[0];
+  if (p1.empty() && unlabeled.size() >= 2) p1 = unlabeled[1];
+  if (p0.size() != 12 || p1.size() != 12) {
+    *error = path + ": needs two 3x4 projection matrices P0 and P1 (12 numbers each)";
+    return false;
+  }
+  calibration->fx = p0[0];
+  calibration->cx = p0[2];
+  calibration->fy = p0[5];
+  calibration->cy = p0[6];
+  calibration->baseline = calibration->fx > 0 ? (p0[3] - p1[3]) / calibration->fx : 0.0;
+  if (!calibration->valid()) {
+    *error = path + ": fx, fy and the baseline (P0[0,3] - P1[0,3]) / fx must be positive";
+    return false;
+  }
+  return true;
+}
+
+bool readKittiTimes(const std::string& path, std::vector<double>* times, std::string* error) {
+  std::ifstream in;
+  if (!openFile(path, &in, error)) return false;
+  times->clear();
+  std::vector<double> numbers;
+  std::string line, label;
+  while (std::getline(in, line)) {
+    if (!parseNumbers(line, &numbers, &label) || numbers.size() > 1) {
+      *error = path + ": expected one time per line: " + line.substr(0, 60);
+      return false;
+    }
+    if (numbers.empty()) continue;
+    if (!times->empty() && numbers[0] <= times->back()) {
+      *error = path + ": times must increase (line " + std::to_string(times->size() + 1) + ")";
+      return false;
+    }
+    times->push_back(numbers[0]);
+  }
+  return true;
+}
+
+bool readKittiPoses(const std::string& path, std::vector<Eigen::Matrix4d>* poses,
+                    std::string* error) {
+  std::ifstream in;
+  if (!openFile(path, &in, error)) return false;
+  poses->clear();
+  std::vector<double> numbers;
+  std::string line, label;
+  while (std::getline(in, line)) {
+    if (!parseNumbers(line, &numbers, &label) || (!numbers.empty() && numbers.size() != 12)) {
+      *error = path + ": expected 12 numbers (3x4 row-major) per line: " + line.substr(0, 60);
+      return false;
+    }
+    if (numbers.empty()) continue;
+    Eigen::Matrix4d T = Eigen::Matrix4d::Identity();
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 4; ++c) T(r, c) = numbers[4 * r + c];
+    }
+    poses->push_back(T);
+  }
+  return true;
+}
+
+bool listImages(const std::string& folder, std::vector<std::string>* paths, std::string* error) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::is_directory(folder, ec)) {
+    *error = folder + ": not a folder";
+    return false;
+  }
+  paths->clear();
+  for (const auto& entry : fs::directory_iterator(folder, ec)) {
+    std::string ext = entry.path().extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+    if (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".pgm" || ext == ".ppm") {
+      paths->push_back(entry.path().string());
+    }
+  }
+  std::sort(paths->begin(), paths->end());
+  if (paths->empty()) {
+    *error = folder + ": no images (.png, .jpg, .pgm, .ppm)";
+    return false;
+  }
+  return true;
+}
+
+bool loadKittiSequence(const std::string& left_folder, const std::string& right_folder,
+                       const std::string& calib_path, const std::string& times_path,
+                       const std::string& poses_path, KittiSequence* sequence,
+                       std::string* error) {
+  if (!listImages(left_folder, &sequence->left_images, error) ||
+      !listImages(right_folder, &sequence->right_images, error) ||
+      !readKittiCalibration(calib_path, &sequence->calibration, error) ||
+      !readKittiTimes(times_path, &sequence->times, error)) {
+    return false;
+  }
+  sequence->world_T_cam.clear();
+  if (!poses_path.empty() && !readKittiPoses(poses_path, &sequence->world_T_cam, error)) {
+    return false;
+  }
+  const size_t n = sequence->left_images.size();
+  if (sequence->right_images.size() != n || sequence->times.size() != n ||
+      (!poses_path.empty() && sequence->world_T_cam.size() != n)) {
+    *error = "frame counts differ: " + std::to_string(n) + " left images, " +
+             std::to_string(sequence->right_images.size()) + " right images, " +
+             std::to_string(sequence->times.size()) + " times" +
+             (poses_path.empty() ? "" : ", " + std::to_string(sequence->world_T_cam.size()) + " poses");
+    return false;
+  }
+  return true;
+}
+
+}  // namespace ekf_vislam

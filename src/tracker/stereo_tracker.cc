@@ -1,0 +1,325 @@
+#include "ekf_vislam/tracker/stereo_tracker.h"
+
+#include "ekf_vislam/tracker/motion_check.h"
+#include "ekf_vislam/tracker/stereo_matcher.h"
+
+#include <Eigen/Geometry>
+#include <opencv2/video/tracking.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace ekf_vislam {
+
+namespace {
+
+constexpr size_t kTrailLength = 10;
+
+using Clock = std::chrono::steady_clock;
+
+double msSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+// The motion over `ratio` times the interval of `motion` (constant velocity).
+CameraMotionPrior scaleMotion(const CameraMotionPrior& motion, double ratio) {
+  CameraMotionPrior scaled;
+  const Eigen::AngleAxisd angle_axis(motion.cur_R_prev);
+  scaled.cur_R_prev = Eigen::AngleAxisd(angle_axis.angle() * ratio, angle_axis.axis()).matrix();
+  scaled.has_translation = motion.has_translation;
+  scaled.cur_t_prev = motion.cur_t_prev * ratio;
+  return scaled;
+}
+
+bool insideImage(const cv::Point2f& p, const cv::Size& size, int border) {
+  return p.x >= border && p.y >= border && p.x <= size.width - 1 - border &&
+         p.y <= size.height - 1 - border;
+}
+
+template <typename T>
+void keepSelected(const std::vector<uint8_t>& keep, std::vector<T>* items) {
+  size_t out = 0;
+  for (size_t i = 0; i < items->size(); ++i) {
+    if (keep[i]) (*items)[out++] = std::move((*items)[i]);
+  }
+  items->resize(out);
+}
+
+}  // namespace
+
+StereoTracker::StereoTracker(const TrackerOptions& options, const RectifiedStereo& calibration)
+    : options_(options), calibration_(calibration), detector_(options) {}
+
+void StereoTracker::reset() {
+  tracks_.clear();
+  prev_left_pyramid_.clear();
+  has_prev_ = false;
+  has_last_motion_ = false;
+}
+
+cv::Point3f StereoTracker::pointOf(const Track& track) const {
+  const double disparity = track.left.x - track.right.x;
+  if (disparity <= 0) return cv::Point3f(0, 0, -1);
+  const double z = calibration_.fx * calibration_.baseline / disparity;
+  const double v = 0.5 * (track.left.y + track.right.y);
+  return cv::Point3f(static_cast<float>((track.left.x - calibration_.cx) * z / calibration_.fx),
+                     static_cast<float>((v - calibration_.cy) * z / calibration_.fy),
+                     static_cast<float>(z));
+}
+
+std::vector<cv::Point2f> StereoTracker::predictLeft(const CameraMotionPrior* prior, double dt,
+                                                    CameraMotionPrior* used) const {
+  const double ratio = last_dt_ > 0 ? std::clamp(dt / last_dt_, 0.0, 3.0) : 1.0;
+  *used = CameraMotionPrior();
+  if (prior != nullptr) {
+    *used = *prior;
+    if (!prior->has_translation && has_last_motion_) {
+      used->has_translation = true;
+      used->cur_t_prev = last_motion_.cur_t_prev * ratio;
+    }
+  } else if (options_.predict_with_last_motion && has_last_motion_) {
+    *used = scaleMotion(last_motion_, ratio);
+  }
+  const Eigen::Matrix3d& R = used->cur_R_prev;
+  std::vector<cv::Point2f> predicted(tracks_.size());
+  for (size_t i = 0; i < tracks_.size(); ++i) {
+    const Track& track = tracks_[i];
+    const cv::Point3f p = pointOf(track);
+    Eigen::Vector3d q;
+    if (used->has_translation && p.z > 0) {
+      q = R * Eigen::Vector3d(p.x, p.y, p.z) + used->cur_t_prev;
+    } else {  // rotation only: the point at infinity
+      q = R * Eigen::Vector3d((track.left.x - calibration_.cx) / calibration_.fx,
+                              (track.left.y - calibration_.cy) / calibration_.fy, 1.0);
+    }
+    if (q.z() < 0.1) {
+      predicted[i] = track.left;
+      continue;
+    }
+    predicted[i] = cv::Point2f(static_cast<float>(calibration_.fx * q.x() / q.z() + calibration_.cx),
+                               static_cast<float>(calibration_.fy * q.y() / q.z() + calibration_.cy));
+  }
+  return predicted;
+}
+
+bool StereoTracker::process(const cv::Mat& left, const cv::Mat& right, double stamp,
+                            const CameraMotionPrior* prior, StereoFrame* frame,
+                            std::string* why) {
+  const auto start = Clock::now();
+  const int min_size = 2 * options_.border_px + std::max(options_.window_size,
+                                                         options_.stereo_window_size);
+  if (left.empty() || right.empty()) {
+    *why = "empty image";
+    return false;
+  }
+  if (left.type() != CV_8UC1 || right.type() != CV_8UC1) {
+    *why = "images must be 8-bit single channel";
+    return false;
+  }
+  if (left.size() != right.size()) {
+    *why = "left and right images differ in size";
+    return false;
+  }
+  if (left.cols < min_size || left.rows < min_size) {
+    *why = "image smaller than twice the border plus the KLT window";
+    return false;
+  }
+  if (!std::isfinite(stamp) || (has_prev_ && stamp <= prev_stamp_)) {
+    *why = "time stamp not after the previous pair's";
+    return false;
+  }
+  if (has_prev_ && left.size() != image_size_) reset();
+
+  TrackerFrameStats stats;
+  stats.tracks_in = static_cast<int>(tracks_.size());
+  const int levels = std::max(options_.pyramid_levels, options_.stereo_pyramid_levels);
+  const cv::Size window(std::max(options_.window_size, options_.stereo_window_size),
+                        std::max(options_.window_size, options_.stereo_window_size));
+  std::vector<cv::Mat> left_pyramid, right_pyramid;
+  auto t = Clock::now();
+  cv::buildOpticalFlowPyramid(left, left_pyramid, window, levels, true);
+  cv::buildOpticalFlowPyramid(right, right_pyramid, window, levels, true);
+  stats.ms_pyramids = msSince(t);
+
+  std::vector<float> predicted_disparity;
+  if (has_prev_ && !tracks_.empty()) {
+    predicted_disparity = trackTemporal(left_pyramid, prior, stamp - prev_stamp_, &stats);
+  } else {
+    tracks_.clear();
+    has_last_motion_ = false;
+  }
+  t = Clock::now();
+  matchTracksInRight(left_pyramid, right_pyramid, predicted_disparity, &stats);
+  stats.ms_stereo = msSince(t);
+  addNewTracks(left, left_pyramid, right_pyramid, &stats);
+
+  prev_left_pyramid_ = std::move(left_pyramid);
+  image_size_ = left.size();
+  if (has_prev_) last_dt_ = stamp - prev_stamp_;
+  prev_stamp_ = stamp;
+  has_prev_ = true;
+  stats.ms_total = msSince(start);
+  frame->stats = stats;
+  fillFrame(stamp, frame);
+  return true;
+}
+
+std::vector<float> StereoTracker::trackTemporal(const std::vector<cv::Mat>& left_pyramid,
+                                                const CameraMotionPrior* prior, double dt,
+                                                TrackerFrameStats* stats) {
+  auto t = Clock::now();
+  CameraMotionPrior prediction;
+  std::vector<cv::Point2f> prev(tracks_.size());
+  for (size_t i = 0; i < tracks_.size(); ++i) prev[i] = tracks_[i].left;
+  std::vector<cv::Point2f> cur = predictLeft(prior, dt, &prediction);
+
+  const cv::Size window(options_.window_size, options_.window_size);
+  const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
+                                  options_.max_iterations, options_.epsilon);
+  std::vector<uint8_t> status, back_status;
+  std::vector<float> error;
+  cv::calcOpticalFlowPyrLK(prev_left_pyramid_, left_pyramid, prev, cur, status, error, window,
+                           options_.pyramid_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+  std::vector<cv::Point2f> back = prev;
+  cv::calcOpticalFlowPyrLK(left_pyramid, prev_left_pyramid_, cur, back, back_status, error, window,
+                           options_.pyramid_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+  const cv::Size size = left_pyramid[0].size();
+  std::vector<uint8_t> keep(tracks_.size(), 0);
+  for (size_t i = 0; i < tracks_.size(); ++i) {
+    if (!status[i] || !insideImage(cur[i], size, options_.border_px)) {
+      ++stats->klt_lost;
+    } else if (!back_status[i] || cv::norm(back[i] - prev[i]) > options_.forward_backward_px) {
+      ++stats->forward_backward_rejected;
+    } else {
+      keep[i] = 1;
+    }
+  }
+  keepSelected(keep, &tracks_);
+  keepSelected(keep, &prev);
+  keepSelected(keep, &cur);
+  stats->ms_temporal = msSince(t);
+
+  // RANSAC over the surviving matches, with each track's previous stereo point.
+  t = Clock::now();
+  std::vector<cv::Point3f> prev_points(tracks_.size());
+  for (size_t i = 0; i < tracks_.size(); ++i) prev_points[i] = pointOf(tracks_[i]);
+  const MotionCheckResult check =
+      checkTemporalMatches(prev_points, prev, cur, calibration_, options_);
+  has_last_motion_ = check.has_motion;
+  stats->motion_estimated = check.has_motion;
+  if (check.has_motion) {
+    last_motion_.cur_R_prev = check.cur_R_prev;
+    last_motion_.cur_t_prev = check.cur_t_prev;
+    last_motion_.has_translation = true;
+  }
+  const CameraMotionPrior& motion = check.has_motion ? last_motion_ : prediction;
+  std::vector<float> predicted_disparity(tracks_.size());
+  for (size_t i = 0; i < tracks_.size(); ++i) {
+    const cv::Point3f& p = prev_points[i];
+    float disparity = tracks_[i].left.x - tracks_[i].right.x;
+    if (motion.has_translation && p.z > 0) {
+      const Eigen::Vector3d q = motion.cur_R_prev * Eigen::Vector3d(p.x, p.y, p.z) +
+                                motion.cur_t_prev;
+      if (q.z() > 0.1) {
+        disparity = static_cast<float>(calibration_.fx * calibration_.baseline / q.z());
+      }
+    }
+    predicted_disparity[i] = disparity;
+    Track& track = tracks_[i];
+    track.trail.push_back(track.left);
+    if (track.trail.size() > kTrailLength) track.trail.erase(track.trail.begin());
+    track.left = cur[i];
+    ++track.age;
+    if (!check.inlier[i]) ++stats->ransac_rejected;
+  }
+  keepSelected(check.inlier, &tracks_);
+  keepSelected(check.inlier, &predicted_disparity);
+  stats->ms_ransac = msSince(t);
+  return predicted_disparity;
+}
+
+void StereoTracker::matchTracksInRight(const std::vector<cv::Mat>& left_pyramid,
+                                       const std::vector<cv::Mat>& right_pyramid,
+                                       const std::vector<float>& predicted_disparity,
+                                       TrackerFrameStats* stats) {
+  if (tracks_.empty()) return;
+  std::vector<cv::Point2f> left(tracks_.size());
+  for (size_t i = 0; i < tracks_.size(); ++i) left[i] = tracks_[i].left;
+  std::vector<uint8_t> ok;
+  StereoMatchCounts counts;
+  const std::vector<cv::Point2f> right = matchStereo(left_pyramid, right_pyramid, left,
+                                                     predicted_disparity, options_, &ok, &counts);
+  const bool check_disparity =
+      has_last_motion_ && (options_.disparity_check_px > 0 || options_.disparity_check_relative > 0);
+  for (size_t i = 0; i < tracks_.size(); ++i) {
+    if (!ok[i]) {
+      ++stats->stereo_lost;
+      continue;
+    }
+    const double predicted = predicted_disparity[i];
+    const double measured = left[i].x - right[i].x;
+    if (check_disparity && std::abs(measured - predicted) >
+                               options_.disparity_check_px +
+                                   options_.disparity_check_relative * predicted) {
+      ++stats->disparity_rejected;
+      ok[i] = 0;
+      continue;
+    }
+    tracks_[i].right = right[i];
+  }
+  keepSelected(ok, &tracks_);
+}
+
+void StereoTracker::addNewTracks(const cv::Mat& left, const std::vector<cv::Mat>& left_pyramid,
+                                 const std::vector<cv::Mat>& right_pyramid,
+                                 TrackerFrameStats* stats) {
+  auto t = Clock::now();
+  std::vector<cv::Point2f> existing(tracks_.size());
+  for (size_t i = 0; i < tracks_.size(); ++i) existing[i] = tracks_[i].left;
+  const std::vector<cv::Point2f> corners = detector_.detect(left, existing);
+  stats->detected = static_cast<int>(corners.size());
+  stats->ms_detect = msSince(t);
+
+  t = Clock::now();
+  const std::vector<float> seed(corners.size(), 0.f);
+  std::vector<uint8_t> ok;
+  StereoMatchCounts counts;
+  const std::vector<cv::Point2f> right =
+      matchStereo(left_pyramid, right_pyramid, corners, seed, options_, &ok, &counts);
+  const size_t tracks_in_frame = tracks_.size();
+  for (size_t i = 0; i < corners.size(); ++i) {
+    if (!ok[i]) continue;
+    Track track;
+    // Without tracks to continue (first pair, after a loss or reset), publish at once.
+    if (tracks_in_frame == 0) track.age = options_.confirm_frames;
+    track.left = corners[i];
+    track.right = right[i];
+    tracks_.push_back(std::move(track));
+    ++stats->new_tracks;
+  }
+  stats->ms_stereo += msSince(t);
+}
+
+void StereoTracker::fillFrame(double stamp, StereoFrame* frame) {
+  frame->stamp = stamp;
+  frame->features.clear();
+  frame->features.reserve(tracks_.size());
+  for (Track& track : tracks_) {
+    if (track.age < options_.confirm_frames) continue;
+    if (!track.has_id) {
+      track.id = next_id_++;
+      track.has_id = true;
+    }
+    TrackedFeature feature;
+    feature.id = track.id;
+    feature.left = track.left;
+    feature.right = track.right;
+    feature.age = track.age - options_.confirm_frames;
+    feature.trail = track.trail;
+    frame->features.push_back(std::move(feature));
+  }
+  frame->stats.published = static_cast<int>(frame->features.size());
+}
+
+}  // namespace ekf_vislam

@@ -1,0 +1,254 @@
+#include "ekf_vislam/tracker/motion_check.h"
+#include "ekf_vislam/tracker/stereo_tracker.h"
+
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+#include <map>
+#include <random>
+
+namespace ekf_vislam {
+namespace {
+
+// A rectified stereo rig looking along +z at a textured plane z = depth + slope * x (world
+// frame = left camera frame of the first pair), rendered by ray-plane intersection.
+class SlantedPlaneScene {
+ public:
+  SlantedPlaneScene() {
+    calibration_.fx = calibration_.fy = 400;
+    calibration_.cx = 320;
+    calibration_.cy = 120;
+    calibration_.baseline = 0.5;
+    cv::Mat noise(1024, 2048, CV_32F);
+    cv::RNG rng(7);
+    rng.fill(noise, cv::RNG::UNIFORM, 0, 255);
+    cv::GaussianBlur(noise, texture_, cv::Size(0, 0), 2.0);
+    cv::normalize(texture_, texture_, 0, 255, cv::NORM_MINMAX);
+  }
+  const RectifiedStereo& calibration() const { return calibration_; }
+  cv::Size size() const { return cv::Size(640, 240); }
+
+  /// Image of a camera at `position` (axes parallel to the world's) plus `x_offset` along x.
+  cv::Mat render(const cv::Vec3d& position, double x_offset) const {
+    cv::Mat map_x(size(), CV_32F), map_y(size(), CV_32F);
+    const double cx = position[0] + x_offset;
+    for (int v = 0; v < size().height; ++v) {
+      for (int u = 0; u < size().width; ++u) {
+        const double dx = (u - calibration_.cx) / calibration_.fx;
+        const double dy = (v - calibration_.cy) / calibration_.fy;
+        const double s = (depth_ + slope_ * cx - position[2]) / (1.0 - slope_ * dx);
+        const double x = cx + s * dx, y = position[1] + s * dy;
+        map_x.at<float>(v, u) = static_cast<float>(x * kTexturePerMetre + 1024);
+        map_y.at<float>(v, u) = static_cast<float>(y * kTexturePerMetre + 512);
+      }
+    }
+    cv::Mat image;
+    cv::remap(texture_, image, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REFLECT);
+    image.convertTo(image, CV_8U);
+    return image;
+  }
+
+  /// The world point seen at left pixel (u, v) by a camera at `position`.
+  cv::Vec3d pointAt(const cv::Vec3d& position, double u, double v) const {
+    const double dx = (u - calibration_.cx) / calibration_.fx;
+    const double dy = (v - calibration_.cy) / calibration_.fy;
+    const double s = (depth_ + slope_ * position[0] - position[2]) / (1.0 - slope_ * dx);
+    return cv::Vec3d(position[0] + s * dx, position[1] + s * dy, position[2] + s);
+  }
+  cv::Point2d project(const cv::Vec3d& position, const cv::Vec3d& p_world) const {
+    const cv::Vec3d p = p_world - position;
+    return cv::Point2d(calibration_.fx * p[0] / p[2] + calibration_.cx,
+                       calibration_.fy * p[1] / p[2] + calibration_.cy);
+  }
+
+ private:
+  static constexpr double kTexturePerMetre = 60.0;
+  double depth_ = 8.0, slope_ = 0.3;
+  RectifiedStereo calibration_;
+  cv::Mat texture_;
+};
+
+cv::Vec3d positionAt(int k) { return cv::Vec3d(0.04 * k, 0.01 * k, 0.15 * k); }
+
+TEST(StereoTracker, IdsPersistAndPositionsFollowTheTrueMotion) {
+  SlantedPlaneScene scene;
+  StereoTracker tracker(TrackerOptions(), scene.calibration());
+  std::map<uint32_t, cv::Vec3d> first_point;  // id -> world point at its first observation
+  std::map<uint32_t, int> seen;
+  int frames_with_many = 0;
+  double max_position_error = 0, max_disparity_error = 0;
+  std::vector<double> position_errors;
+  const int num_frames = 12;
+  for (int k = 0; k < num_frames; ++k) {
+    const cv::Vec3d c = positionAt(k);
+    StereoFrame frame;
+    std::string why;
+    ASSERT_TRUE(tracker.process(scene.render(c, 0), scene.render(c, 0.5), 0.1 * k, nullptr,
+                                &frame, &why))
+        << why;
+    if (frame.features.size() >= 100) ++frames_with_many;
+    for (const TrackedFeature& f : frame.features) {
+      ++seen[f.id];
+      auto it = first_point.find(f.id);
+      if (it == first_point.end()) {
+        EXPECT_EQ(f.age, 0);
+        first_point[f.id] = scene.pointAt(c, f.left.x, f.left.y);
+        continue;
+      }
+      const cv::Point2d truth = scene.project(c, it->second);
+      const double error = std::hypot(truth.x - f.left.x, truth.y - f.left.y);
+      position_errors.push_back(error);
+      max_position_error = std::max(max_position_error, error);
+      // Disparity of the true point at the current pose.
+      const cv::Vec3d p = it->second - c;
+      const double disparity = scene.calibration().fx * scene.calibration().baseline / p[2];
+      max_disparity_error =
+          std::max(max_disparity_error, std::abs(disparity - (f.left.x - f.right.x)));
+    }
+  }
+  EXPECT_EQ(frames_with_many, num_frames);
+  // Most tracks started in the first frame live through all frames, with their ids.
+  int full_length = 0;
+  for (const auto& [id, count] : seen) full_length += count == num_frames;
+  EXPECT_GE(full_length, 100);
+  std::sort(position_errors.begin(), position_errors.end());
+  EXPECT_LT(position_errors[position_errors.size() / 2], 0.25);
+  EXPECT_LT(max_position_error, 2.0);
+  EXPECT_LT(max_disparity_error, 1.0);
+}
+
+TEST(StereoTracker, DisparityMatchesDepth) {
+  SlantedPlaneScene scene;
+  StereoTracker tracker(TrackerOptions(), scene.calibration());
+  StereoFrame frame;
+  std::string why;
+  const cv::Vec3d c(0, 0, 0);
+  ASSERT_TRUE(tracker.process(scene.render(c, 0), scene.render(c, 0.5), 0, nullptr, &frame, &why));
+  ASSERT_GE(frame.features.size(), 100u);
+  std::vector<double> errors;
+  for (const TrackedFeature& f : frame.features) {
+    const cv::Vec3d p = scene.pointAt(c, f.left.x, f.left.y);
+    const double disparity = scene.calibration().fx * 0.5 / p[2];
+    errors.push_back(std::abs(disparity - (f.left.x - f.right.x)));
+    EXPECT_LT(std::abs(f.right.y - f.left.y), 0.5);
+  }
+  std::sort(errors.begin(), errors.end());
+  EXPECT_LT(errors[errors.size() / 2], 0.05);
+  EXPECT_LT(errors.back(), 0.5);
+}
+
+TEST(StereoTracker, IdsAreNeverReusedAndLostTracksEnd) {
+  SlantedPlaneScene scene;
+  StereoTracker tracker(TrackerOptions(), scene.calibration());
+  std::map<uint32_t, int> last_frame;
+  std::string why;
+  for (int k = 0; k < 6; ++k) {
+    // Frame 3 jumps far: the old tracks are lost, new ids start.
+    const cv::Vec3d c = k < 3 ? positionAt(k) : positionAt(k) + cv::Vec3d(3.0, 0, 0);
+    StereoFrame frame;
+    ASSERT_TRUE(tracker.process(scene.render(c, 0), scene.render(c, 0.5), k, nullptr, &frame, &why));
+    for (const TrackedFeature& f : frame.features) {
+      if (last_frame.count(f.id)) {
+        EXPECT_EQ(last_frame[f.id], k - 1) << "id " << f.id << " reused";
+      }
+      last_frame[f.id] = k;
+    }
+  }
+}
+
+TEST(MotionCheck, RejectsAnInjectedWrongMatch) {
+  RectifiedStereo c;
+  c.fx = c.fy = 400;
+  c.cx = 320;
+  c.cy = 120;
+  c.baseline = 0.5;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> uniform(-1, 1);
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitY()).matrix();
+  const Eigen::Vector3d t(0.05, 0.0, -0.8);
+  std::vector<cv::Point3f> points;
+  std::vector<cv::Point2f> prev, cur;
+  for (int i = 0; i < 80; ++i) {
+    const Eigen::Vector3d p(6 * uniform(rng), 2 * uniform(rng), 12 + 8 * uniform(rng));
+    const Eigen::Vector3d q = R * p + t;
+    points.emplace_back(p.x(), p.y(), p.z());
+    prev.emplace_back(c.fx * p.x() / p.z() + c.cx, c.fy * p.y() / p.z() + c.cy);
+    cur.emplace_back(c.fx * q.x() / q.z() + c.cx, c.fy * q.y() / q.z() + c.cy);
+  }
+  cur[17].x += 3.0f;  // a KLT match that slid 3 px
+  cur[42].y -= 2.0f;
+  for (TemporalOutlierCheck type : {TemporalOutlierCheck::kPnp, TemporalOutlierCheck::kFundamental}) {
+    TrackerOptions options;
+    options.outlier_check = type;
+    const MotionCheckResult result = checkTemporalMatches(points, prev, cur, c, options);
+    ASSERT_TRUE(result.checked);
+    EXPECT_EQ(result.inlier[17], 0);
+    EXPECT_EQ(result.inlier[42], 0);
+    int inliers = 0;
+    for (uint8_t in : result.inlier) inliers += in;
+    EXPECT_GE(inliers, 76);
+    if (type == TemporalOutlierCheck::kPnp) {
+      ASSERT_TRUE(result.has_motion);
+      EXPECT_LT((result.cur_t_prev - t).norm(), 1e-3);
+      EXPECT_LT((result.cur_R_prev - R).norm(), 1e-4);
+    }
+  }
+}
+
+TEST(StereoTracker, IndependentlyMovingPatchIsRejected) {
+  // The right third of both images slides 6 px down per frame relative to the scene: its KLT
+  // matches are consistent in themselves but not with the camera motion.
+  SlantedPlaneScene scene;
+  StereoTracker tracker(TrackerOptions(), scene.calibration());
+  std::string why;
+  int rejected = 0;
+  int moving_published = 0;
+  for (int k = 0; k < 4; ++k) {
+    const cv::Vec3d c = positionAt(k);
+    cv::Mat left = scene.render(c, 0), right = scene.render(c, 0.5);
+    const cv::Rect patch(420, 60, 120, 120);
+    const cv::Vec3d shifted = c + cv::Vec3d(0, -0.15 * k, 0);
+    scene.render(shifted, 0)(patch).copyTo(left(patch));
+    scene.render(shifted, 0.5)(patch).copyTo(right(patch));
+    StereoFrame frame;
+    ASSERT_TRUE(tracker.process(left, right, k, nullptr, &frame, &why));
+    if (k == 0) continue;
+    rejected += frame.stats.ransac_rejected;
+    for (const TrackedFeature& f : frame.features) {
+      if (f.age > 0 && patch.contains(cv::Point(f.left)) && f.left.x > 440 && f.left.x < 520 &&
+          f.left.y > 80 && f.left.y < 160) {
+        ++moving_published;
+      }
+    }
+  }
+  EXPECT_GE(rejected, 5);
+  EXPECT_EQ(moving_published, 0);
+}
+
+TEST(StereoTracker, RefusesBadInputWithoutLosingTracks) {
+  SlantedPlaneScene scene;
+  StereoTracker tracker(TrackerOptions(), scene.calibration());
+  StereoFrame frame;
+  std::string why;
+  const cv::Mat left = scene.render(positionAt(0), 0), right = scene.render(positionAt(0), 0.5);
+  ASSERT_TRUE(tracker.process(left, right, 1.0, nullptr, &frame, &why));
+  const size_t n = frame.features.size();
+  StereoFrame bad;
+  EXPECT_FALSE(tracker.process(left, right(cv::Rect(0, 0, 320, 240)).clone(), 2.0, nullptr, &bad,
+                               &why));
+  cv::Mat color;
+  cv::cvtColor(left, color, cv::COLOR_GRAY2BGR);
+  EXPECT_FALSE(tracker.process(color, right, 2.0, nullptr, &bad, &why));
+  EXPECT_FALSE(tracker.process(left, right, 1.0, nullptr, &bad, &why));  // not after 1.0
+  EXPECT_FALSE(tracker.process(cv::Mat(), right, 2.0, nullptr, &bad, &why));
+  const cv::Vec3d c = positionAt(1);
+  ASSERT_TRUE(tracker.process(scene.render(c, 0), scene.render(c, 0.5), 2.0, nullptr, &frame, &why));
+  int old = 0;
+  for (const TrackedFeature& f : frame.features) old += f.age == 1;
+  EXPECT_GE(old, static_cast<int>(0.8 * n));
+}
+
+}  // namespace
+}  // namespace ekf_vislam

@@ -1,0 +1,288 @@
+// track_stereo_images: runs the stereo tracker over a folder of rectified stereo images in the
+// KITTI odometry layout and writes the tracks as a course dataset (.npz). See --help.
+#include "ekf_vislam/core/se3.h"
+#include "ekf_vislam/core/yaml_parameter_source.h"
+#include "ekf_vislam/tracker/debug_drawing.h"
+#include "ekf_vislam/tracker/kitti_sequence.h"
+#include "ekf_vislam/tracker/npz_writer.h"
+#include "ekf_vislam/tracker/pose_twist.h"
+#include "ekf_vislam/tracker/stereo_tracker.h"
+#include "ekf_vislam/tracker/track_quality.h"
+
+#include <Eigen/Geometry>
+#include <opencv2/imgcodecs.hpp>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace ekf_vislam {
+namespace {
+
+const char* kUsage =
+    "usage: track_stereo_images --left DIR --right DIR --calib calib.txt --times times.txt\n"
+    "           --out OUT.npz [--poses poses.txt] [--config tracker.yaml]\n"
+    "           [--twist-noise V W] [--gyro-offset B] [--seed N] [--time-offset S]\n"
+    "           [--max-frames N] [--debug-dir DIR] [--stats CSV] [--quiet]\n"
+    "Tracks the rectified stereo images (KITTI odometry layout: calib.txt with P0 and P1,\n"
+    "times.txt, optional poses.txt with world_T_cam0) and writes OUT.npz in the course layout:\n"
+    "features (4,M,T; -1 where unobserved), K, b, time_stamps (1,T), image_size. With --poses\n"
+    "also linear_velocity and rotational_velocity (3,T: the ground-truth body twist of an IMU\n"
+    "frame x forward, y left, z up at the left camera, plus white noise V m/s and W rad/s per\n"
+    "sample and axis (default 0.05 0.005) and a constant gyro offset B rad/s (default 0.001),\n"
+    "seeded by N (default 0)), cam_T_imu, and OUT_groundtruth.tum (world_T_imu), and prints the\n"
+    "track quality against the poses. --time-offset adds S seconds to every time (default 0).\n"
+    "--config: tracker options (config/tracker.yaml; absent keys keep the defaults).\n"
+    "--debug-dir: writes the debug drawing of every frame as DIR/NNNNNN.png.\n"
+    "--stats: writes the tracker's per-frame counters and times (ms) as CSV.\n";
+
+struct Arguments {
+  std::string left, right, calib, times, out, poses, config, debug_dir, stats;
+  TwistNoise noise;
+  double time_offset = 0;
+  long max_frames = -1;
+  bool quiet = false;
+};
+
+bool parseArguments(int argc, char** argv, Arguments* args, std::string* error) {
+  std::map<std::string, std::string*> paths = {
+      {"--left", &args->left},     {"--right", &args->right}, {"--calib", &args->calib},
+      {"--times", &args->times},   {"--out", &args->out},     {"--poses", &args->poses},
+      {"--config", &args->config}, {"--debug-dir", &args->debug_dir}, {"--stats", &args->stats}};
+  auto number = [&](int i, double* value) {
+    if (i >= argc) return false;
+    char* end = nullptr;
+    *value = std::strtod(argv[i], &end);
+    return end != argv[i] && *end == '\0' && std::isfinite(*value);
+  };
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    double a = 0, b = 0;
+    if (arg == "--help" || arg == "-h") {
+      std::cout << kUsage;
+      std::exit(0);
+    } else if (arg == "--quiet") {
+      args->quiet = true;
+    } else if (paths.count(arg) && i + 1 < argc) {
+      *paths[arg] = argv[++i];
+    } else if (arg == "--twist-noise" && number(i + 1, &a) && number(i + 2, &b) && a >= 0 &&
+               b >= 0) {
+      args->noise.linear_sigma = a;
+      args->noise.angular_sigma = b;
+      i += 2;
+    } else if (arg == "--gyro-offset" && number(i + 1, &a)) {
+      args->noise.gyro_offset = a;
+      ++i;
+    } else if (arg == "--seed" && number(i + 1, &a) && a >= 0) {
+      args->noise.seed = static_cast<uint64_t>(a);
+      ++i;
+    } else if (arg == "--time-offset" && number(i + 1, &a)) {
+      args->time_offset = a;
+      ++i;
+    } else if (arg == "--max-frames" && number(i + 1, &a) && a >= 1) {
+      args->max_frames = static_cast<long>(a);
+      ++i;
+    } else {
+      *error = "bad or incomplete argument '" + arg + "' (see --help)";
+      return false;
+    }
+  }
+  if (args->left.empty() || args->right.empty() || args->calib.empty() || args->times.empty() ||
+      args->out.empty()) {
+    *error = "--left, --right, --calib, --times and --out are required (see --help)";
+    return false;
+  }
+  return true;
+}
+
+bool loadOptions(const std::string& path, TrackerOptions* options, std::string* error) {
+  if (!path.empty()) {
+    YamlParameterSource source(path);
+    if (!source.ok()) {
+      *error = source.error();
+      return false;
+    }
+    if (!parseTrackerOptions(source, options, error)) return false;
+  }
+  *error = options->validate();
+  return error->empty();
+}
+
+// (4, M, T) row-major, -1 where unobserved; column j = the j-th id in increasing order.
+std::vector<double> featureArray(const std::vector<StereoFrame>& frames, size_t* num_ids) {
+  std::map<uint32_t, size_t> column;
+  for (const StereoFrame& frame : frames) {
+    for (const TrackedFeature& f : frame.features) column.emplace(f.id, 0);
+  }
+  size_t j = 0;
+  for (auto& [id, c] : column) c = j++;
+  *num_ids = column.size();
+  const size_t M = column.size(), T = frames.size();
+  std::vector<double> data(4 * M * T, -1.0);
+  for (size_t k = 0; k < T; ++k) {
+    for (const TrackedFeature& f : frames[k].features) {
+      const size_t c = column[f.id];
+      const double values[4] = {f.left.x, f.left.y, f.right.x, f.right.y};
+      for (size_t row = 0; row < 4; ++row) data[(row * M + c) * T + k] = values[row];
+    }
+  }
+  return data;
+}
+
+std::string stem(const std::string& path) {
+  const std::string suffix = ".npz";
+  if (path.size() > suffix.size() && path.compare(path.size() - 4, 4, suffix) == 0) {
+    return path.substr(0, path.size() - 4);
+  }
+  return path;
+}
+
+bool writeGroundTruth(const std::string& path, const std::vector<double>& times,
+                      const std::vector<Eigen::Matrix4d>& world_T_imu, std::string* error) {
+  std::ofstream out(path);
+  out.precision(9);
+  for (size_t k = 0; k < times.size(); ++k) {
+    const Eigen::Quaterniond q(Eigen::Matrix3d(world_T_imu[k].block<3, 3>(0, 0)));
+    out << std::fixed << times[k] << " " << world_T_imu[k](0, 3) << " " << world_T_imu[k](1, 3)
+        << " " << world_T_imu[k](2, 3) << " " << q.x() << " " << q.y() << " " << q.z() << " "
+        << q.w() << "\n";
+  }
+  if (!out) *error = path + ": cannot write";
+  return static_cast<bool>(out);
+}
+
+bool writeDataset(const Arguments& args, const KittiSequence& sequence,
+                  const std::vector<StereoFrame>& frames, const cv::Size& image_size,
+                  std::string* error) {
+  const size_t T = frames.size();
+  const RectifiedStereo& c = sequence.calibration;
+  NpzWriter npz;
+  size_t M = 0;
+  const std::vector<double> features = featureArray(frames, &M);
+  npz.addDoubles("features", {4, M, T}, features);
+  npz.addDoubles("K", {3, 3}, {c.fx, 0, c.cx, 0, c.fy, c.cy, 0, 0, 1});
+  npz.addDoubles("b", {}, {c.baseline});
+  std::vector<double> stamps(T);
+  for (size_t k = 0; k < T; ++k) stamps[k] = frames[k].stamp;
+  npz.addDoubles("time_stamps", {1, T}, stamps);
+  npz.addInts("image_size", {2}, {image_size.width, image_size.height});
+  if (!sequence.world_T_cam.empty()) {
+    const Eigen::Matrix4d cam_T_imu = forwardLeftUpCamTImu();
+    std::vector<Eigen::Matrix4d> world_T_imu(T);
+    for (size_t k = 0; k < T; ++k) world_T_imu[k] = sequence.world_T_cam[k] * cam_T_imu;
+    std::vector<Eigen::Vector3d> v, w;
+    twistFromPoses(world_T_imu, stamps, args.noise, &v, &w);
+    std::vector<double> linear(3 * T), angular(3 * T), extrinsic(16);
+    for (size_t k = 0; k < T; ++k) {
+      for (size_t axis = 0; axis < 3; ++axis) {
+        linear[axis * T + k] = v[k][axis];
+        angular[axis * T + k] = w[k][axis];
+      }
+    }
+    for (int r = 0; r < 4; ++r) {
+      for (int col = 0; col < 4; ++col) extrinsic[4 * r + col] = cam_T_imu(r, col);
+    }
+    npz.addDoubles("linear_velocity", {3, T}, linear);
+    npz.addDoubles("rotational_velocity", {3, T}, angular);
+    npz.addDoubles("cam_T_imu", {4, 4}, extrinsic);
+    npz.addInts("cam_T_imu_translation_correct", {}, {1});
+    if (!writeGroundTruth(stem(args.out) + "_groundtruth.tum", stamps, world_T_imu, error)) {
+      return false;
+    }
+  }
+  return npz.write(args.out, error);
+}
+
+bool writeStats(const std::string& path, const std::vector<StereoFrame>& frames,
+                std::string* error) {
+  std::ofstream out(path);
+  out << "frame,stamp,tracks_in,klt_lost,forward_backward_rejected,ransac_rejected,stereo_lost,"
+         "disparity_rejected,detected,new_tracks,published,motion_estimated,ms_pyramids,"
+         "ms_temporal,ms_ransac,ms_stereo,ms_detect,ms_total\n";
+  out.precision(10);
+  for (size_t k = 0; k < frames.size(); ++k) {
+    const TrackerFrameStats& s = frames[k].stats;
+    out << k << "," << frames[k].stamp << "," << s.tracks_in << "," << s.klt_lost << ","
+        << s.forward_backward_rejected << "," << s.ransac_rejected << "," << s.stereo_lost << ","
+        << s.disparity_rejected << "," << s.detected << "," << s.new_tracks << "," << s.published
+        << "," << s.motion_estimated << "," << s.ms_pyramids << "," << s.ms_temporal << ","
+        << s.ms_ransac << "," << s.ms_stereo << "," << s.ms_detect << "," << s.ms_total << "\n";
+  }
+  if (!out) *error = path + ": cannot write";
+  return static_cast<bool>(out);
+}
+
+double percentile(std::vector<double> values, double p) {
+  if (values.empty()) return 0.0;
+  std::sort(values.begin(), values.end());
+  const size_t index = std::min(values.size() - 1, static_cast<size_t>(p * (values.size() - 1) + 0.5));
+  return values[index];
+}
+
+int run(int argc, char** argv) {
+  Arguments args;
+  TrackerOptions options;
+  KittiSequence sequence;
+  std::string error;
+  if (!parseArguments(argc, argv, &args, &error) || !loadOptions(args.config, &options, &error) ||
+      !loadKittiSequence(args.left, args.right, args.calib, args.times, args.poses, &sequence,
+                         &error)) {
+    std::cerr << "track_stereo_images: " << error << "\n";
+    return 2;
+  }
+  const size_t T = args.max_frames > 0 ? std::min<size_t>(args.max_frames, sequence.size())
+                                       : sequence.size();
+  StereoTracker tracker(options, sequence.calibration);
+  std::vector<StereoFrame> frames;
+  std::vector<double> ms;
+  cv::Size image_size;
+  for (size_t k = 0; k < T; ++k) {
+    const cv::Mat left = cv::imread(sequence.left_images[k], cv::IMREAD_GRAYSCALE);
+    const cv::Mat right = cv::imread(sequence.right_images[k], cv::IMREAD_GRAYSCALE);
+    StereoFrame frame;
+    if (left.empty() || right.empty() ||
+        !tracker.process(left, right, sequence.times[k] + args.time_offset, nullptr, &frame,
+                         &error)) {
+      std::cerr << "track_stereo_images: frame " << k << " ("
+                << sequence.left_images[k] << "): "
+                << (left.empty() || right.empty() ? "cannot read the image" : error) << "\n";
+      return 1;
+    }
+    image_size = left.size();
+    ms.push_back(frame.stats.ms_total);
+    if (!args.debug_dir.empty()) {
+      char name[32];
+      std::snprintf(name, sizeof(name), "/%06zu.png", k);
+      cv::imwrite(args.debug_dir + name, drawStereoTracks(left, right, frame));
+    }
+    frames.push_back(std::move(frame));
+  }
+  if (!writeDataset(args, sequence, frames, image_size, &error) ||
+      (!args.stats.empty() && !writeStats(args.stats, frames, &error))) {
+    std::cerr << "track_stereo_images: " << error << "\n";
+    return 1;
+  }
+  if (!args.quiet) {
+    std::printf("track_stereo_images: %zu frames -> %s; tracker ms per frame: median %.2f, p99 "
+                "%.2f, max %.2f\n",
+                T, args.out.c_str(), percentile(ms, 0.5), percentile(ms, 0.99),
+                percentile(ms, 1.0));
+    if (!sequence.world_T_cam.empty()) {
+      std::vector<Eigen::Matrix4d> poses(sequence.world_T_cam.begin(),
+                                         sequence.world_T_cam.begin() + T);
+      std::printf("%s\n",
+                  evaluateTrackQuality(frames, poses, sequence.calibration, 10).describe().c_str());
+    }
+  }
+  return 0;
+}
+
+}  // namespace
+}  // namespace ekf_vislam
+
+int main(int argc, char** argv) { return ekf_vislam::run(argc, argv); }

@@ -1,0 +1,88 @@
+"""track_stereo_images on a small rendered drive: the npz is a complete course dataset (loads with
+the package's validator), its twist matches the ground truth within the requested noise, and
+play_stereo_images.py writes the same drive as a bag."""
+import os
+import subprocess
+import unittest
+
+import numpy as np
+
+import ekf_test_paths as paths
+from ekf_vislam_tools import dataset, stereo_images
+
+FRAMES = 30
+
+
+def tool(name):
+    """The built executable: the sourced workspace's devel space, else <repo>/build."""
+    roots = [p for p in os.environ.get('CMAKE_PREFIX_PATH', '').split(os.pathsep) if p]
+    roots.append(os.path.join(os.environ.get('EKF_VISLAM_WS', os.path.join(paths.REPO_ROOT,
+                                                                             'build')), 'devel'))
+    for root in roots:
+        candidate = os.path.join(root, 'lib', 'ekf_vislam', name)
+        if os.path.exists(candidate):
+            return candidate
+    raise unittest.SkipTest('%s not built' % name)
+
+
+class TrackStereoImagesTest(unittest.TestCase):
+
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = paths.make_temp_dir(prefix='ekf_vislam_track_test_')
+        cls.folder = os.path.join(cls.tmp, 'drive')
+        result = paths.run_script('render_stereo_drive.py', cls.folder, '--frames', str(FRAMES))
+        assert result.returncode == 0, result.stderr
+        cls.npz = os.path.join(cls.tmp, 'tracks.npz')
+        f = cls.folder
+        subprocess.run([tool('track_stereo_images'), '--left', f + '/image_left', '--right',
+                        f + '/image_right', '--calib', f + '/calib.txt', '--times',
+                        f + '/times.txt', '--poses', f + '/poses.txt', '--out', cls.npz,
+                        '--twist-noise', '0', '0', '--gyro-offset', '0', '--time-offset', '100'],
+                       check=True, stdout=subprocess.PIPE)
+
+    @classmethod
+    def tearDownClass(cls):
+        paths.remove_dir(cls.tmp)
+
+    def test_npz_is_a_course_dataset(self):
+        d = dataset.load_dataset(self.npz)
+        self.assertEqual(d.num_frames, FRAMES)
+        self.assertEqual(d.image_size, (640, 192))
+        self.assertAlmostEqual(d.b, 0.54, places=9)
+        self.assertAlmostEqual(d.t[0], 100.0)
+        observed = d.observed()
+        self.assertGreaterEqual(observed.sum(axis=0).min(), 100)  # features in every frame
+        F = d.features
+        disparity = F[0][observed] - F[2][observed]
+        self.assertGreater(disparity.min(), 0.0)
+        self.assertLess(np.abs(F[1][observed] - F[3][observed]).max(), 1.0 + 1e-6)
+        # Each id in one contiguous run.
+        for row in observed:
+            frames = np.nonzero(row)[0]
+            self.assertEqual(frames[-1] - frames[0] + 1, len(frames))
+
+    def test_twist_is_the_ground_truth_motion(self):
+        d = dataset.load_dataset(self.npz)
+        folder = stereo_images.load_folder(self.folder)
+        world_T_imu = folder.world_T_cam @ stereo_images.CAM_T_IMU
+        v, w = stereo_images.twist_from_poses(world_T_imu, folder.times, 0, 0, 0)
+        np.testing.assert_allclose(d.v, v, atol=1e-6)
+        np.testing.assert_allclose(d.w, w, atol=1e-6)
+        self.assertAlmostEqual(float(np.median(d.v[0])), 8.0, delta=0.1)  # x forward, 8 m/s
+        np.testing.assert_allclose(d.cam_T_imu, stereo_images.CAM_T_IMU)
+
+    def test_bag_of_images(self):
+        bag = os.path.join(self.tmp, 'drive.bag')
+        result = paths.run_script('play_stereo_images.py', self.folder, '--bag', bag)
+        self.assertEqual(result.returncode, 0, result.stderr)
+        self.assertIn('%d stereo pairs' % FRAMES, result.stdout)
+        import rosbag
+        with rosbag.Bag(bag) as b:
+            counts = b.get_type_and_topic_info().topics
+        self.assertEqual(counts['/stereo/left/image_rect'].message_count, FRAMES)
+        self.assertEqual(counts['/imu/twist'].message_count, FRAMES)
+
+
+if __name__ == '__main__':
+    unittest.main()

@@ -55,6 +55,14 @@ std::vector<Measurement> MeasurementSequencer::flush() {
   return all;
 }
 
+std::vector<TwistData> MeasurementSequencer::bufferedTwists() const {
+  std::vector<TwistData> twists;
+  for (const Measurement& m : buffer_) {
+    if (const TwistData* twist = std::get_if<TwistData>(&m)) twists.push_back(*twist);
+  }
+  return twists;
+}
+
 void MeasurementSequencer::clear() {
   buffer_.clear();
   newest_twist_ = newest_frame_ = released_until_ = -1e300;

@@ -572,13 +572,20 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result
     }
   }
 
-  // 2. Tracks that ended leave the state (before the update: a smaller state is cheaper).
+  // 2. Tracks absent for more than landmarks/max_track_gap non-empty frames ended: they leave the
+  // state (before the update: a smaller state is cheaper). An empty message ends no track.
   std::vector<bool> ended(blocks_.size(), false);
   bool any_ended = false;
   for (const auto& [id, block] : tracking_) {
-    if (!present.count(id)) {
-      ended[block] = true;
-      any_ended = true;
+    StateBlock& b = blocks_[block];
+    if (present.count(id)) {
+      b.frames_absent = 0;
+    } else if (!frame.features.empty()) {
+      b.has_flow_reference = false;  // its next observation is not one frame after the last
+      if (++b.frames_absent > options_.max_track_gap) {
+        ended[block] = true;
+        any_ended = true;
+      }
     }
   }
   if (any_ended) {
@@ -999,7 +1006,7 @@ void VislamEstimator::syncBlocksToMap() {
     syncBlockToMap(k);
     LandmarkEstimate& l = map_[blocks_[k].map_index];
     l.active = true;
-    if (blocks_[k].tracking) l.last_stamp = time_;
+    if (blocks_[k].tracking && blocks_[k].frames_absent == 0) l.last_stamp = time_;
   }
 }
 

@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <map>
 
 #include <cmath>
@@ -525,7 +527,9 @@ TEST(VislamEstimator, LandmarkLifeCycleAugmentMarginalizeKeepInMap) {
   ScenarioOptions so;
   so.frames = 40;
   const Scenario s = makeScenario(so);
-  VislamEstimator estimator(defaultOptions());
+  VislamOptions options = defaultOptions();
+  options.max_track_gap = 0;  // a missing id ends its track at once (the gap has its own test)
+  VislamEstimator estimator(options);
   ASSERT_TRUE(estimator.setCalibration(s.calibration));
   estimator.feedTwist(s.twists[0]);
   estimator.feedFeatures(s.frames[0]);
@@ -571,6 +575,85 @@ TEST(VislamEstimator, LandmarkLifeCycleAugmentMarginalizeKeepInMap) {
   for (const LandmarkEstimate& l : estimator.landmarks()) entries += (l.id == gone);
   EXPECT_EQ(entries, 2u);
   EXPECT_LT((estimator.landmarks()[0].p_world - before.p_world).norm(), 1e-12);
+}
+
+TEST(VislamEstimator, TracksSurviveEmptyMessagesAndGapsUpToMaxTrackGap) {
+  ScenarioOptions so;
+  so.frames = 14;
+  const Scenario s = makeScenario(so);
+  // An id seen in every frame of the drive.
+  auto seen_in = [&](uint32_t id, size_t k) {
+    for (const StereoObservation& f : s.frames[k].features) {
+      if (f.id == id) return true;
+    }
+    return false;
+  };
+  uint32_t id = 0;
+  bool found = false;
+  for (const StereoObservation& f : s.frames[0].features) {
+    bool everywhere = true;
+    for (size_t k = 1; k < s.frames.size(); ++k) everywhere = everywhere && seen_in(f.id, k);
+    if (everywhere) {
+      id = f.id;
+      found = true;
+      break;
+    }
+  }
+  ASSERT_TRUE(found);
+  VislamOptions options = defaultOptions();
+  ASSERT_EQ(options.max_track_gap, 2);
+  VislamEstimator estimator(options);
+  ASSERT_TRUE(estimator.setCalibration(s.calibration));
+  size_t k = 0;
+  auto feed = [&](bool with_id) {
+    FeatureFrame f = s.frames[k];
+    if (!with_id) {
+      f.features.erase(std::remove_if(f.features.begin(), f.features.end(),
+                                      [&](const StereoObservation& o) { return o.id == id; }),
+                       f.features.end());
+    }
+    estimator.feedTwist(s.twists[k++]);
+    estimator.feedFeatures(f);
+  };
+  auto entries = [&]() {
+    size_t n = 0;
+    for (const LandmarkEstimate& l : estimator.landmarks()) n += (l.id == id);
+    return n;
+  };
+  auto active = [&]() {
+    for (const LandmarkEstimate& l : estimator.landmarks()) {
+      if (l.id == id && l.active) return true;
+    }
+    return false;
+  };
+  feed(true);
+  ASSERT_TRUE(active());
+  // An empty message ends no track.
+  const size_t active_count = estimator.activeLandmarkCount();
+  estimator.feedTwist(s.twists[k]);
+  FeatureFrame empty;
+  empty.stamp = s.twists[k++].stamp;
+  estimator.feedFeatures(empty);
+  EXPECT_EQ(estimator.activeLandmarkCount(), active_count);
+  EXPECT_TRUE(active());
+  // A 2-frame gap: kept, and the id resumes on the same landmark.
+  feed(false);
+  feed(false);
+  EXPECT_TRUE(active());
+  feed(true);
+  EXPECT_EQ(entries(), 1u);
+  EXPECT_TRUE(active());
+  // A 3-frame gap: the landmark leaves the state at the third missing frame; the id coming back
+  // is a new landmark.
+  feed(false);
+  feed(false);
+  EXPECT_TRUE(active());
+  feed(false);
+  EXPECT_FALSE(active());
+  EXPECT_EQ(entries(), 1u);
+  feed(true);
+  EXPECT_EQ(entries(), 2u);
+  EXPECT_TRUE(active());
 }
 
 TEST(VislamEstimator, MarginalizationEqualsKeepingEveryLandmark) {

@@ -121,6 +121,8 @@ std::string VislamOptions::validate() const {
       why << "'landmarks/reinitialize_after_gated' must be >= 0";
     } else if (max_track_length < 0) {
       why << "'landmarks/max_track_length' must be >= 0";
+    } else if (max_track_gap < 0) {
+      why << "'landmarks/max_track_gap' must be >= 0";
     } else if (max_features_per_frame < 0) {
       why << "'limits/max_features_per_frame' must be >= 0";
     } else if (max_rejected_frames < 1) {
@@ -170,6 +172,7 @@ bool parseVislamOptions(const ParameterSource& source, VislamOptions* o, std::st
   r.number("landmarks/jump_threshold_px", &o->jump_threshold_px);
   r.number("landmarks/jump_threshold_sigmas", &o->jump_threshold_sigmas);
   r.flag("landmarks/keep_all_in_state", &o->keep_all_landmarks_in_state);
+  r.integer("landmarks/max_track_gap", &o->max_track_gap);
   r.number("limits/max_linear_speed", &o->max_linear_speed);
   r.number("limits/max_angular_speed", &o->max_angular_speed);
   r.number("limits/max_twist_gap", &o->max_twist_gap);

@@ -5,6 +5,7 @@
 #include "ekf_vislam/ros/conversions.h"
 #include "ekf_vislam/ros/estimator_runner.h"
 #include "ekf_vislam/ros/vislam_ros_options.h"
+#include "testing/synthetic_scenario.h"
 
 #include <gtest/gtest.h>
 
@@ -432,6 +433,108 @@ TEST(EstimatorRunner, FeedsInStampOrderAndRecordsTheTrajectory) {
   EXPECT_TRUE(runner.estimator().hasCalibration());  // kept
   EXPECT_EQ(runner.buffered(), 0u);
   std::system(("rm -rf " + dir).c_str());
+}
+
+
+// A short synthetic drive (twist k and frame k share stamp k).
+const testing::Scenario& shortDrive() {
+  static const testing::Scenario drive = [] {
+    testing::ScenarioOptions options;
+    options.frames = 80;
+    return testing::makeScenario(options);
+  }();
+  return drive;
+}
+
+EstimatorRunner startedRunner() {
+  EstimatorRunner runner{testing::matchedOptions(testing::ScenarioOptions()),
+                         MeasurementSequencer::Options{10.0, 2000}};
+  EXPECT_TRUE(runner.estimator().setCalibration(shortDrive().calibration));
+  return runner;
+}
+
+double maxPositionDifference(const std::vector<StampedPose>& a, const std::vector<StampedPose>& b) {
+  if (a.size() != b.size()) return std::numeric_limits<double>::infinity();
+  double worst = 0.0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    if (a[i].stamp != b[i].stamp) return std::numeric_limits<double>::infinity();
+    worst = std::max(worst, (a[i].world_T_imu.translation() - b[i].world_T_imu.translation()).norm());
+  }
+  return worst;
+}
+
+TEST(EstimatorRunner, ResultDoesNotDependOnArrivalOrderWithinTheWindow) {
+  const testing::Scenario& s = shortDrive();
+  const size_t n = s.frames.size();
+  EstimatorRunner in_order = startedRunner();
+  for (size_t k = 0; k < n; ++k) {
+    in_order.push(s.twists[k]);
+    in_order.processReady();
+    in_order.push(s.frames[k]);
+    in_order.processReady();
+  }
+  in_order.flush();
+  // A stalled reader: backlogs of 20 messages per stream read one stream at a time, twists first
+  // in one block and frames first in the next.
+  EstimatorRunner stalled = startedRunner();
+  for (size_t block = 0; block < n; block += 20) {
+    const size_t end = std::min(n, block + 20);
+    for (int pass = 0; pass < 2; ++pass) {
+      const bool twists = (pass == 0) == ((block / 20) % 2 == 0);
+      for (size_t k = block; k < end; ++k) {
+        if (twists) {
+          stalled.push(s.twists[k]);
+        } else {
+          stalled.push(s.frames[k]);
+        }
+        stalled.processReady();
+      }
+    }
+  }
+  stalled.flush();
+  ASSERT_EQ(in_order.trajectory().size(), n);
+  EXPECT_EQ(maxPositionDifference(in_order.trajectory(), stalled.trajectory()), 0.0);
+  for (Counter c : {Counter::kFrameStale, Counter::kTwistLate, Counter::kTwistUsed,
+                    Counter::kFrameUsed, Counter::kObservationUpdate}) {
+    EXPECT_EQ(in_order.estimator().stats().get(c), stalled.estimator().stats().get(c))
+        << counterName(c);
+  }
+  EXPECT_EQ(stalled.estimator().stats().get(Counter::kFrameStale), 0u);
+  EXPECT_EQ(stalled.estimator().stats().get(Counter::kTwistLate), 0u);
+  EXPECT_EQ(stalled.latencies().count(), n);
+}
+
+TEST(EstimatorRunner, PropagatedCopyFollowsEveryTwistAndNeverChangesTheFilter) {
+  const testing::Scenario& s = shortDrive();
+  EstimatorRunner runner = startedRunner();
+  VislamEstimator eager(testing::matchedOptions(testing::ScenarioOptions()));
+  ASSERT_TRUE(eager.setCalibration(s.calibration));
+  for (size_t k = 0; k + 1 < s.frames.size(); k += 2) {
+    runner.push(s.twists[k]);
+    runner.processReady();
+    runner.push(s.frames[k]);
+    runner.processReady();
+    eager.feedTwist(s.twists[k]);
+    eager.feedFeatures(s.frames[k]);
+    // The next twist arrives before its frame: odometry from the copy, filter untouched.
+    const Eigen::Isometry3d filter_before = runner.estimator().worldTImu();
+    const Eigen::MatrixXd covariance_before = runner.estimator().stateCovariance();
+    runner.push(s.twists[k + 1]);
+    runner.processReady();
+    EXPECT_TRUE(runner.estimator().worldTImu().isApprox(filter_before, 0.0)) << k;
+    EXPECT_EQ((runner.estimator().stateCovariance() - covariance_before).norm(), 0.0) << k;
+    eager.feedTwist(s.twists[k + 1]);
+    const EstimatorRunner::Preview& preview = runner.preview();
+    ASSERT_TRUE(preview.valid);
+    EXPECT_EQ(preview.stamp, s.twists[k + 1].stamp);
+    EXPECT_LT((preview.world_T_imu.matrix() - eager.worldTImu().matrix()).norm(), 1e-12) << k;
+    EXPECT_LT((preview.pose_covariance_world - eager.poseCovarianceWorld()).norm(), 1e-12) << k;
+    // The filter catches up when the frame comes.
+    runner.push(s.frames[k + 1]);
+    runner.processReady();
+    eager.feedFeatures(s.frames[k + 1]);
+    EXPECT_LT((runner.estimator().worldTImu().matrix() - eager.worldTImu().matrix()).norm(), 1e-12);
+  }
 }
 
 TEST(EstimatorRunner, FlagsFramesWithoutCalibration) {

@@ -1,6 +1,7 @@
 #include "ekf_vislam/ros/estimator_runner.h"
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 #include <cerrno>
 #include <cstring>
@@ -40,9 +41,43 @@ bool makeDirectories(const std::string& dir, std::string* error) {
 
 EstimatorRunner::EstimatorRunner(const VislamOptions& options,
                                  const MeasurementSequencer::Options& sequencing)
-    : estimator_(options), sequencer_(sequencing) {}
+    : estimator_(options),
+      sequencer_(sequencing),
+      max_waiting_twists_(std::max<size_t>(1, sequencing.max_buffered)),
+      preview_estimator_(options) {}
 
-void EstimatorRunner::push(Measurement measurement) { sequencer_.push(std::move(measurement)); }
+void EstimatorRunner::push(Measurement measurement) {
+  if (const TwistData* twist = std::get_if<TwistData>(&measurement)) {
+    const TwistData copy = *twist;
+    sequencer_.push(std::move(measurement));
+    updatePreview(copy);
+    return;
+  }
+  frame_arrivals_.emplace_back(stampOf(measurement), Clock::now());
+  sequencer_.push(std::move(measurement));
+}
+
+void EstimatorRunner::updatePreview(const TwistData& twist) {
+  if (preview_stale_) {
+    // The filter as it is now, propagated with every twist it has not integrated yet (this one
+    // included: it is in the sequencer already).
+    preview_estimator_ = estimator_;
+    for (const TwistData& waiting : waiting_twists_) preview_estimator_.feedTwist(waiting);
+    for (const TwistData& buffered : sequencer_.bufferedTwists()) {
+      preview_estimator_.feedTwist(buffered);
+    }
+    preview_stale_ = false;
+  } else {
+    preview_estimator_.feedTwist(twist);
+  }
+  if (!preview_estimator_.initialized()) return;
+  preview_.valid = true;
+  preview_.stamp = preview_estimator_.time();
+  preview_.world_T_imu = preview_estimator_.worldTImu();
+  preview_.pose_covariance_world = preview_estimator_.poseCovarianceWorld();
+  preview_.twist = preview_estimator_.correctedTwist();
+  preview_.twist_covariance = preview_estimator_.correctedTwistCovariance();
+}
 
 size_t EstimatorRunner::processReady(const Observer& observer) {
   const std::vector<Measurement> ready = sequencer_.popReady();
@@ -53,48 +88,105 @@ size_t EstimatorRunner::processReady(const Observer& observer) {
 size_t EstimatorRunner::flush(const Observer& observer) {
   const std::vector<Measurement> ready = sequencer_.flush();
   for (const Measurement& m : ready) feed(m, observer);
+  integrateWaitingTwists(std::numeric_limits<double>::infinity(), observer);
   return ready.size();
 }
 
 void EstimatorRunner::feed(const Measurement& measurement, const Observer& observer) {
-  Processed processed;
-  processed.stamp = stampOf(measurement);
   if (const TwistData* twist = std::get_if<TwistData>(&measurement)) {
-    processed.result = estimator_.feedTwist(*twist);
-    ++twists_;
-  } else {
-    const FeatureFrame& frame = std::get<FeatureFrame>(measurement);
-    processed.is_frame = true;
-    processed.without_calibration = !estimator_.hasCalibration();
-    if (processed.without_calibration) ++frames_without_calibration_;
-    const auto start = std::chrono::steady_clock::now();
-    processed.result = estimator_.feedFeatures(frame);
-    const auto stop = std::chrono::steady_clock::now();
-    processed.processing_ms = std::chrono::duration<double, std::milli>(stop - start).count();
-    ++frames_;
-    if (processed.result.accepted) {
-      times_.add(processed.processing_ms);
-      StampedPose pose;
-      pose.stamp = frame.stamp;
-      pose.world_T_imu = estimator_.worldTImu();
-      trajectory_.push_back(pose);
+    // Lazy propagation: a twist newer than the last processed frame waits for the next frame (or
+    // the end of input). An older one goes in now: the estimator holds it for the next interval.
+    const bool waits = !has_frame_ || !(twist->stamp <= last_frame_stamp_);
+    if (waits && std::isfinite(twist->stamp)) {
+      auto it = std::upper_bound(
+          waiting_twists_.begin(), waiting_twists_.end(), twist->stamp,
+          [](double stamp, const TwistData& waiting) { return stamp < waiting.stamp; });
+      waiting_twists_.insert(it, *twist);
+      // Bounded: without frames (a camera that stopped) the oldest twists are integrated.
+      while (waiting_twists_.size() > max_waiting_twists_) {
+        const TwistData oldest = waiting_twists_.front();
+        waiting_twists_.pop_front();
+        feedTwist(oldest, observer);
+      }
+      return;
     }
+    feedTwist(*twist, observer);
+    return;
   }
-  if (std::isfinite(processed.stamp)) {
-    if (!has_stamp_) first_stamp_ = processed.stamp;
+  feedFrame(std::get<FeatureFrame>(measurement), observer);
+}
+
+void EstimatorRunner::integrateWaitingTwists(double stamp, const Observer& observer) {
+  while (!waiting_twists_.empty() && waiting_twists_.front().stamp <= stamp) {
+    const TwistData twist = waiting_twists_.front();
+    waiting_twists_.pop_front();
+    feedTwist(twist, observer);
+  }
+}
+
+void EstimatorRunner::feedTwist(const TwistData& twist, const Observer& observer) {
+  Processed processed;
+  processed.stamp = twist.stamp;
+  processed.result = estimator_.feedTwist(twist);
+  ++twists_;
+  noteStamp(processed.stamp);
+  if (observer) observer(processed);
+}
+
+void EstimatorRunner::feedFrame(const FeatureFrame& frame, const Observer& observer) {
+  if (std::isfinite(frame.stamp)) integrateWaitingTwists(frame.stamp, observer);
+  Processed processed;
+  processed.stamp = frame.stamp;
+  processed.is_frame = true;
+  processed.without_calibration = !estimator_.hasCalibration();
+  if (processed.without_calibration) ++frames_without_calibration_;
+  const auto start = Clock::now();
+  processed.result = estimator_.feedFeatures(frame);
+  const auto stop = Clock::now();
+  processed.processing_ms = std::chrono::duration<double, std::milli>(stop - start).count();
+  ++frames_;
+  if (processed.result.accepted) {
+    times_.add(processed.processing_ms);
+    StampedPose pose;
+    pose.stamp = frame.stamp;
+    pose.world_T_imu = estimator_.worldTImu();
+    trajectory_.push_back(pose);
+    if (!has_frame_ || frame.stamp > last_frame_stamp_) last_frame_stamp_ = frame.stamp;
+    has_frame_ = true;
+    preview_stale_ = true;
+  }
+  // Latency: from the push of this frame to now (frames leave the sequencer in stamp order).
+  while (!frame_arrivals_.empty() && !(frame_arrivals_.front().first > frame.stamp)) {
+    if (frame_arrivals_.front().first == frame.stamp) {
+      latencies_.add(std::chrono::duration<double, std::milli>(
+                         stop - frame_arrivals_.front().second).count());
+    }
+    frame_arrivals_.pop_front();
+  }
+  noteStamp(processed.stamp);
+  if (observer) observer(processed);
+}
+
+void EstimatorRunner::noteStamp(double stamp) {
+  if (std::isfinite(stamp)) {
+    if (!has_stamp_) first_stamp_ = stamp;
     has_stamp_ = true;
-    first_stamp_ = std::min(first_stamp_, processed.stamp);
-    last_stamp_ = std::max(last_stamp_, processed.stamp);
+    first_stamp_ = std::min(first_stamp_, stamp);
+    last_stamp_ = std::max(last_stamp_, stamp);
   }
   peak_state_dimension_ = std::max(peak_state_dimension_, estimator_.stateDimension());
   peak_active_landmarks_ = std::max(peak_active_landmarks_, estimator_.activeLandmarkCount());
-  if (observer) observer(processed);
 }
 
 void EstimatorRunner::reset() {
   estimator_.reset();
   sequencer_.clear();
   trajectory_.clear();
+  waiting_twists_.clear();
+  frame_arrivals_.clear();
+  has_frame_ = false;
+  preview_stale_ = true;
+  preview_ = Preview();
 }
 
 RunSummary EstimatorRunner::summary() const {
@@ -108,6 +200,8 @@ RunSummary EstimatorRunner::summary() const {
   s.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
   s.data_s = has_stamp_ ? last_stamp_ - first_stamp_ : 0.0;
   s.extra["sequencer_late"] = static_cast<double>(sequencer_.late());
+  s.extra["latency_ms_p50"] = latencies_.percentile(0.5);
+  s.extra["latency_ms_p99"] = latencies_.percentile(0.99);
   s.extra["frames_without_calibration"] = static_cast<double>(frames_without_calibration_);
   s.extra["trajectory_poses"] = static_cast<double>(trajectory_.size());
   // Online calibration estimates at the end of the run.

@@ -67,6 +67,7 @@ VislamRos::VislamRos(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string&
 
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_);
   odometry_pub_ = pnh_.advertise<nav_msgs::Odometry>("odometry", 100);
+  odometry_update_pub_ = pnh_.advertise<nav_msgs::Odometry>("odometry_update", 100);
   path_pub_ = pnh_.advertise<nav_msgs::Path>("path", 1, true);
   landmarks_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("landmarks", 1, true);
 
@@ -82,9 +83,10 @@ VislamRos::VislamRos(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string&
   right_info_sub_ =
       nh_.subscribe("stereo/right/camera_info", 10, &VislamRos::rightInfoCallback, this);
 
-  flush_timer_ = nh_.createWallTimer(
-      ros::WallDuration(std::max(0.02, ros_options_.flush_timeout / 5.0)), &VislamRos::flushTimer,
-      this);
+  // Releases what the calibration wait held back once it is over (the sequencer itself waits in
+  // message time only).
+  calibration_timer_ =
+      nh_.createWallTimer(ros::WallDuration(0.1), &VislamRos::calibrationTimer, this);
   if (ros_options_.landmark_marker_rate > 0.0 || ros_options_.path_rate > 0.0) {
     const double rate = std::max(ros_options_.landmark_marker_rate, ros_options_.path_rate);
     landmark_timer_ =
@@ -107,7 +109,7 @@ void VislamRos::shutdown() {
   if (shut_down_) return;
   shut_down_ = true;
   publishing_ = false;
-  flush_timer_.stop();
+  calibration_timer_.stop();
   landmark_timer_.stop();
   diagnostics_timer_.stop();
   twist_sub_.shutdown();
@@ -142,6 +144,12 @@ void VislamRos::twistCallback(const geometry_msgs::TwistStamped::ConstPtr& msg) 
   ++twists_received_;
   last_twist_ = ros::WallTime::now();
   push(Measurement(ros_conversions::toTwistData(*msg)));
+  // Twist-rate odometry for control, from the propagated copy (the filter is not changed).
+  const EstimatorRunner::Preview& preview = runner_->preview();
+  if (publishing_ && preview.valid) {
+    publishOdometry(preview.stamp, preview.world_T_imu, preview.pose_covariance_world,
+                    preview.twist, preview.twist_covariance, false);
+  }
 }
 
 void VislamRos::featuresCallback(const ekf_vislam::StereoFeatureArray::ConstPtr& msg) {
@@ -281,9 +289,12 @@ void VislamRos::onProcessed(const EstimatorRunner::Processed& processed) {
     last_update_ms_ = processed.processing_ms;
     ++last_processed_count_;
   }
-  if (!processed.result.accepted || !estimator.initialized()) return;
+  if (!processed.is_frame || !processed.result.accepted || !estimator.initialized()) return;
   last_stamp_ = estimator.time();
-  if (publishing_) publishOdometry(last_stamp_);
+  if (publishing_) {
+    publishOdometry(last_stamp_, estimator.worldTImu(), estimator.poseCovarianceWorld(),
+                    estimator.correctedTwist(), estimator.correctedTwistCovariance(), true);
+  }
   if (processed.is_frame && !runner_->trajectory().empty()) {
     geometry_msgs::PoseStamped pose;
     pose.header.frame_id = ros_options_.world_frame;
@@ -300,20 +311,23 @@ void VislamRos::onProcessed(const EstimatorRunner::Processed& processed) {
 // Outputs
 // ---------------------------------------------------------------------------------------------
 
-void VislamRos::publishOdometry(double stamp) {
-  const VislamEstimator& estimator = runner_->estimator();
+void VislamRos::publishOdometry(double stamp, const Eigen::Isometry3d& world_T_imu,
+                                const Matrix6d& pose_covariance_world, const TwistData& twist,
+                                const Matrix6d& twist_covariance, bool after_update) {
   nav_msgs::Odometry odometry;
-  const Eigen::Isometry3d world_T_imu = estimator.worldTImu();
   if (!ros_conversions::toOdometryMsg(stamp, ros_options_.world_frame, ros_options_.imu_frame,
-                                      world_T_imu, estimator.poseCovarianceWorld(),
-                                      estimator.correctedTwist(),
-                                      estimator.correctedTwistCovariance(), &odometry)) {
+                                      world_T_imu, pose_covariance_world, twist, twist_covariance,
+                                      &odometry)) {
     ++odometry_non_finite_;
     ROS_ERROR_THROTTLE(5.0, "%s: estimate not finite: odometry not published (%lu times)",
                        name_.c_str(), static_cast<unsigned long>(odometry_non_finite_));
     return;
   }
   odometry_pub_.publish(odometry);
+  if (!after_update) return;
+  // tf follows the filter (once per update): a prediction at a frame's stamp must not take the
+  // place of that frame's update (tf2 keeps the first transform of a stamp).
+  odometry_update_pub_.publish(odometry);
   last_odometry_ = odometry;
   has_odometry_ = true;
 }
@@ -438,11 +452,10 @@ void VislamRos::clearVisualization() {
   path_pub_.publish(path_);
 }
 
-void VislamRos::flushTimer(const ros::WallTimerEvent&) {
+void VislamRos::calibrationTimer(const ros::WallTimerEvent&) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (shut_down_ || runner_->buffered() == 0) return;
-  // Inputs stopped: process what is left. Otherwise release what the calibration held back.
-  process((ros::WallTime::now() - last_input_).toSec() >= ros_options_.flush_timeout);
+  process(false);
 }
 
 void VislamRos::visualizationTimer(const ros::WallTimerEvent&) {

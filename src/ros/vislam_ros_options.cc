@@ -83,8 +83,8 @@ std::string VislamRosOptions::validate() const {
     why << "ros/landmark_marker_rate and ros/path_rate must be >= 0";
   } else if (!(diagnostic_period > 0.0)) {
     why << "ros/diagnostic_period must be > 0";
-  } else if (!(input_timeout > 0.0) || !(flush_timeout > 0.0)) {
-    why << "ros/input_timeout and ros/flush_timeout must be > 0";
+  } else if (!(input_timeout > 0.0)) {
+    why << "ros/input_timeout must be > 0";
   } else if (!(calibration_wait >= 0.0)) {
     why << "ros/calibration_wait must be >= 0";
   } else if (!(sequencer_max_delay >= 0.0)) {
@@ -117,7 +117,6 @@ bool parseVislamRosOptions(const ParameterSource& source, VislamRosOptions* opti
   r.readDouble("ros/path_rate", &o.path_rate);
   r.readDouble("ros/diagnostic_period", &o.diagnostic_period);
   r.readDouble("ros/input_timeout", &o.input_timeout);
-  r.readDouble("ros/flush_timeout", &o.flush_timeout);
   r.readDouble("ros/calibration_wait", &o.calibration_wait);
   r.readDouble("ros/sequencer_max_delay", &o.sequencer_max_delay);
   r.readInt("ros/sequencer_max_buffered", &o.sequencer_max_buffered);
@@ -182,7 +181,8 @@ std::string describeOptions(const VislamOptions& o) {
       << " velocity_bias_random_walk=" << o.velocity_bias_random_walk << "\n"
       << "landmarks: min_disparity_px=" << o.min_disparity_px << " min_depth=" << o.min_depth
       << " max_depth=" << o.max_depth << " gating_probability=" << o.gating_probability
-      << " keep_all_landmarks_in_state=" << o.keep_all_landmarks_in_state << "\n"
+      << " keep_all_landmarks_in_state=" << o.keep_all_landmarks_in_state
+      << " max_track_gap=" << o.max_track_gap << "\n"
       << "limits: max_linear_speed=" << o.max_linear_speed
       << " max_angular_speed=" << o.max_angular_speed << " max_twist_gap=" << o.max_twist_gap
       << " gap_policy=" << (o.gap_policy == GapPolicy::kPredict ? "predict" : "reset")
@@ -207,7 +207,7 @@ std::string describeOptions(const VislamRosOptions& o) {
       << " landmark_sigma_good=" << o.landmark_sigma_good
       << " landmark_sigma_bad=" << o.landmark_sigma_bad << " path_rate=" << o.path_rate
       << " diagnostic_period=" << o.diagnostic_period << " input_timeout=" << o.input_timeout
-      << " flush_timeout=" << o.flush_timeout << " calibration_wait=" << o.calibration_wait
+      << " calibration_wait=" << o.calibration_wait
       << " sequencer_max_delay=" << o.sequencer_max_delay
       << " sequencer_max_buffered=" << o.sequencer_max_buffered
       << " queue_size=" << o.queue_size << " output_dir="

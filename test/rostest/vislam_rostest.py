@@ -163,9 +163,9 @@ class VislamPipelineTest(unittest.TestCase):
         t0 = time.time()
         cls.play([])
         log('bag played in %.1f s' % (time.time() - t0))
-        # The nodes flush their sequencer ros/flush_timeout (0.5 s) after the last input.
+        # The last frame is processed once its twist arrived; wait for the outputs to settle.
         wait_until(lambda: time.time() - cls.recorder.last_odometry_wall() > 1.5, 10.0)
-        time.sleep(1.0)  # one more landmark/path publication (2 Hz) after the flush
+        time.sleep(1.0)  # one more landmark/path publication (2 Hz)
 
         cls.saved = {}
         for name, folder in ((NODELET, 'nodelet'), (NODE, 'node')):

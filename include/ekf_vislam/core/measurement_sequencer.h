@@ -40,6 +40,8 @@ class MeasurementSequencer {
   void clear();
 
   size_t buffered() const { return buffer_.size(); }
+  /// The twists still buffered, in stamp order.
+  std::vector<TwistData> bufferedTwists() const;
   size_t late() const { return late_; }
 
  private:

@@ -111,6 +111,7 @@ class VislamEstimator {
     bool tracking = true;  ///< false: its track ended but the block stays (keep_all_in_state)
     int consecutive_gated = 0;  ///< frames in a row whose observation failed the gate
     int frames = 1;  ///< frames its track has been seen in since this landmark started
+    int frames_absent = 0;  ///< consecutive non-empty frames its id was missing from
     /// Residual [uL, v] (px) left after the last update that used it: the reference of the next
     /// frame's track-jump test. Valid only when has_flow_reference.
     Eigen::Vector2d flow_residual = Eigen::Vector2d::Zero();

@@ -111,6 +111,10 @@ struct VislamOptions {
   double jump_threshold_px = 0.5;
   double jump_threshold_sigmas = 3.0;
   bool keep_all_landmarks_in_state = false;  ///< never marginalize (exact, O(N^2) memory)
+  /// A track absent from up to this many consecutive non-empty frames keeps its landmark in the
+  /// state and resumes when its id returns (a tracker that lost an image); after that it ends.
+  /// An empty feature message ends no track.
+  int max_track_gap = 2;
 
   // limits/ (input sanity)
   double max_linear_speed = 100.0;      ///< m/s; faster twists are rejected

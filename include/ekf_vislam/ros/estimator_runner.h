@@ -1,8 +1,14 @@
 // The processing loop shared by the nodelet/node and the offline bag runner, so both feed the
-// estimator the same sequence: every message goes into the MeasurementSequencer; what it
-// releases goes to the estimator in stamp order (predict on a twist, update on a feature frame).
-// Also keeps the trajectory (world_T_imu after every feature frame), per-frame processing times
-// and the run summary, and writes trajectory.tum, landmarks.csv and stats.json. No ROS.
+// estimator the same sequence whatever the arrival order and delays: every message goes into the
+// MeasurementSequencer, which releases them in stamp order. Propagation is lazy: a released twist
+// newer than the last processed frame waits in the runner, and the filter integrates the waiting
+// twists up to a feature frame's stamp only when that frame is processed. So a frame that comes
+// after later twists (a stalled process reading its backlogs) still finds the filter at or before
+// its stamp: only a frame older than the last processed frame is stale. Odometry at twist rate
+// comes from a propagated copy of the filter (preview()), which leaves the filter unchanged.
+// Also keeps the trajectory (world_T_imu after every feature frame), per-frame processing times,
+// frame latencies and the run summary, and writes trajectory.tum, landmarks.csv and stats.json.
+// No ROS.
 #pragma once
 
 #include "ekf_vislam/core/measurement_sequencer.h"
@@ -11,7 +17,11 @@
 #include "ekf_vislam/core/vislam_estimator.h"
 #include "ekf_vislam/core/vislam_options.h"
 
+#include <Eigen/Geometry>
+
 #include <chrono>
+#include <deque>
+#include <utility>
 #include <functional>
 #include <string>
 #include <vector>
@@ -30,24 +40,39 @@ class EstimatorRunner {
   };
   using Observer = std::function<void(const Processed&)>;
 
+  /// The filter propagated with every twist pushed so far (filter state untouched).
+  struct Preview {
+    bool valid = false;  ///< false until the first twist
+    double stamp = 0.0;
+    Eigen::Isometry3d world_T_imu = Eigen::Isometry3d::Identity();
+    Matrix6d pose_covariance_world = Matrix6d::Zero();  ///< as VislamEstimator::poseCovarianceWorld
+    TwistData twist;                                   ///< bias-corrected, IMU frame
+    Matrix6d twist_covariance = Matrix6d::Zero();
+  };
+
   EstimatorRunner(const VislamOptions& options, const MeasurementSequencer::Options& sequencing);
 
   VislamEstimator& estimator() { return estimator_; }
   const VislamEstimator& estimator() const { return estimator_; }
 
-  /// Buffers one message. Call processReady() afterwards.
+  /// Buffers one message; a twist also advances the propagated copy. Call processReady()
+  /// afterwards.
   void push(Measurement measurement);
+  /// The propagated copy after the last pushed twist.
+  const Preview& preview() const { return preview_; }
   /// Feeds what the sequencer releases; `observer` (optional) sees each one after it was fed.
   size_t processReady(const Observer& observer = Observer());
-  /// Feeds everything still buffered (end of input).
+  /// Feeds everything still buffered, waiting twists included (end of input).
   size_t flush(const Observer& observer = Observer());
-  size_t buffered() const { return sequencer_.buffered(); }
+  size_t buffered() const { return sequencer_.buffered() + waiting_twists_.size(); }
 
   /// Estimator reset, sequencer cleared, trajectory cleared. Times and counts are kept.
   void reset();
 
   const std::vector<StampedPose>& trajectory() const { return trajectory_; }
   const ProcessingTimes& times() const { return times_; }
+  /// Wall time from a frame's push to the end of its processing, ms.
+  const ProcessingTimes& latencies() const { return latencies_; }
   uint64_t framesFed() const { return frames_; }
   uint64_t twistsFed() const { return twists_; }
   uint64_t framesWithoutCalibration() const { return frames_without_calibration_; }
@@ -61,10 +86,26 @@ class EstimatorRunner {
   bool save(const std::string& dir, std::string* error) const;
 
  private:
+  using Clock = std::chrono::steady_clock;
   void feed(const Measurement& measurement, const Observer& observer);
+  void feedTwist(const TwistData& twist, const Observer& observer);
+  void feedFrame(const FeatureFrame& frame, const Observer& observer);
+  /// Integrates the waiting twists up to `stamp` (all of them when stamp is +inf).
+  void integrateWaitingTwists(double stamp, const Observer& observer);
+  void updatePreview(const TwistData& twist);
+  void noteStamp(double stamp);
 
   VislamEstimator estimator_;
   MeasurementSequencer sequencer_;
+  size_t max_waiting_twists_ = 1000;
+  std::deque<TwistData> waiting_twists_;  ///< released, newer than the last frame, stamp order
+  bool has_frame_ = false;
+  double last_frame_stamp_ = 0.0;
+  VislamEstimator preview_estimator_;
+  bool preview_stale_ = true;  ///< a frame was processed since the copy was made
+  Preview preview_;
+  std::deque<std::pair<double, Clock::time_point>> frame_arrivals_;  ///< stamp, push time
+  ProcessingTimes latencies_;
   std::vector<StampedPose> trajectory_;
   ProcessingTimes times_;
   uint64_t frames_ = 0;

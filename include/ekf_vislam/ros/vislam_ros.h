@@ -6,8 +6,10 @@
 // stereo/features (ekf_vislam/StereoFeatureArray), stereo/left/camera_info and
 // stereo/right/camera_info (sensor_msgs/CameraInfo); imu_T_cam from tf (imu_frame -> the
 // features' header.frame_id).
-// Publishes (private names): odometry (nav_msgs/Odometry), path (nav_msgs/Path), landmarks
-// (visualization_msgs/MarkerArray), tf world_frame -> imu_frame, /diagnostics.
+// Publishes (private names): odometry (nav_msgs/Odometry: at every twist from the propagated copy,
+// stamp = the twist's, and after every update, stamp = the frame's), odometry_update (only the
+// filter's pose after each update), path (nav_msgs/Path), landmarks
+// (visualization_msgs/MarkerArray), tf world_frame -> imu_frame (after every update), /diagnostics.
 // Services (private): reset, save (std_srvs/Trigger).
 // Parameters (private): the core options (config/default.yaml) and the ros/ section.
 #pragma once
@@ -59,12 +61,15 @@ class VislamRos {
   bool holdForCalibration();  // locked
 
   // Outputs.
-  void publishOdometry(double stamp);
+  /// Publishes on ~odometry (and on ~odometry_update when `after_update`).
+  void publishOdometry(double stamp, const Eigen::Isometry3d& world_T_imu,
+                       const Matrix6d& pose_covariance_world, const TwistData& twist,
+                       const Matrix6d& twist_covariance, bool after_update);
   void publishTf();
   void publishPath();
   void publishLandmarks();
   void clearVisualization();
-  void flushTimer(const ros::WallTimerEvent&);
+  void calibrationTimer(const ros::WallTimerEvent&);
   void visualizationTimer(const ros::WallTimerEvent&);
   void diagnosticsTimer(const ros::WallTimerEvent&);
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
@@ -110,9 +115,9 @@ class VislamRos {
 
   // Publishing.
   ros::Subscriber twist_sub_, features_sub_, left_info_sub_, right_info_sub_;
-  ros::Publisher odometry_pub_, path_pub_, landmarks_pub_;
+  ros::Publisher odometry_pub_, odometry_update_pub_, path_pub_, landmarks_pub_;
   ros::ServiceServer reset_srv_, save_srv_;
-  ros::WallTimer flush_timer_, landmark_timer_, diagnostics_timer_;
+  ros::WallTimer calibration_timer_, landmark_timer_, diagnostics_timer_;
   ros::WallTime last_landmarks_publish_;
   ros::WallTime last_path_publish_;
   tf2_ros::Buffer tf_buffer_;

@@ -36,9 +36,8 @@ struct VislamRosOptions {
   double path_rate = 2.0;              ///< ros/path_rate, Hz (0 = never)
   double diagnostic_period = 1.0;      ///< ros/diagnostic_period, s
   double input_timeout = 1.0;          ///< ros/input_timeout, wall s: diagnostics WARN after
-  double flush_timeout = 0.5;          ///< ros/flush_timeout, wall s without input: flush
   double calibration_wait = 2.0;       ///< ros/calibration_wait, wall s inputs are held at start
-  double sequencer_max_delay = 0.5;    ///< ros/sequencer_max_delay, s of stamp time
+  double sequencer_max_delay = 10.0;   ///< ros/sequencer_max_delay, s of message time
   int sequencer_max_buffered = 2000;   ///< ros/sequencer_max_buffered, messages
   int queue_size = 2000;               ///< ros/queue_size of every subscriber
   std::string output_dir;              ///< ros/output_dir: save target ("" = no saving)

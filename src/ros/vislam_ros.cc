@@ -519,6 +519,8 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
   status.add("frames_received", frames_received_);
   status.add("update_ms_last", last_update_ms_);
   status.add("update_ms_p99", runner_->times().percentile(0.99));
+  status.add("latency_ms_p50", runner_->latencies().percentile(0.5));
+  status.add("latency_ms_p99", runner_->latencies().percentile(0.99));
   status.add("active_landmarks", estimator.activeLandmarkCount());
   status.add("total_landmarks", estimator.landmarks().size());
   status.add("state_dimension", estimator.stateDimension());

@@ -1,0 +1,139 @@
+#!/usr/bin/python3
+"""Plays a bag at 10x into the nodelet while pausing its process (see vislam_load.test)."""
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import unittest
+import xmlrpc.client
+
+import numpy as np
+import rosgraph
+import rospkg
+import rospy
+import rostest
+from std_srvs.srv import SetBool, Trigger
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from vislam_rostest import log, read_tum, run  # noqa: E402
+
+PKG = 'ekf_vislam'
+NODELET = '/vislam'
+MANAGER = '/vislam_manager'
+RATE = 10.0
+PAUSES = 6
+PAUSE_S = 0.5
+EQUALITY_TOLERANCE_M = 1e-6
+
+
+def data_dir(package):
+    path = os.environ.get('EKF_VISLAM_DATA') or os.path.join(
+        os.path.realpath(os.path.join(package, 'package.xml')), '..', '..', 'shared', 'data')
+    path = os.path.normpath(path)
+    return path if os.path.isfile(os.path.join(path, '0027.npz')) else None
+
+
+def pid_of(node):
+    uri = rosgraph.masterapi.Master('/vislam_load_rostest').lookupNode(node)
+    return xmlrpc.client.ServerProxy(uri).getPid('/vislam_load_rostest')[2]
+
+
+class LoadTest(unittest.TestCase):
+
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('vislam_load_rostest', anonymous=True)
+        cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_load_')
+        package = rospkg.RosPack().get_path(PKG)
+        cls.bag = os.path.join(cls.tmp, 'drive.bag')
+        data = data_dir(package)
+        if data:
+            cls.source = '0027'
+            run(['/usr/bin/python3', os.path.join(package, 'scripts', 'dataset_to_bag.py'),
+                 os.path.join(data, '0027.npz'), cls.bag])
+        else:
+            cls.source = 'synthetic drive (no course data)'
+            prefix = os.path.join(cls.tmp, 'sim')
+            run(['/usr/bin/python3', os.path.join(package, 'scripts', 'simulate_dataset.py'),
+                 '--seed', '4', '--out', prefix, '--frames', '600'])
+            run(['/usr/bin/python3', os.path.join(package, 'scripts', 'dataset_to_bag.py'),
+                 prefix + '.npz', cls.bag])
+        log('playing %s at %gx with %d pauses of %g s' % (cls.source, RATE, PAUSES, PAUSE_S))
+        cls.offline = os.path.join(cls.tmp, 'offline')
+        log(run(['rosrun', PKG, 'vislam_offline', '--bag', cls.bag, '--out', cls.offline]).strip())
+        rospy.wait_for_service(NODELET + '/save', timeout=60.0)
+        pid = pid_of(MANAGER)
+        cls.paused = []
+
+        def pause_repeatedly(stop):
+            time.sleep(1.0)
+            for _ in range(PAUSES):
+                if stop.is_set():
+                    return
+                os.kill(pid, signal.SIGSTOP)
+                time.sleep(PAUSE_S)
+                os.kill(pid, signal.SIGCONT)
+                cls.paused.append(PAUSE_S)
+                time.sleep(0.7)
+
+        stop = threading.Event()
+        pauser = threading.Thread(target=pause_repeatedly, args=(stop,))
+        name = '/vislam_load_player'
+        cmd = ['rosbag', 'play', '--clock', '--quiet', '--pause', '--rate', str(RATE), cls.bag,
+               '__name:=' + name[1:]]
+        player = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                  stderr=subprocess.DEVNULL)
+        try:
+            rospy.wait_for_service(name + '/pause_playback', timeout=30.0)
+            time.sleep(2.0)  # the manager subscribes to the player's topics
+            rospy.ServiceProxy(name + '/pause_playback', SetBool)(False)
+            pauser.start()
+            player.wait(timeout=240)
+        finally:
+            stop.set()
+            if pauser.is_alive():
+                pauser.join()
+            os.kill(pid, signal.SIGCONT)
+            if player.poll() is None:
+                player.kill()
+        time.sleep(3.0)  # the nodelet works through what it received
+        cls.live = os.path.join(cls.tmp, 'live')
+        rospy.set_param(NODELET + '/ros/output_dir', cls.live)
+        response = rospy.ServiceProxy(NODELET + '/save', Trigger)()
+        log(response.message)
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.tmp, ignore_errors=True)
+
+    def test_the_process_was_paused(self):
+        self.assertEqual(len(self.paused), PAUSES)
+
+    def test_nothing_rejected(self):
+        live = json.load(open(os.path.join(self.live, 'stats.json')))
+        offline = json.load(open(os.path.join(self.offline, 'stats.json')))
+        counters = live['counters']
+        for name in ('frame_stale', 'twist_late', 'twist_time_not_increasing'):
+            self.assertEqual(counters[name], 0, name)
+        self.assertEqual(live['sequencer_late'], 0)
+        self.assertEqual(counters['frame_used'], offline['counters']['frame_used'])
+        log('live: %d frames, latency p50 %.2f ms, p99 %.2f ms' % (
+            counters['frame_used'], live['latency_ms_p50'], live['latency_ms_p99']))
+
+    def test_live_equals_offline(self):
+        t_live, live = read_tum(os.path.join(self.live, 'trajectory.tum'))
+        t_off, off = read_tum(os.path.join(self.offline, 'trajectory.tum'))
+        self.assertEqual(len(t_live), len(t_off))
+        self.assertTrue(np.array_equal(t_live, t_off))
+        difference = np.max(np.linalg.norm(live[:, :3] - off[:, :3], axis=1))
+        log('%s: max position difference live - offline %.3g m' % (self.source, difference))
+        self.assertLessEqual(difference, EQUALITY_TOLERANCE_M)
+
+
+if __name__ == '__main__':
+    rostest.rosrun(PKG, 'vislam_under_load', LoadTest)

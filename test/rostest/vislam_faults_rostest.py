@@ -1,6 +1,5 @@
 #!/usr/bin/python3
 """Plays a fault-injected synthetic bag through the nodelet (see vislam_faults.test)."""
-import copy
 import json
 import math
 import os
@@ -11,12 +10,10 @@ import tempfile
 import time
 import unittest
 
-import numpy as np
 import rosbag
 import rospkg
 import rospy
 import rostest
-from ekf_vislam.msg import StereoFeature, StereoFeatureArray
 from nav_msgs.msg import Odometry
 from std_srvs.srv import Trigger
 
@@ -24,88 +21,12 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from vislam_rostest import VislamPipelineTest, log, read_tum, run, wait_until  # noqa: E402
 
 from ekf_vislam_tools import metrics, trajectory  # noqa: E402
+from ekf_vislam_tools.faults import inject_faults  # noqa: E402
 
 PKG = 'ekf_vislam'
 NODELET = '/vislam'
 # Measured on this bag (seed 5, 300 frames, faults injected): ATE 0.172 m.
 ATE_TOLERANCE_M = 1.0
-
-
-def inject_faults(clean_bag, faulty_bag):
-    """Copies clean_bag with one instance of each fault class; returns the expected minimum count
-    of each counter in stats.json."""
-    with rosbag.Bag(clean_bag) as bag:
-        messages = list(bag.read_messages(return_connection_header=True))
-    frames = [m for m in messages if m.topic == '/stereo/features']
-    twists = [m for m in messages if m.topic == '/imu/twist']
-    t0 = twists[0].message.header.stamp
-
-    def twist_like(index, dt, v=None):
-        msg = twists[index].message.__class__()
-        msg.header = twists[index].message.header.__class__()
-        msg.header.frame_id = 'imu'
-        msg.header.stamp = twists[index].message.header.stamp + rospy.Duration(dt)
-        msg.twist = copy.deepcopy(twists[index].message.twist)
-        if v is not None:
-            msg.twist.linear.x, msg.twist.linear.y, msg.twist.linear.z = v
-        return msg
-
-    extra = []  # (bag time, topic, message)
-    nan = float('nan')
-    # Twists: NaN, implausible, duplicate stamp, time going backwards.
-    extra.append((twists[50].timestamp + rospy.Duration(0.03), '/imu/twist', twist_like(50, 0.03, (nan, 0, 0))))
-    extra.append((twists[60].timestamp + rospy.Duration(0.03), '/imu/twist', twist_like(60, 0.03, (500.0, 0, 0))))
-    extra.append((twists[70].timestamp, '/imu/twist', twist_like(70, 0.0)))
-    extra.append((twists[80].timestamp + rospy.Duration(0.01), '/imu/twist', twist_like(80, -0.5)))
-    # Features before any twist.
-    early = StereoFeatureArray()
-    early.header.stamp = t0 - rospy.Duration(1.0)
-    early.header.frame_id = 'camera_left'
-    early.features = frames[0].message.features[:5]
-    extra.append((twists[0].timestamp - rospy.Duration(1.0), '/stereo/features', early))
-    # A huge message: 10,000 features with new ids at random places.
-    rng = np.random.default_rng(1)
-    huge = StereoFeatureArray()
-    huge.header.stamp = frames[130].message.header.stamp + rospy.Duration(0.05)
-    huge.header.frame_id = 'camera_left'
-    for i in range(10000):
-        u, v = rng.uniform(0, 1240), rng.uniform(0, 375)
-        huge.features.append(StereoFeature(id=10_000_000 + i, u_left=u, v_left=v,
-                                           u_right=u - rng.uniform(1, 60), v_right=v))
-    extra.append((frames[130].timestamp + rospy.Duration(0.05), '/stereo/features', huge))
-
-    def modify(index, msg):
-        f = msg.features
-        if index == 90:
-            f[0].u_left = nan                      # NaN coordinate
-        elif index == 100:
-            for k in range(3):
-                f[k].u_right = f[k].u_left + 5.0   # negative disparity
-        elif index == 110:
-            f.append(copy.deepcopy(f[0]))          # duplicate id
-        elif index == 120:
-            msg.features = []                      # empty message
-        elif index == 140:
-            for k in range(2):
-                f[k].v_right = f[k].v_left + 50.0  # rows disagree
-        return msg
-
-    frame_index = {id(m): k for k, m in enumerate(frames)}
-    out = []
-    for m in messages:
-        msg = m.message
-        if m.topic == '/stereo/features':
-            msg = modify(frame_index[id(m)], msg)
-        out.append((m.timestamp, m.topic, msg, m.connection_header))
-    out += [(t, topic, msg, None) for t, topic, msg in extra]
-    out.sort(key=lambda x: x[0])
-    with rosbag.Bag(faulty_bag, 'w') as bag:
-        for t, topic, msg, header in out:
-            bag.write(topic, msg, t, connection_header=header)
-    return {'twist_non_finite': 1, 'twist_implausible': 1, 'twist_time_not_increasing': 2,
-            'frame_before_twist': 1, 'frame_capped': 1, 'observation_non_finite': 1,
-            'observation_disparity': 3, 'observation_duplicate_id': 1, 'frame_empty': 1,
-            'observation_row_mismatch': 2}
 
 
 class VislamFaultsTest(unittest.TestCase):

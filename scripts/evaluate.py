@@ -178,6 +178,22 @@ def load_estimate(path):
         raise UsageError(_one_line(exc))
 
 
+def evaluate_consistency(path, t_est, estworld_T_imu, t_gt, gtworld_T_imu, max_dt):
+    """NEES against ground truth when trajectory_covariance.txt lies beside the trajectory."""
+    covariance_path = os.path.join(os.path.dirname(os.path.abspath(path)),
+                                   'trajectory_covariance.txt')
+    if not os.path.exists(covariance_path):
+        return {}
+    try:
+        t_cov, covariances = metrics.read_trajectory_covariance(covariance_path)
+        result = metrics.consistency(t_est, estworld_T_imu, t_cov, covariances, t_gt,
+                                     gtworld_T_imu, max_dt)
+    except metrics.EvaluationError as exc:
+        raise UsageError(_one_line(exc))
+    result['covariance_file'] = covariance_path
+    return result
+
+
 def evaluate_landmarks(args, gtworld_T_estworld):
     """-> (metrics dict or None, aligned landmark positions (M, 3) in the ground-truth world)."""
     try:
@@ -221,14 +237,18 @@ def _fmt(value, spec):
 def format_table(results):
     """Compact text table, one row per estimate."""
     width = max([len('estimate')] + [len(label) for label in results])
-    header = '%-*s %10s %12s %8s %11s %8s' % (width, 'estimate', 'ATE RMSE m', 'rot RMSE deg',
-                                             'RPE %', 'final err m', 'matched')
+    header = '%-*s %10s %12s %8s %11s %8s %9s %9s %9s' % (
+        width, 'estimate', 'ATE RMSE m', 'rot RMSE deg', 'RPE %', 'final err m', 'matched',
+        'NEES pos', 'in 95%', 'NEES pose')
     lines = [header, '-' * len(header)]
     for label, r in results.items():
-        lines.append('%-*s %10s %12s %8s %11s %8d' % (
+        position = r.get('nees_position', {})
+        pose = r.get('nees_pose', {})
+        lines.append('%-*s %10s %12s %8s %11s %8d %9s %9s %9s' % (
             width, label, _fmt(r['ate_rmse_m'], '.3f'), _fmt(r['rotation_rmse_deg'], '.3f'),
             _fmt(r['rpe_percent'], '.3f'), _fmt(r['final_position_error_m'], '.3f'),
-            r['matched_poses']))
+            r['matched_poses'], _fmt(position.get('mean'), '.2f'),
+            _fmt(position.get('inside_95'), '.3f'), _fmt(pose.get('mean'), '.2f')))
     return '\n'.join(lines)
 
 
@@ -248,6 +268,8 @@ def run(args):
             raise UsageError('%s: %s' % (est['path'], _one_line(exc)))
         matched[est['label']] = m
         results[est['label']] = dict(estimate=est['path'], **metrics.trajectory_metrics(m))
+        results[est['label']].update(evaluate_consistency(est['path'], t_est, estworld_T_imu,
+                                                          t_gt, gtworld_T_imu, args.max_dt))
 
     primary = args.estimates[0]['label']
     landmarks_xyz = None

@@ -57,6 +57,25 @@ bool writeTumTrajectory(const std::string& path, const std::vector<StampedPose>&
   return finish(path, &out, error);
 }
 
+bool writeTrajectoryCovariance(const std::string& path, const std::vector<StampedPose>& trajectory,
+                               const std::vector<Matrix6d>& covariances, std::string* error) {
+  if (trajectory.size() != covariances.size()) {
+    if (error) *error = path + ": one covariance per pose is needed";
+    return false;
+  }
+  std::ofstream out;
+  if (!openForWriting(path, &out, error)) return false;
+  out << std::setprecision(17);
+  for (size_t i = 0; i < trajectory.size(); ++i) {
+    out << trajectory[i].stamp;
+    for (int r = 0; r < 6; ++r) {
+      for (int c = 0; c < 6; ++c) out << ' ' << covariances[i](r, c);
+    }
+    out << '\n';
+  }
+  return finish(path, &out, error);
+}
+
 bool writeLandmarksCsv(const std::string& path, const std::vector<LandmarkEstimate>& landmarks,
                        std::string* error) {
   std::ofstream out;

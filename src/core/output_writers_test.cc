@@ -45,6 +45,32 @@ TEST(OutputWriters, LandmarksCsvHeaderAndSigmas) {
   EXPECT_NE(error.find("/nonexistent/dir/x.csv"), std::string::npos);
 }
 
+TEST(OutputWriters, TrajectoryCovarianceRowMajorOneLinePerPose) {
+  StampedPose a, b;
+  a.stamp = 1317384506.4;
+  b.stamp = 1317384506.5;
+  Matrix6d covariance_a, covariance_b = Matrix6d::Identity();
+  for (int i = 0; i < 36; ++i) covariance_a(i / 6, i % 6) = 0.001 * i;
+  const std::string path = ::testing::TempDir() + "/trajectory_covariance.txt";
+  std::string error;
+  ASSERT_TRUE(writeTrajectoryCovariance(path, {a, b}, {covariance_a, covariance_b}, &error))
+      << error;
+  std::ifstream in(path);
+  std::vector<std::vector<double>> rows;
+  for (std::string line; std::getline(in, line);) {
+    std::istringstream fields(line);
+    rows.emplace_back();
+    for (double v; fields >> v;) rows.back().push_back(v);
+  }
+  ASSERT_EQ(rows.size(), 2u);
+  ASSERT_EQ(rows[0].size(), 37u);
+  EXPECT_DOUBLE_EQ(rows[0][0], a.stamp);
+  for (int i = 0; i < 36; ++i) EXPECT_DOUBLE_EQ(rows[0][1 + i], 0.001 * i) << i;  // row-major
+  EXPECT_DOUBLE_EQ(rows[1][1 + 7], 1.0);  // (1, 1)
+  EXPECT_DOUBLE_EQ(rows[1][1 + 1], 0.0);
+  EXPECT_FALSE(writeTrajectoryCovariance(path, {a, b}, {covariance_a}, &error));
+}
+
 TEST(OutputWriters, PercentilesAndJson) {
   ProcessingTimes times;
   for (int i = 1; i <= 100; ++i) times.add(i);

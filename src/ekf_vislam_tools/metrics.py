@@ -427,3 +427,81 @@ def landmark_errors(est_ids, estworld_xyz, gt_ids, gtworld_xyz, gtworld_T_estwor
         landmarks_matched=int(rows.size), landmarks_estimated=int(est_ids.size),
         landmark_within_3sigma=within, landmarks_with_sigma=n_sigma,
         errors=errors, matched_rows=rows)
+
+
+# ---------------------------------------------------------------------------------------------
+# Consistency: NEES of the pose against ground truth
+# ---------------------------------------------------------------------------------------------
+
+#: chi-square 0.95 quantiles for 3 and 6 degrees of freedom.
+CHI2_95 = {3: 7.814727903251178, 6: 12.591587243743977}
+
+
+def read_trajectory_covariance(path):
+    """-> (t[N], P[N,6,6]) of a trajectory_covariance.txt ("t" then 36 row-major entries)."""
+    try:
+        data = np.loadtxt(path, ndmin=2)
+    except (OSError, ValueError) as exc:
+        raise EvaluationError('%s: cannot read covariances (%s)' % (path, exc))
+    if data.shape[0] == 0 or data.shape[1] != 37:
+        raise EvaluationError('%s: expected 37 columns (t and a row-major 6x6), got %d'
+                              % (path, data.shape[1] if data.size else 0))
+    return data[:, 0].copy(), data[:, 1:].reshape(-1, 6, 6)
+
+
+def so3_log(R):
+    """Rotation vector of each rotation matrix (N,3,3) -> (N,3)."""
+    R = np.asarray(R, dtype=float)
+    cos = np.clip((np.trace(R, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0)
+    angle = np.arccos(cos)
+    v = np.stack([R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0], R[:, 1, 0] - R[:, 0, 1]], 1)
+    sin = np.sin(angle)
+    scale = np.where(sin > 1e-9, angle / (2.0 * np.where(sin > 1e-9, sin, 1.0)), 0.5)
+    return v * scale[:, None]
+
+
+def pose_errors_in_estimator_gauge(estworld_T_imu, gtworld_T_imu):
+    """World-axis pose errors [dp; dtheta] (N,6) of matched estimate and ground-truth poses, with
+    the ground truth moved by one rigid transform so that its first pose equals the estimate's
+    first pose (the estimator's world), and no other alignment. dp = p_est - p_true,
+    dtheta = log(R_est R_true^T): the left (world-frame) perturbation world_T_imu =
+    exp(eps^) world_T_imu_true that the estimator's pose covariance describes."""
+    est = np.asarray(estworld_T_imu, dtype=float)
+    gt = np.asarray(gtworld_T_imu, dtype=float)
+    estworld_T_gtworld = est[0] @ _inverse_rigid(gt[0][None])[0]
+    moved = np.einsum('ij,njk->nik', estworld_T_gtworld, gt)
+    dp = est[:, :3, 3] - moved[:, :3, 3]
+    dtheta = so3_log(np.einsum('nij,nkj->nik', est[:, :3, :3], moved[:, :3, :3]))
+    return np.hstack([dp, dtheta])
+
+
+def nees(errors, covariances):
+    """Normalized estimation error squared e^T P^-1 e of each row (N,k) against (N,k,k)."""
+    errors = np.asarray(errors, dtype=float)
+    solved = np.linalg.solve(np.asarray(covariances, dtype=float), errors[:, :, None])[:, :, 0]
+    return np.einsum('ni,ni->n', errors, solved)
+
+
+def nees_stats(values, dof):
+    values = np.asarray(values, dtype=float)
+    return dict(mean=float(np.mean(values)), median=float(np.median(values)),
+                inside_95=float(np.mean(values <= CHI2_95[dof])), dof=dof, poses=int(values.size))
+
+
+def consistency(t_est, estworld_T_imu, t_cov, covariances, t_gt, gtworld_T_imu, max_dt=0.02):
+    """Position (3 dof) and pose (6 dof) NEES of an estimate with its per-pose covariance."""
+    idx_cov, idx_cov_est = associate(t_cov, t_est, max_dt)
+    if idx_cov.size < 3:
+        raise EvaluationError('only %d covariances match an estimate pose' % idx_cov.size)
+    est_t = np.asarray(t_est)[idx_cov_est]
+    idx_est, idx_gt = associate(est_t, t_gt, max_dt)
+    if idx_est.size < 3:
+        raise EvaluationError('only %d poses with a covariance have ground truth' % idx_est.size)
+    est = np.asarray(estworld_T_imu)[idx_cov_est][idx_est]
+    P = np.asarray(covariances)[idx_cov][idx_est]
+    # The first pose defines the gauge (its error is zero by construction): left out.
+    errors = pose_errors_in_estimator_gauge(est, np.asarray(gtworld_T_imu)[idx_gt])
+    keep = np.arange(errors.shape[0]) > 0
+    position = nees(errors[keep, :3], P[keep][:, :3, :3])
+    pose = nees(errors[keep], P[keep])
+    return dict(nees_position=nees_stats(position, 3), nees_pose=nees_stats(pose, 6))

@@ -151,6 +151,7 @@ void EstimatorRunner::feedFrame(const FeatureFrame& frame, const Observer& obser
     pose.stamp = frame.stamp;
     pose.world_T_imu = estimator_.worldTImu();
     trajectory_.push_back(pose);
+    trajectory_covariance_.push_back(estimator_.poseCovarianceWorld());
     if (!has_frame_ || frame.stamp > last_frame_stamp_) last_frame_stamp_ = frame.stamp;
     has_frame_ = true;
     preview_stale_ = true;
@@ -182,6 +183,7 @@ void EstimatorRunner::reset() {
   estimator_.reset();
   sequencer_.clear();
   trajectory_.clear();
+  trajectory_covariance_.clear();
   waiting_twists_.clear();
   frame_arrivals_.clear();
   has_frame_ = false;
@@ -223,6 +225,8 @@ bool EstimatorRunner::save(const std::string& dir, std::string* error) const {
   if (!makeDirectories(dir, error)) return false;
   const std::string base = dir.back() == '/' ? dir : dir + "/";
   return writeTumTrajectory(base + "trajectory.tum", trajectory_, error) &&
+         writeTrajectoryCovariance(base + "trajectory_covariance.txt", trajectory_,
+                                   trajectory_covariance_, error) &&
          writeLandmarksCsv(base + "landmarks.csv", estimator_.landmarks(), error) &&
          writeStatsJson(base + "stats.json", estimator_.stats(), times_, summary(), error);
 }

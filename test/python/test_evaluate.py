@@ -214,6 +214,59 @@ class TrajectoryMetricsTest(unittest.TestCase):
         self.assertLess(result['ate_rmse_m'], 1e-9)
 
 
+class ConsistencyTest(unittest.TestCase):
+    """NEES on known Gaussian samples: errors drawn from the claimed covariance give a mean near
+    the dimension and 95 % inside the bound; errors twice as large give four times the mean."""
+
+    @staticmethod
+    def sample(n, scale, seed):
+        rng = np.random.default_rng(seed)
+        A = rng.normal(size=(n, 6, 6)) * 0.1
+        P = np.einsum('nij,nkj->nik', A, A) + np.eye(6) * 1e-3
+        L = np.linalg.cholesky(P)
+        errors = scale * np.einsum('nij,nj->ni', L, rng.normal(size=(n, 6)))
+        return errors, P
+
+    def test_nees_of_matched_gaussian_errors(self):
+        errors, P = self.sample(20000, 1.0, 1)
+        pose = metrics.nees_stats(metrics.nees(errors, P), 6)
+        position = metrics.nees_stats(metrics.nees(errors[:, :3], P[:, :3, :3]), 3)
+        self.assertAlmostEqual(pose['mean'], 6.0, delta=0.15)
+        self.assertAlmostEqual(position['mean'], 3.0, delta=0.08)
+        self.assertAlmostEqual(pose['inside_95'], 0.95, delta=0.01)
+        self.assertAlmostEqual(position['inside_95'], 0.95, delta=0.01)
+
+    def test_nees_of_overconfident_covariance(self):
+        errors, P = self.sample(20000, 2.0, 2)
+        pose = metrics.nees_stats(metrics.nees(errors, P), 6)
+        self.assertAlmostEqual(pose['mean'], 24.0, delta=0.8)
+        self.assertLess(pose['inside_95'], 0.5)
+
+    def test_pose_errors_follow_the_left_perturbation_in_the_estimator_gauge(self):
+        rng = np.random.default_rng(3)
+        n = 50
+        truth = np.tile(np.eye(4), (n, 1, 1))
+        for k in range(n):
+            truth[k, :3, :3] = se3.so3_exp(rng.normal(size=3))
+            truth[k, :3, 3] = rng.normal(size=3) * 10.0
+        eps = rng.normal(size=(n, 6)) * 1e-4
+        eps[0] = 0.0
+        # The estimate: world_T_imu = exp(eps^) world_T_imu_true, in a world rotated and moved.
+        world = np.eye(4)
+        world[:3, :3] = se3.so3_exp(np.array([0.3, -0.2, 1.0]))
+        world[:3, 3] = [5.0, -3.0, 2.0]
+        est = np.empty_like(truth)
+        for k in range(n):
+            E = np.eye(4)
+            E[:3, :3] = se3.so3_exp(eps[k, 3:])
+            est[k] = world @ E @ truth[k]
+            est[k, :3, 3] = (world @ truth[k])[:3, 3] + world[:3, :3] @ eps[k, :3]
+        errors = metrics.pose_errors_in_estimator_gauge(est, truth)
+        # Errors come out in the estimator's world axes.
+        expected = np.hstack([eps[:, :3] @ world[:3, :3].T, eps[:, 3:] @ world[:3, :3].T])
+        np.testing.assert_allclose(errors, expected, atol=1e-9)
+
+
 class LandmarkTest(unittest.TestCase):
     def test_known_offsets_duplicates_and_unknown_ids(self):
         rng = np.random.default_rng(8)

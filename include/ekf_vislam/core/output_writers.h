@@ -31,6 +31,12 @@ void writeTumLine(std::ostream& out, const StampedPose& pose);
 bool writeTumTrajectory(const std::string& path, const std::vector<StampedPose>& trajectory,
                         std::string* error);
 
+/// One line per pose: "t" then the 36 entries of its 6x6 covariance, row-major (ROS order x y z
+/// rot-x rot-y rot-z, world axes, as VislamEstimator::poseCovarianceWorld). Both vectors have
+/// the same length.
+bool writeTrajectoryCovariance(const std::string& path, const std::vector<StampedPose>& trajectory,
+                               const std::vector<Matrix6d>& covariances, std::string* error);
+
 /// Header "id,x,y,z,sigma_x,sigma_y,sigma_z,observations", one row per landmark.
 bool writeLandmarksCsv(const std::string& path, const std::vector<LandmarkEstimate>& landmarks,
                        std::string* error);

@@ -70,6 +70,8 @@ class EstimatorRunner {
   void reset();
 
   const std::vector<StampedPose>& trajectory() const { return trajectory_; }
+  /// Pose covariance (VislamEstimator::poseCovarianceWorld) of each trajectory pose.
+  const std::vector<Matrix6d>& trajectoryCovariance() const { return trajectory_covariance_; }
   const ProcessingTimes& times() const { return times_; }
   /// Wall time from a frame's push to the end of its processing, ms.
   const ProcessingTimes& latencies() const { return latencies_; }
@@ -82,7 +84,8 @@ class EstimatorRunner {
   RunSummary summary() const;
   void startClock() { start_ = std::chrono::steady_clock::now(); }
 
-  /// Writes dir/trajectory.tum, dir/landmarks.csv, dir/stats.json (creates dir).
+  /// Writes dir/trajectory.tum, dir/trajectory_covariance.txt, dir/landmarks.csv, dir/stats.json
+  /// (creates dir).
   bool save(const std::string& dir, std::string* error) const;
 
  private:
@@ -107,6 +110,7 @@ class EstimatorRunner {
   std::deque<std::pair<double, Clock::time_point>> frame_arrivals_;  ///< stamp, push time
   ProcessingTimes latencies_;
   std::vector<StampedPose> trajectory_;
+  std::vector<Matrix6d> trajectory_covariance_;
   ProcessingTimes times_;
   uint64_t frames_ = 0;
   uint64_t twists_ = 0;

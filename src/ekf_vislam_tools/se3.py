@@ -92,3 +92,17 @@ def quaternion_to_rotation(q):
         [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
         [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
     ])
+
+
+def se3_log(T):
+    """4x4 -> xi = [rho; phi] with T = se3_exp(xi)."""
+    T = np.asarray(T, dtype=float)
+    phi = so3_log(T[:3, :3])
+    theta = np.linalg.norm(phi)
+    K = hat(phi)
+    if theta < 1e-8:
+        V = np.eye(3) + 0.5 * K + K @ K / 6.0
+    else:
+        V = (np.eye(3) + (1.0 - np.cos(theta)) / theta ** 2 * K
+             + (theta - np.sin(theta)) / theta ** 3 * K @ K)
+    return np.concatenate([np.linalg.solve(V, T[:3, 3]), phi])

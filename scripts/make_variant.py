@@ -1,0 +1,53 @@
+#!/usr/bin/python3
+"""Writes a regime variant of a course dataset.
+
+    make_variant.py DATA.npz --groundtruth GT.tum --twist course|accurate [--twist-noise V W]
+                    [--gyro-offset B] [--keep-fraction F] [--seed N] --out OUT.npz
+
+course: the file's own twist. accurate: the IMU body twist computed from the ground truth
+(sample k+1 drives [t_k, t_k+1]) plus white noise of V m/s and W rad/s per sample and axis
+(default 0.05, 0.005) and a constant gyro offset B rad/s on each axis (default 0.001), as good as
+a decent wheel odometry. --keep-fraction keeps a seeded random subset of the landmark ids.
+Frames after the last ground-truth pose are cut off. Every other key is kept as it is (the 2019
+files' cam_T_imu included: dataset_to_bag.py corrects it).
+"""
+import argparse
+import os
+import sys
+
+import numpy as np
+
+from ekf_vislam_tools import variants
+
+
+def main(argv):
+    parser = argparse.ArgumentParser(prog='make_variant.py',
+                                     description='Writes a regime variant of a course dataset.')
+    parser.add_argument('dataset')
+    parser.add_argument('--groundtruth', required=True, metavar='GT.tum')
+    parser.add_argument('--twist', choices=('course', 'accurate'), required=True)
+    parser.add_argument('--twist-noise', nargs=2, type=float, default=(0.05, 0.005),
+                        metavar=('V', 'W'), help='per-sample std, m/s and rad/s')
+    parser.add_argument('--gyro-offset', type=float, default=0.001, metavar='B')
+    parser.add_argument('--keep-fraction', type=float, default=1.0, metavar='F')
+    parser.add_argument('--seed', type=int, default=0)
+    parser.add_argument('--out', required=True, metavar='OUT.npz')
+    args = parser.parse_args(argv)
+    try:
+        with np.load(args.dataset, allow_pickle=False) as archive:
+            data = {key: archive[key] for key in archive.files}
+        out, notes = variants.make_variant(data, args.groundtruth, args.twist,
+                                           tuple(args.twist_noise), args.gyro_offset,
+                                           args.keep_fraction, args.seed)
+        tmp = args.out + '.tmp.npz'
+        np.savez(tmp, **out)
+        os.replace(tmp, args.out)
+    except (OSError, ValueError) as error:
+        print('make_variant.py: %s' % ' '.join(str(error).split()), file=sys.stderr)
+        return 2
+    print('wrote %s: %s' % (args.out, '; '.join(notes) or 'unchanged'))
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main(sys.argv[1:]))

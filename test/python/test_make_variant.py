@@ -1,0 +1,83 @@
+"""scripts/make_variant.py: the accurate twist integrates back to the ground truth, the noise and
+the id subset are what was asked, and everything is deterministic per seed."""
+import os
+import sys
+import unittest
+
+import numpy as np
+
+import ekf_test_paths
+
+sys.path.insert(0, ekf_test_paths.SOURCE_DIR)
+from ekf_vislam_tools import se3, trajectory  # noqa: E402
+
+
+class MakeVariantTest(unittest.TestCase):
+
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = ekf_test_paths.make_temp_dir()
+        cls.addClassCleanup(ekf_test_paths.remove_dir, cls.tmp)
+        cls.prefix = os.path.join(cls.tmp, 'sim')
+        proc = ekf_test_paths.run_script('simulate_dataset.py', '--seed', 4, '--frames', 120,
+                                         '--out', cls.prefix)
+        assert proc.returncode == 0, proc.stderr
+        cls.gt = cls.prefix + '_groundtruth.tum'
+
+    def variant(self, name, *args):
+        out = os.path.join(self.tmp, name + '.npz')
+        proc = ekf_test_paths.run_script('make_variant.py', self.prefix + '.npz', '--groundtruth',
+                                         self.gt, '--out', out, *args)
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        with np.load(out) as data:
+            return {key: data[key] for key in data.files}
+
+    def test_noiseless_accurate_twist_integrates_to_the_groundtruth(self):
+        v = self.variant('exact', '--twist', 'accurate', '--twist-noise', 0, 0,
+                         '--gyro-offset', 0)
+        t_gt, T_gt = trajectory.read_tum(self.gt)
+        t = v['time_stamps'].ravel()
+        T = T_gt[0].copy()
+        worst = 0.0
+        for k in range(1, t.size):
+            T = T @ se3.twist_exp(v['linear_velocity'][:, k], v['rotational_velocity'][:, k],
+                                  t[k] - t[k - 1])
+            worst = max(worst, np.linalg.norm(T[:3, 3] - T_gt[k, :3, 3]))
+        self.assertLess(worst, 1e-6)
+
+    def test_noise_offset_and_seed(self):
+        exact = self.variant('exact2', '--twist', 'accurate', '--twist-noise', 0, 0,
+                             '--gyro-offset', 0)
+        a = self.variant('a', '--twist', 'accurate', '--seed', 7)
+        b = self.variant('b', '--twist', 'accurate', '--seed', 7)
+        np.testing.assert_array_equal(a['linear_velocity'], b['linear_velocity'])
+        dv = a['linear_velocity'] - exact['linear_velocity']
+        dw = a['rotational_velocity'] - exact['rotational_velocity']
+        self.assertAlmostEqual(np.std(dv), 0.05, delta=0.006)
+        self.assertAlmostEqual(np.mean(dw), 0.001, delta=0.0006)
+        self.assertAlmostEqual(np.std(dw), 0.005, delta=0.0006)
+
+    def test_keep_fraction_keeps_a_seeded_subset_and_every_other_key(self):
+        original = dict(np.load(self.prefix + '.npz'))
+        v = self.variant('quarter', '--twist', 'course', '--keep-fraction', 0.25, '--seed', 3)
+        again = self.variant('quarter2', '--twist', 'course', '--keep-fraction', 0.25, '--seed', 3)
+        ids = original['features'].shape[1]
+        kept = np.any(v['features'][0] != -1, axis=1)
+        seen = np.any(original['features'][0] != -1, axis=1)
+        self.assertLessEqual(kept.sum(), round(0.25 * ids))
+        self.assertGreater(kept.sum(), 0.2 * seen.sum())
+        np.testing.assert_array_equal(v['features'], again['features'])
+        np.testing.assert_array_equal(v['features'][:, kept], original['features'][:, kept])
+        np.testing.assert_array_equal(v['linear_velocity'], original['linear_velocity'])
+        self.assertEqual(set(v), set(original))
+
+    def test_bad_input_is_one_line(self):
+        proc = ekf_test_paths.run_script('make_variant.py', self.prefix + '.npz', '--groundtruth',
+                                         self.gt, '--twist', 'course', '--keep-fraction', 0,
+                                         '--out', os.path.join(self.tmp, 'x.npz'))
+        self.assertEqual(proc.returncode, 2)
+        self.assertEqual(len(proc.stderr.strip().splitlines()), 1, proc.stderr)
+
+
+if __name__ == '__main__':
+    unittest.main()

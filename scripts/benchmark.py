@@ -64,19 +64,32 @@ def evaluate_case(name, bag, groundtruth, out_dir, binary, config):
             m = metrics.evaluate_trajectory(t, T, tg, Tg)
             row.update(ate_m=m['ate_rmse_m'], rpe_percent=m['rpe_percent'],
                        rot_rmse_deg=m['rotation_rmse_deg'], final_m=m['final_position_error_m'])
+            row.update(consistency(mode_dir, t, T, tg, Tg))
         rows.append(row)
     return rows
 
 
+def consistency(run_dir, t, T, t_gt, T_gt):
+    """Mean position and pose NEES of a run against ground truth ({} without covariances)."""
+    path = os.path.join(run_dir, 'trajectory_covariance.txt')
+    if not os.path.exists(path):
+        return {}
+    t_cov, P = metrics.read_trajectory_covariance(path)
+    c = metrics.consistency(t, T, t_cov, P, t_gt, T_gt)
+    return dict(nees_position=c['nees_position']['mean'], nees_pose=c['nees_pose']['mean'],
+                nees_position_inside_95=c['nees_position']['inside_95'])
+
+
 def table(rows):
-    header = ['dataset', 'mode', 'ATE m', 'RPE %', 'rot deg', 'frames', 'landmarks', 'wall s',
-              'x real time', 'p50 ms', 'p99 ms', 'peak MB']
+    header = ['dataset', 'mode', 'ATE m', 'RPE %', 'rot deg', 'NEES pos', 'NEES pose', 'frames',
+              'landmarks', 'wall s', 'x real time', 'p50 ms', 'p99 ms', 'peak MB']
     cells = []
     for r in rows:
         rt = r['data_s'] / r['estimator_wall_s'] if r['estimator_wall_s'] > 0 else None
         cells.append([
             r['dataset'], r['mode'], fmt(r.get('ate_m'), '.2f'), fmt(r.get('rpe_percent'), '.2f'),
-            fmt(r.get('rot_rmse_deg'), '.2f'), '%d' % r['frames'], '%d' % r['landmarks'],
+            fmt(r.get('rot_rmse_deg'), '.2f'), fmt(r.get('nees_position'), '.2f'),
+            fmt(r.get('nees_pose'), '.2f'), '%d' % r['frames'], '%d' % r['landmarks'],
             fmt(r['estimator_wall_s'], '.3f'), fmt(rt, '.0f'), fmt(r['frame_ms_p50'], '.2f'),
             fmt(r['frame_ms_p99'], '.2f'), fmt(r['peak_rss_mb'], '.0f')])
     return markdown_table(header, cells)

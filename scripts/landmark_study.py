@@ -1,0 +1,159 @@
+#!/usr/bin/python3
+"""The landmark study: SLAM accuracy and consistency against the fraction of landmark ids kept.
+
+    landmark_study.py [--data DIR] [--out DIR] [--fractions F ...] [--seeds N ...] [--config YAML]
+                      [--jobs 2]
+
+For 0027 and 0034 (with their ground truth), both twists (the file's own, "course", and one from
+the ground truth with 0.05 m/s / 0.005 rad/s white noise and a 0.001 rad/s gyro offset,
+"accurate"), every fraction and seed: scripts/make_variant.py, dataset_to_bag.py, vislam_offline
+in slam mode, and dead reckoning per twist and seed. Writes OUT/landmark_study.md (the regime
+table: SLAM ATE mean and max over seeds, dead-reckoning ATE, their ratio, mean position NEES),
+OUT/landmark_study.png and OUT/landmark_study.json, and prints the table and the wall time.
+"""
+import argparse
+import concurrent.futures
+import json
+import os
+import sys
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, '..', 'src'))
+sys.path.insert(0, HERE)
+from benchmark import consistency, offline_binary, run  # noqa: E402
+from ekf_vislam_tools import metrics, trajectory, variants  # noqa: E402
+from ekf_vislam_tools.report import fmt, markdown_table  # noqa: E402
+
+PY = '/usr/bin/python3'
+SEQUENCES = ('0027', '0034')
+TWISTS = ('course', 'accurate')
+
+
+def one_run(job, data, out, binary, config):
+    """job = (sequence, twist, fraction, seed, mode) -> result dict."""
+    sequence, twist, fraction, seed, mode = job
+    name = '%s_%s_f%03d_s%d' % (sequence, twist, round(fraction * 100), seed)
+    folder = os.path.join(out, 'runs', name)
+    os.makedirs(folder, exist_ok=True)
+    gt = os.path.join(data, 'groundtruth', sequence + '_imu_gt.tum')
+    npz, bag = os.path.join(folder, 'data.npz'), os.path.join(folder, 'data.bag')
+    if not os.path.exists(bag):
+        with np.load(os.path.join(data, sequence + '.npz')) as archive:
+            arrays = {key: archive[key] for key in archive.files}
+        variant, _ = variants.make_variant(arrays, gt, twist, keep_fraction=fraction, seed=seed)
+        np.savez(npz, **variant)
+        run([PY, os.path.join(HERE, 'dataset_to_bag.py'), npz, bag])
+    run_dir = os.path.join(folder, mode)
+    cmd = [binary, '--bag', bag, '--mode', mode, '--out', run_dir]
+    run(cmd + (['--config', config] if config else []))
+    t, T = trajectory.read_tum(os.path.join(run_dir, 'trajectory.tum'))
+    t_gt, T_gt = trajectory.read_tum(gt)
+    m = metrics.evaluate_trajectory(t, T, t_gt, T_gt)
+    result = dict(sequence=sequence, twist=twist, fraction=fraction, seed=seed, mode=mode,
+                  ate_m=m['ate_rmse_m'], rpe_percent=m['rpe_percent'])
+    result.update(consistency(run_dir, t, T, t_gt, T_gt))
+    return result
+
+
+def summarize(results, fractions):
+    rows, cells = [], []
+    for sequence in SEQUENCES:
+        for twist in TWISTS:
+            dr = [r['ate_m'] for r in results if r['sequence'] == sequence and
+                  r['twist'] == twist and r['mode'] == 'deadreckoning']
+            for fraction in fractions:
+                slam = [r for r in results if r['sequence'] == sequence and r['twist'] == twist
+                        and r['mode'] == 'slam' and r['fraction'] == fraction]
+                if not slam or not dr:
+                    continue
+                ate = [r['ate_m'] for r in slam]
+                ratio = [r['ate_m'] / d for r, d in zip(sorted(slam, key=lambda r: r['seed']), dr)]
+                nees = [r.get('nees_position') for r in slam if r.get('nees_position') is not None]
+                row = dict(sequence=sequence, twist=twist, fraction=fraction,
+                           slam_ate_mean=float(np.mean(ate)), slam_ate_max=float(np.max(ate)),
+                           dr_ate_mean=float(np.mean(dr)), ratio_mean=float(np.mean(ratio)),
+                           ratio_max=float(np.max(ratio)),
+                           nees_position=float(np.mean(nees)) if nees else None)
+                rows.append(row)
+                cells.append([sequence, twist, '%d %%' % round(100 * fraction),
+                              fmt(row['slam_ate_mean'], '.2f'), fmt(row['slam_ate_max'], '.2f'),
+                              fmt(row['dr_ate_mean'], '.2f'), fmt(row['ratio_mean'], '.2f'),
+                              fmt(row['ratio_max'], '.2f'), fmt(row['nees_position'], '.1f')])
+    header = ['sequence', 'twist', 'ids kept', 'SLAM ATE mean m', 'max m', 'DR ATE m',
+              'SLAM/DR mean', 'max', 'NEES pos']
+    return rows, markdown_table(header, cells)
+
+
+def plot(rows, path):
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(1, len(SEQUENCES), figsize=(11, 4.2))
+    for ax, sequence in zip(np.atleast_1d(axes), SEQUENCES):
+        for twist, color in zip(TWISTS, ('tab:red', 'tab:blue')):
+            sel = [r for r in rows if r['sequence'] == sequence and r['twist'] == twist]
+            if not sel:
+                continue
+            x = [100 * r['fraction'] for r in sel]
+            ax.plot(x, [r['slam_ate_mean'] for r in sel], 'o-', color=color,
+                    label='SLAM, %s twist (mean, max)' % twist)
+            ax.plot(x, [r['slam_ate_max'] for r in sel], 'v:', color=color, alpha=0.6)
+            ax.axhline(sel[0]['dr_ate_mean'], color=color, ls='--',
+                       label='dead reckoning, %s twist' % twist)
+        ax.set_xscale('log')
+        ax.set_xlabel('landmark ids kept, %')
+        ax.set_ylabel('ATE RMSE, m')
+        ax.set_title(sequence)
+        ax.grid(True, which='both', alpha=0.3)
+    np.atleast_1d(axes)[0].legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+def main(argv):
+    parser = argparse.ArgumentParser(prog='landmark_study.py', description=__doc__.split('\n')[0])
+    parser.add_argument('--data', default=os.environ.get(
+        'EKF_VISLAM_DATA', os.path.join(HERE, '..', '..', 'shared', 'data')))
+    parser.add_argument('--out', default=os.path.join(HERE, '..', 'results', 'landmark_study'))
+    parser.add_argument('--fractions', type=float, nargs='+',
+                        default=[0.05, 0.1, 0.2, 0.4, 0.6, 0.8, 1.0])
+    parser.add_argument('--seeds', type=int, nargs='+', default=[1, 2, 3])
+    parser.add_argument('--config', default=None, help='options YAML (default: the shipped one)')
+    parser.add_argument('--jobs', type=int, default=2)
+    args = parser.parse_args(argv)
+    for sequence in SEQUENCES:
+        if not os.path.exists(os.path.join(args.data, sequence + '.npz')):
+            sys.exit('landmark_study.py: %s.npz not found in %s' % (sequence, args.data))
+    out = os.path.abspath(args.out)
+    binary = offline_binary()
+    jobs = [(s, t, f, seed, 'slam') for s in SEQUENCES for t in TWISTS for f in args.fractions
+            for seed in args.seeds]
+    jobs += [(s, t, 1.0, seed, 'deadreckoning') for s in SEQUENCES for t in TWISTS
+             for seed in args.seeds]
+    # Dead reckoning shares the 100 % variant's bag: run it after the SLAM runs made it.
+    start = time.monotonic()
+    results = []
+    with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
+        slam_jobs = [j for j in jobs if j[4] == 'slam']
+        results += list(pool.map(lambda j: one_run(j, args.data, out, binary, args.config),
+                                 slam_jobs))
+        results += list(pool.map(lambda j: one_run(j, args.data, out, binary, args.config),
+                                 [j for j in jobs if j[4] != 'slam']))
+    rows, text = summarize(results, args.fractions)
+    wall = time.monotonic() - start
+    plot(rows, os.path.join(out, 'landmark_study.png'))
+    with open(os.path.join(out, 'landmark_study.md'), 'w') as f:
+        f.write(text + '\n')
+    with open(os.path.join(out, 'landmark_study.json'), 'w') as f:
+        json.dump(dict(rows=rows, runs=results, wall_s=wall), f, indent=1)
+    print(text)
+    print('landmark study: %d runs in %.0f s; wrote %s/landmark_study.{md,png,json}'
+          % (len(results), wall, out))
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main(sys.argv[1:]))

@@ -14,6 +14,8 @@ import os
 import sys
 import time
 
+import numpy as np
+
 import rospy
 
 from ekf_vislam_tools import bag_writer
@@ -46,6 +48,13 @@ def parse_args(argv):
     parser.add_argument('--no-fix-extrinsic', dest='fix_extrinsic', action='store_false',
                         help='2019 layout: keep the stored (wrong) cam_T_imu translation instead '
                              'of correcting it to -R t')
+    parser.add_argument('--twist-type', choices=sorted(bag_writer.TWIST_TYPES),
+                        default='twist_stamped',
+                        help='message type of /imu/twist (default %(default)s; the estimator\'s '
+                        'ros/twist_type must match)')
+    parser.add_argument('--twist-covariance', type=float, nargs=2, metavar=('V', 'W'),
+                        help='with twist_with_covariance or odometry: a diagonal covariance of '
+                        'per-sample std V m/s and W rad/s (default: all zero, none given)')
     parser.add_argument('--play', action='store_true',
                         help='publish live (needs roscore) instead of writing a bag')
     parser.add_argument('--rate', type=float, default=None,
@@ -161,19 +170,33 @@ def run(args):
               file=sys.stderr)
 
     if args.play:
+        if args.twist_type != 'twist_stamped' or args.twist_covariance:
+            raise ToolFailure('--play publishes geometry_msgs/TwistStamped only')
         frames = play(dataset, groundtruth, args.rate, args.loop, args.delay)
         print('%s: played %d frames of %s' % (PROG, frames, args.dataset))
         return EXIT_OK
 
     progress = ProgressBar(os.path.basename(args.out))
     try:
-        summary = bag_writer.write_bag(dataset, args.out, groundtruth, progress=progress)
+        summary = bag_writer.write_bag(dataset, args.out, groundtruth, progress=progress,
+                                       twist_type=args.twist_type,
+                                       twist_covariance=twist_covariance(args))
     except OSError as exc:
         raise ToolFailure('%s: cannot write the bag (%s)' % (args.out, exc.strerror or exc))
     finally:
         progress.close()
     print('%s: wrote %s' % (PROG, summary))
     return EXIT_OK
+
+
+def twist_covariance(args):
+    """The 6x6 covariance of --twist-covariance (None without it)."""
+    if not args.twist_covariance:
+        return None
+    if args.twist_type == 'twist_stamped':
+        raise ToolFailure('--twist-covariance needs --twist-type twist_with_covariance or odometry')
+    v, w = args.twist_covariance
+    return np.diag([v * v] * 3 + [w * w] * 3)
 
 
 def main(argv=None):

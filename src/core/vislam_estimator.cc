@@ -179,24 +179,40 @@ Vector6d VislamEstimator::trueTwist(const TwistData& twist) const {
   const Eigen::Vector3d v_twist = twist.v_imu - b.head<3>();
   const Eigen::Vector3d w_twist = twist.w_imu - b.tail<3>();
   Vector6d u;
-  u.head<3>() = velocityPriorGain().head<3>().cwiseProduct(imu_R_twist_ * v_twist);
+  u.head<3>() = velocityPriorGain(twist).head<3>().cwiseProduct(imu_R_twist_ * v_twist);
   u.tail<3>() = imu_R_twist_ * w_twist;
   return u;
 }
 
-Vector6d VislamEstimator::velocityPriorGain() const {
-  // A measured component (IMU frame; the noise is isotropic, so rotating by R_m keeps it) with
-  // per-sample variance r = sigma_v^2 / dt fused with a zero-mean prior of variance s^2: mean
-  // g * measured, variance g * r, with g = s^2 / (s^2 + r).
+Vector6d VislamEstimator::velocityPriorGain(const TwistData& twist) const {
+  // A measured component (IMU frame) with per-sample variance r fused with a zero-mean prior of
+  // variance s^2: mean g * measured, variance g * r, with g = s^2 / (s^2 + r). r is the
+  // message's own variance when it carries a covariance (noise/use_message_covariance), else
+  // sigma_v^2 / dt (isotropic: rotating by R_m keeps it).
   Vector6d gain = Vector6d::Ones();
-  const double r = options_.linear_velocity_noise * options_.linear_velocity_noise /
-                   std::max(1e-3, last_twist_dt_);
+  const bool own = usesMessageCovariance(twist);
+  const Matrix6d own_density = own ? messageTwistDensity(twist) : Matrix6d::Zero();
+  const double dt = std::max(1e-3, last_twist_dt_);
+  const double r_configured = options_.linear_velocity_noise * options_.linear_velocity_noise / dt;
   const double sigmas[2] = {options_.lateral_velocity_sigma, options_.vertical_velocity_sigma};
   for (int axis = 1; axis <= 2; ++axis) {
+    const double r = own ? own_density(axis, axis) / dt : r_configured;
     const double s2 = sigmas[axis - 1] * sigmas[axis - 1];
     if (s2 > 0.0 && r > 0.0) gain(axis) = s2 / (s2 + r);
   }
   return gain;
+}
+
+bool VislamEstimator::usesMessageCovariance(const TwistData& twist) const {
+  return options_.use_message_covariance && twist.hasCovariance();
+}
+
+Matrix6d VislamEstimator::messageTwistDensity(const TwistData& twist) const {
+  // Per-sample covariance of the message, rotated into the IMU frame, times the sample period.
+  Matrix6d R = Matrix6d::Zero();
+  R.topLeftCorner<3, 3>() = imu_R_twist_;
+  R.bottomRightCorner<3, 3>() = imu_R_twist_;
+  return std::max(1e-3, last_twist_dt_) * R * twist.covariance * R.transpose();
 }
 
 Vector6d VislamEstimator::biasVector() const {
@@ -205,11 +221,16 @@ Vector6d VislamEstimator::biasVector() const {
   return b;
 }
 
-Matrix6d VislamEstimator::twistNoiseDensity() const {
+Matrix6d VislamEstimator::twistNoiseDensity(const TwistData& twist) const {
   // Body-frame noise density of u (W = density * tau), per axis reduced by the vehicle prior.
+  const Vector6d gain = velocityPriorGain(twist);
+  if (usesMessageCovariance(twist)) {
+    const Vector6d root = gain.cwiseSqrt();
+    return root.asDiagonal() * messageTwistDensity(twist) * root.asDiagonal();
+  }
   const double qv = options_.linear_velocity_noise * options_.linear_velocity_noise;
   const double qw = options_.angular_velocity_noise * options_.angular_velocity_noise;
-  Vector6d q = velocityPriorGain();
+  Vector6d q = gain;
   q.head<3>() *= qv;
   q.tail<3>() *= qw;
   return q.asDiagonal();
@@ -331,7 +352,7 @@ void VislamEstimator::predict(double dt, const TwistData& twist, double noise_sc
     // u = [Gv R_m (v - b_v); R_m (w - b_w)] (Gv: vehicle prior gains): du/db = -[Gv R_m; R_m]
     // (bias components) and du/dtheta = -[Gv (R_m (v - b_v))^; (R_m (w - b_w))^].
     Eigen::MatrixXd du_daux = Eigen::MatrixXd::Zero(kPoseDim, aux);
-    const Eigen::Matrix3d Gv = velocityPriorGain().head<3>().asDiagonal();
+    const Eigen::Matrix3d Gv = velocityPriorGain(twist).head<3>().asDiagonal();
     for (int i = 0; i < bias_dim_; ++i) {
       const int c = bias_components_[i];
       if (c < 3) {
@@ -351,7 +372,7 @@ void VislamEstimator::predict(double dt, const TwistData& twist, double noise_sc
     const Eigen::MatrixXd sigma_aa = S.block(kPoseDim, kPoseDim, aux, aux);
     S += E_sigma + E_sigma.transpose() + E * sigma_aa * E.transpose();
   }
-  const Matrix6d Q_world = (noise_scale * dt) * Ad * twistNoiseDensity() * Ad.transpose();
+  const Matrix6d Q_world = (noise_scale * dt) * Ad * twistNoiseDensity(twist) * Ad.transpose();
   S.noalias() += D * Q_world * D.transpose();
   for (int i = 0; i < bias_dim_; ++i) {
     const double rw = bias_components_[i] < 3 ? options_.velocity_bias_random_walk
@@ -1134,7 +1155,7 @@ TwistData VislamEstimator::correctedTwist() const {
 }
 
 Matrix6d VislamEstimator::correctedTwistCovariance() const {
-  Matrix6d cov = twistNoiseDensity() / std::max(1e-3, last_twist_dt_);
+  Matrix6d cov = twistNoiseDensity(held_twist_) / std::max(1e-3, last_twist_dt_);
   for (int i = 0; i < bias_dim_; ++i) {
     for (int j = 0; j < bias_dim_; ++j) {
       cov(bias_components_[i], bias_components_[j]) +=

@@ -185,6 +185,43 @@ TEST(VislamEstimator, PoseCovarianceWorldMatchesItsErrorDefinition) {
   }
 }
 
+TEST(VislamEstimator, TwistMessageCovarianceSuppliesTheProcessNoise) {
+  VislamOptions options = defaultOptions();
+  options.mode = EstimatorMode::kDeadReckoning;
+  options.estimate_gyro_bias = false;
+  options.estimate_twist_rotation = false;
+  options.lateral_velocity_sigma = options.vertical_velocity_sigma = 0.0;
+  auto run = [&](const VislamOptions& o, const Matrix6d& covariance) {
+    VislamEstimator e(o);
+    for (int k = 0; k <= 10; ++k) {
+      TwistData t;
+      t.stamp = 0.1 * k;
+      t.v_imu.x() = 5.0;
+      t.covariance = covariance;
+      e.feedTwist(t);
+    }
+    return std::make_pair(e.correctedTwistCovariance(), e.poseCovarianceWorld());
+  };
+  Vector6d per_sample;
+  per_sample << 0.04, 0.04, 0.04, 1e-4, 1e-4, 1e-4;
+  const auto [given, given_pose] = run(options, per_sample.asDiagonal());
+  EXPECT_NEAR(given(0, 0), 0.04, 1e-12);  // the message's own variance per sample
+  EXPECT_NEAR(given(5, 5), 1e-4, 1e-15);
+  // All zero: the configured densities.
+  const auto [configured, configured_pose] = run(options, Matrix6d::Zero());
+  const double dt = 0.1;
+  EXPECT_NEAR(configured(0, 0),
+              options.linear_velocity_noise * options.linear_velocity_noise / dt, 1e-12);
+  // Switched off: the message's covariance is ignored.
+  VislamOptions off = options;
+  off.use_message_covariance = false;
+  const auto [ignored, ignored_pose] = run(off, per_sample.asDiagonal());
+  EXPECT_NEAR(ignored(0, 0), configured(0, 0), 1e-15);
+  EXPECT_LT((ignored_pose - configured_pose).norm(), 1e-15);
+  // The pose covariance grows with the given noise: 10 steps of 0.04 m^2/s^2 x 0.01 s^2.
+  EXPECT_NEAR(given_pose(0, 0) - 1e-6, 10 * 0.04 * dt * dt, 1e-9);
+}
+
 TEST(VislamEstimator, DeadReckoningIntegratesTheTwist) {
   ScenarioOptions so;
   so.frames = 50;

@@ -141,6 +141,7 @@ bool parseVislamOptions(const ParameterSource& source, VislamOptions* o, std::st
             {"mapping", EstimatorMode::kMapping},
             {"slam", EstimatorMode::kSlam}});
   r.number("noise/pixel_sigma", &o->pixel_sigma);
+  r.flag("noise/use_message_covariance", &o->use_message_covariance);
   r.flag("noise/merge_stereo_rows", &o->merge_stereo_rows);
   r.number("noise/linear_velocity_noise", &o->linear_velocity_noise);
   r.number("noise/angular_velocity_noise", &o->angular_velocity_noise);

@@ -21,7 +21,7 @@ import os
 import numpy as np
 import rosbag
 import rospy
-from geometry_msgs.msg import TransformStamped, TwistStamped
+from geometry_msgs.msg import TransformStamped, TwistStamped, TwistWithCovarianceStamped
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import CameraInfo
 from tf2_msgs.msg import TFMessage
@@ -98,13 +98,29 @@ def tf_static_connection_header(msg, callerid=DEFAULT_CALLERID):
             'md5sum': msg._md5sum, 'message_definition': msg._full_text, 'latching': '1'}
 
 
-def twist_msg(dataset, k, stamp):
-    msg = TwistStamped()
+#: ros/twist_type -> message class of /imu/twist.
+TWIST_TYPES = {'twist_stamped': TwistStamped, 'twist_with_covariance': TwistWithCovarianceStamped,
+               'odometry': Odometry}
+
+
+def twist_msg(dataset, k, stamp, twist_type='twist_stamped', covariance=None):
+    """The IMU twist of frame k as TwistStamped, TwistWithCovarianceStamped or Odometry (child
+    frame = the IMU frame; pose left at identity). covariance: 6x6 per-sample covariance of
+    [v; w] for the two types that carry one (default all zero: none given)."""
+    msg = TWIST_TYPES[twist_type]()
     msg.header.stamp = stamp
     msg.header.frame_id = FRAME_IMU
-    msg.twist.linear.x, msg.twist.linear.y, msg.twist.linear.z = (float(x) for x in dataset.v[:, k])
-    msg.twist.angular.x, msg.twist.angular.y, msg.twist.angular.z = (
-        float(x) for x in dataset.w[:, k])
+    twist = msg.twist
+    if twist_type == 'odometry':
+        msg.header.frame_id = FRAME_WORLD
+        msg.child_frame_id = FRAME_IMU
+        msg.pose.pose.orientation.w = 1.0
+    if twist_type != 'twist_stamped':
+        if covariance is not None:
+            twist.covariance = [float(x) for x in np.asarray(covariance).ravel()]
+        twist = twist.twist
+    twist.linear.x, twist.linear.y, twist.linear.z = (float(x) for x in dataset.v[:, k])
+    twist.angular.x, twist.angular.y, twist.angular.z = (float(x) for x in dataset.w[:, k])
     return msg
 
 
@@ -181,12 +197,12 @@ def load_groundtruth(path, dataset):
 # ---------------------------------------------------------------------------------------------
 # Message stream and bag
 # ---------------------------------------------------------------------------------------------
-def _frame_messages(dataset):
+def _frame_messages(dataset, twist_type, twist_covariance):
     observed = dataset.observed()
     for k in range(dataset.num_frames):
         stamp = to_ros_time(dataset.t[k])
         left, right = camera_info_msgs(dataset, stamp)
-        yield stamp, 0, TOPIC_TWIST, twist_msg(dataset, k, stamp)
+        yield stamp, 0, TOPIC_TWIST, twist_msg(dataset, k, stamp, twist_type, twist_covariance)
         yield stamp, 0, TOPIC_LEFT_INFO, left
         yield stamp, 0, TOPIC_RIGHT_INFO, right
         yield stamp, 0, TOPIC_FEATURES, features_msg(dataset, k, stamp,
@@ -200,13 +216,13 @@ def _groundtruth_messages(groundtruth):
         yield stamp, 1, TOPIC_GROUNDTRUTH, odometry_msg(T, stamp)
 
 
-def iter_messages(dataset, groundtruth=None):
-    """Yield (topic, msg, stamp) in bag order: /tf_static, then per frame twist, left and right
-    camera_info, features; ground truth (t, world_T_imu) interleaved by time (after the frame's
-    messages at equal stamps)."""
+def iter_messages(dataset, groundtruth=None, twist_type='twist_stamped', twist_covariance=None):
+    """Yield (topic, msg, stamp) in bag order: /tf_static, then per frame twist (of twist_type),
+    left and right camera_info, features; ground truth (t, world_T_imu) interleaved by time (after
+    the frame's messages at equal stamps)."""
     first = to_ros_time(dataset.t[0])
     yield TOPIC_TF_STATIC, tf_static_msg(dataset, first), first
-    streams = [_frame_messages(dataset)]
+    streams = [_frame_messages(dataset, twist_type, twist_covariance)]
     if groundtruth is not None:
         streams.append(_groundtruth_messages(groundtruth))
     for stamp, _, topic, msg in heapq.merge(*streams, key=lambda item: (item[0], item[1])):
@@ -231,7 +247,8 @@ class BagSummary(object):
         return text + ' -> %s' % self.path
 
 
-def write_bag(dataset, out_path, groundtruth=None, progress=None, callerid=DEFAULT_CALLERID):
+def write_bag(dataset, out_path, groundtruth=None, progress=None, callerid=DEFAULT_CALLERID,
+              twist_type='twist_stamped', twist_covariance=None):
     """Write the dataset (and optional ground truth) to `out_path` -> BagSummary.
 
     Writes `<out_path>.tmp-<pid>` and renames it on success; on any error (or KeyboardInterrupt)
@@ -242,7 +259,8 @@ def write_bag(dataset, out_path, groundtruth=None, progress=None, callerid=DEFAU
     summary = BagSummary(out_path)
     try:
         with rosbag.Bag(tmp_path, 'w') as bag:
-            for topic, msg, stamp in iter_messages(dataset, groundtruth):
+            for topic, msg, stamp in iter_messages(dataset, groundtruth, twist_type,
+                                                   twist_covariance):
                 if topic == TOPIC_TF_STATIC:
                     bag.write(topic, msg, stamp,
                               connection_header=tf_static_connection_header(msg, callerid))

@@ -3,6 +3,8 @@
 #include "ekf_vislam/ros/conversions.h"
 
 #include <geometry_msgs/TwistStamped.h>
+#include <geometry_msgs/TwistWithCovarianceStamped.h>
+#include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <tf2/buffer_core.h>
@@ -94,6 +96,43 @@ bool BagReader::readCalibrationData(BagCalibrationData* data, std::string* error
   return true;
 }
 
+void BagReader::setTwistFrames(
+    const std::string& imu_frame,
+    const std::vector<geometry_msgs::TransformStamped>& static_transforms) {
+  imu_frame_ = imu_frame;
+  static_transforms_ = static_transforms;
+  imu_T_child_frame_.clear();
+}
+
+bool BagReader::convertTwist(const rosbag::MessageInstance& m, TwistData* twist,
+                             std::string* error) {
+  if (auto stamped = m.instantiate<geometry_msgs::TwistStamped>()) {
+    *twist = ros_conversions::toTwistData(*stamped);
+    return true;
+  }
+  if (auto with_covariance = m.instantiate<geometry_msgs::TwistWithCovarianceStamped>()) {
+    *twist = ros_conversions::toTwistData(*with_covariance);
+    return true;
+  }
+  auto odometry = m.instantiate<nav_msgs::Odometry>();
+  if (!odometry) {
+    if (error) *error = topics_.twist + " holds " + m.getDataType() + ", not a twist type";
+    return false;
+  }
+  const std::string child = odometry->child_frame_id.empty() ? imu_frame_
+                                                             : odometry->child_frame_id;
+  if (child != imu_T_child_frame_) {
+    imu_T_child_.setIdentity();
+    if (child != imu_frame_ &&
+        !lookupStaticTransform(static_transforms_, imu_frame_, child, &imu_T_child_, error)) {
+      return false;
+    }
+    imu_T_child_frame_ = child;
+  }
+  *twist = ros_conversions::toTwistData(*odometry, imu_T_child_);
+  return true;
+}
+
 bool BagReader::forEachMeasurement(const Callback& callback, std::string* error) {
   try {
     rosbag::View view(*bag_, rosbag::TopicQuery(std::vector<std::string>{topics_.twist,
@@ -103,12 +142,9 @@ bool BagReader::forEachMeasurement(const Callback& callback, std::string* error)
     for (const rosbag::MessageInstance& m : view) {
       const double fraction = (m.getTime().toSec() - begin) / span;
       if (m.getTopic() == topics_.twist) {
-        auto twist = m.instantiate<geometry_msgs::TwistStamped>();
-        if (!twist) {
-          if (error) *error = topics_.twist + " is not geometry_msgs/TwistStamped";
-          return false;
-        }
-        callback(Measurement(ros_conversions::toTwistData(*twist)), fraction);
+        TwistData twist;
+        if (!convertTwist(m, &twist, error)) return false;
+        callback(Measurement(twist), fraction);
       } else {
         auto features = m.instantiate<ekf_vislam::StereoFeatureArray>();
         if (!features) {

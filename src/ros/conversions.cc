@@ -43,6 +43,47 @@ TwistData toTwistData(const geometry_msgs::TwistStamped& msg) {
   return twist;
 }
 
+namespace {
+
+TwistData fromTwistWithCovariance(double stamp, const geometry_msgs::TwistWithCovariance& msg,
+                                  bool* covariance_invalid) {
+  TwistData twist;
+  twist.stamp = stamp;
+  twist.v_imu << msg.twist.linear.x, msg.twist.linear.y, msg.twist.linear.z;
+  twist.w_imu << msg.twist.angular.x, msg.twist.angular.y, msg.twist.angular.z;
+  const Eigen::Matrix<double, 6, 6> covariance = fromCovarianceMsg(msg.covariance);
+  const bool finite = covariance.allFinite();
+  if (covariance_invalid != nullptr) *covariance_invalid = !finite;
+  if (finite) twist.covariance = 0.5 * (covariance + covariance.transpose());
+  return twist;
+}
+
+}  // namespace
+
+TwistData toTwistData(const geometry_msgs::TwistWithCovarianceStamped& msg,
+                      bool* covariance_invalid) {
+  return fromTwistWithCovariance(msg.header.stamp.toSec(), msg.twist, covariance_invalid);
+}
+
+TwistData toTwistData(const nav_msgs::Odometry& msg, const Eigen::Isometry3d& imu_T_child,
+                      bool* covariance_invalid) {
+  TwistData child = fromTwistWithCovariance(msg.header.stamp.toSec(), msg.twist,
+                                            covariance_invalid);
+  const Eigen::Matrix3d R = imu_T_child.linear();
+  const Eigen::Vector3d p = imu_T_child.translation();
+  Eigen::Matrix3d p_hat;
+  p_hat << 0.0, -p.z(), p.y(), p.z(), 0.0, -p.x(), -p.y(), p.x(), 0.0;
+  Eigen::Matrix<double, 6, 6> J = Eigen::Matrix<double, 6, 6>::Zero();
+  J.topLeftCorner<3, 3>() = R;
+  J.topRightCorner<3, 3>() = p_hat * R;
+  J.bottomRightCorner<3, 3>() = R;
+  TwistData imu = child;
+  imu.w_imu = R * child.w_imu;
+  imu.v_imu = R * child.v_imu + p_hat * imu.w_imu;
+  if (child.hasCovariance()) imu.covariance = J * child.covariance * J.transpose();
+  return imu;
+}
+
 geometry_msgs::TwistStamped toTwistMsg(const TwistData& twist, const std::string& frame_id) {
   geometry_msgs::TwistStamped msg;
   msg.header.stamp = toRosTime(twist.stamp);

@@ -1,5 +1,6 @@
 // Unit tests of the ROS message conversions, the ROS-layer options and the shared runner (no
 // roscore).
+#include "ekf_vislam/core/se3.h"
 #include "ekf_vislam/core/yaml_parameter_source.h"
 #include "ekf_vislam/ros/bag_reader.h"
 #include "ekf_vislam/ros/conversions.h"
@@ -66,6 +67,80 @@ TEST(Conversions, TwistNaNPassesToTheEstimatorUnchanged) {
   msg.twist.linear.x = kNaN;
   const TwistData twist = rc::toTwistData(msg);
   EXPECT_TRUE(std::isnan(twist.v_imu.x()));  // the estimator rejects and counts it
+}
+
+TEST(Conversions, TwistWithCovarianceTakesAFiniteNonZeroCovariance) {
+  geometry_msgs::TwistWithCovarianceStamped msg;
+  msg.header.stamp = ros::Time(100, 500000000);
+  msg.twist.twist.linear.x = 3.0;
+  msg.twist.twist.angular.z = -0.2;
+  bool invalid = true;
+  TwistData twist = rc::toTwistData(msg, &invalid);
+  EXPECT_FALSE(invalid);
+  EXPECT_FALSE(twist.hasCovariance());  // all zero: none given
+  EXPECT_DOUBLE_EQ(twist.stamp, 100.5);
+  EXPECT_DOUBLE_EQ(twist.v_imu.x(), 3.0);
+  EXPECT_DOUBLE_EQ(twist.w_imu.z(), -0.2);
+  for (int i = 0; i < 6; ++i) msg.twist.covariance[7 * i] = 0.01 * (i + 1);
+  msg.twist.covariance[1] = msg.twist.covariance[6] = 0.002;
+  twist = rc::toTwistData(msg, &invalid);
+  ASSERT_TRUE(twist.hasCovariance());
+  EXPECT_DOUBLE_EQ(twist.covariance(5, 5), 0.06);
+  EXPECT_DOUBLE_EQ(twist.covariance(0, 1), 0.002);
+  msg.twist.covariance[14] = std::numeric_limits<double>::quiet_NaN();
+  twist = rc::toTwistData(msg, &invalid);
+  EXPECT_TRUE(invalid);
+  EXPECT_FALSE(twist.hasCovariance());  // the configured noise is used
+}
+
+TEST(Conversions, OdometryTwistInAnotherFrameMatchesRigidBodyMotion) {
+  // The child frame C sits at p in the IMU frame I, rotated by R. A rigid body moving with the
+  // child's twist: the IMU's twist from finite differences of world_T_imu = world_T_child
+  // child_T_imu must equal the conversion's.
+  Eigen::Isometry3d imu_T_child = Eigen::Isometry3d::Identity();
+  imu_T_child.linear() = se3::expSO3(Eigen::Vector3d(0.1, -0.3, 1.2));
+  imu_T_child.translation() = Eigen::Vector3d(0.8, -0.4, 1.5);
+  nav_msgs::Odometry msg;
+  msg.header.stamp = ros::Time(5, 0);
+  msg.child_frame_id = "base_link";
+  const Eigen::Vector3d v_child(2.0, 0.3, -0.1), w_child(0.05, -0.2, 0.4);
+  msg.twist.twist.linear.x = v_child.x();
+  msg.twist.twist.linear.y = v_child.y();
+  msg.twist.twist.linear.z = v_child.z();
+  msg.twist.twist.angular.x = w_child.x();
+  msg.twist.twist.angular.y = w_child.y();
+  msg.twist.twist.angular.z = w_child.z();
+  for (int i = 0; i < 6; ++i) msg.twist.covariance[7 * i] = i < 3 ? 0.04 : 0.0004;
+  const TwistData imu = rc::toTwistData(msg, imu_T_child);
+  Vector6d xi_child;  // element-wise: GCC 12 warns (-Warray-bounds) on a vectorized 3-vector copy
+  for (int i = 0; i < 3; ++i) {
+    xi_child(i) = v_child(i);
+    xi_child(3 + i) = w_child(i);
+  }
+  // Conjugating an exponential is exact (T^-1 exp(h xi^) T = exp(h (Ad xi)^)), so any step works.
+  const double h = 0.5;
+  const Eigen::Matrix4d child_T_imu = imu_T_child.inverse().matrix();
+  // world_T_child(h) = exp(h xi^) (world = the child at t = 0).
+  const Eigen::Matrix4d world_T_imu_0 = child_T_imu;
+  const Eigen::Matrix4d world_T_imu_h = se3::exp(h * xi_child) * child_T_imu;
+  const Eigen::Matrix4d delta = world_T_imu_0.inverse() * world_T_imu_h;  // exp(h u_imu^)
+  const Vector6d u_fd = se3::log(delta) / h;
+  EXPECT_LT((imu.v_imu - u_fd.head<3>()).norm(), 1e-9);
+  EXPECT_LT((imu.w_imu - u_fd.tail<3>()).norm(), 1e-9);
+  // The covariance through the same linear map: a finite-difference Jacobian.
+  Eigen::Matrix<double, 6, 6> J;
+  for (int i = 0; i < 6; ++i) {
+    Vector6d step = Vector6d::Zero();
+    step(i) = 1e-3;
+    const Eigen::Matrix4d moved = se3::exp(h * (xi_child + step)) * child_T_imu;
+    J.col(i) = (se3::log(world_T_imu_0.inverse() * moved) / h - u_fd) / 1e-3;
+  }
+  const Eigen::Matrix<double, 6, 6> expected =
+      J * rc::fromCovarianceMsg(msg.twist.covariance) * J.transpose();
+  EXPECT_LT((imu.covariance - expected).norm(), 1e-8 * expected.norm());
+  // The same frame: unchanged.
+  const TwistData same = rc::toTwistData(msg, Eigen::Isometry3d::Identity());
+  EXPECT_LT((same.v_imu - v_child).norm(), 1e-15);
 }
 
 TEST(Conversions, FeaturesRoundTrip) {

@@ -166,8 +166,15 @@ int run(int argc, char** argv) {
   if (needs_features && bag.messageCount(topics.features) == 0) {
     return fail("bag " + args["--bag"] + " has no messages on " + topics.features);
   }
+  // The twist may be any of the three types of ros/twist_type: the bag says which.
+  const std::string twist_type = bag.dataType(topics.twist);
+  if (twist_type != "geometry_msgs/TwistStamped" &&
+      twist_type != "geometry_msgs/TwistWithCovarianceStamped" &&
+      twist_type != "nav_msgs/Odometry") {
+    return fail(topics.twist + " holds " + twist_type + ", expected geometry_msgs/TwistStamped, "
+                "geometry_msgs/TwistWithCovarianceStamped or nav_msgs/Odometry");
+  }
   const std::pair<std::string, std::string> expected_types[] = {
-      {topics.twist, "geometry_msgs/TwistStamped"},
       {topics.features, "ekf_vislam/StereoFeatureArray"},
       {topics.left_info, "sensor_msgs/CameraInfo"},
       {topics.right_info, "sensor_msgs/CameraInfo"},
@@ -182,6 +189,7 @@ int run(int argc, char** argv) {
   // Calibration: camera_info pair + /tf_static, or the ros/calibration override.
   BagCalibrationData data;
   if (!bag.readCalibrationData(&data, &error)) return fail(error);
+  bag.setTwistFrames(ros_options.imu_frame, data.static_transforms);
   StereoCalibration calibration;
   std::string calibration_error;
   const CalibrationOverride& override_ = ros_options.calibration;

@@ -77,7 +77,15 @@ VislamRos::VislamRos(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string&
 
   const int queue = ros_options_.queue_size;
   const ros::TransportHints hints = ros::TransportHints().tcpNoDelay();
-  twist_sub_ = nh_.subscribe("imu/twist", queue, &VislamRos::twistCallback, this, hints);
+  if (ros_options_.twist_type == "odometry") {
+    twist_sub_ =
+        nh_.subscribe("imu/twist", queue, &VislamRos::odometryTwistCallback, this, hints);
+  } else if (ros_options_.twist_type == "twist_with_covariance") {
+    twist_sub_ =
+        nh_.subscribe("imu/twist", queue, &VislamRos::twistWithCovarianceCallback, this, hints);
+  } else {
+    twist_sub_ = nh_.subscribe("imu/twist", queue, &VislamRos::twistCallback, this, hints);
+  }
   features_sub_ = nh_.subscribe("stereo/features", queue, &VislamRos::featuresCallback, this, hints);
   left_info_sub_ = nh_.subscribe("stereo/left/camera_info", 10, &VislamRos::leftInfoCallback, this);
   right_info_sub_ =
@@ -134,16 +142,67 @@ void VislamRos::shutdown() {
 // ---------------------------------------------------------------------------------------------
 
 void VislamRos::twistCallback(const geometry_msgs::TwistStamped::ConstPtr& msg) {
-  if (!msg->header.frame_id.empty() && msg->header.frame_id != ros_options_.imu_frame) {
+  warnIfNotImuFrame(msg->header.frame_id);
+  std::lock_guard<std::mutex> lock(mutex_);
+  onTwist(ros_conversions::toTwistData(*msg), false);
+}
+
+void VislamRos::twistWithCovarianceCallback(
+    const geometry_msgs::TwistWithCovarianceStamped::ConstPtr& msg) {
+  warnIfNotImuFrame(msg->header.frame_id);
+  std::lock_guard<std::mutex> lock(mutex_);
+  bool covariance_invalid = false;
+  const TwistData twist = ros_conversions::toTwistData(*msg, &covariance_invalid);
+  onTwist(twist, covariance_invalid);
+}
+
+void VislamRos::odometryTwistCallback(const nav_msgs::Odometry::ConstPtr& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  // The twist is that of child_frame_id: taken to the IMU frame through the (fixed) tf.
+  const std::string child = msg->child_frame_id.empty() ? ros_options_.imu_frame
+                                                        : msg->child_frame_id;
+  if (child != imu_T_twist_child_frame_) {
+    if (child == ros_options_.imu_frame) {
+      imu_T_twist_child_ = Eigen::Isometry3d::Identity();
+    } else {
+      try {
+        imu_T_twist_child_ = ros_conversions::toIsometry(
+            tf_buffer_.lookupTransform(ros_options_.imu_frame, child, ros::Time(0)).transform);
+      } catch (const tf2::TransformException& e) {
+        ++twists_without_tf_;
+        ROS_WARN_THROTTLE(5.0, "%s: imu/twist odometry in frame '%s': no tf to '%s' yet (%s); "
+                          "twist not used (%lu so far)", name_.c_str(), child.c_str(),
+                          ros_options_.imu_frame.c_str(), e.what(),
+                          static_cast<unsigned long>(twists_without_tf_));
+        return;
+      }
+    }
+    imu_T_twist_child_frame_ = child;
+  }
+  bool covariance_invalid = false;
+  const TwistData twist = ros_conversions::toTwistData(*msg, imu_T_twist_child_, &covariance_invalid);
+  onTwist(twist, covariance_invalid);
+}
+
+void VislamRos::warnIfNotImuFrame(const std::string& frame_id) const {
+  if (!frame_id.empty() && frame_id != ros_options_.imu_frame) {
     ROS_WARN_ONCE("%s: imu/twist header.frame_id is '%s', expected ros/imu_frame '%s'; the twist "
                   "is used as the IMU body-frame twist anyway",
-                  name_.c_str(), msg->header.frame_id.c_str(), ros_options_.imu_frame.c_str());
+                  name_.c_str(), frame_id.c_str(), ros_options_.imu_frame.c_str());
   }
-  std::lock_guard<std::mutex> lock(mutex_);
+}
+
+void VislamRos::onTwist(const TwistData& twist, bool covariance_invalid) {
   if (shut_down_) return;
+  if (covariance_invalid) {
+    ++twist_covariance_invalid_;
+    ROS_WARN_THROTTLE(5.0, "%s: imu/twist covariance not finite: the configured noise is used "
+                      "(%lu so far)", name_.c_str(),
+                      static_cast<unsigned long>(twist_covariance_invalid_));
+  }
   ++twists_received_;
   last_twist_ = ros::WallTime::now();
-  push(Measurement(ros_conversions::toTwistData(*msg)));
+  push(Measurement(twist));
   // Twist-rate odometry for control, from the propagated copy (the filter is not changed).
   const EstimatorRunner::Preview& preview = runner_->preview();
   if (publishing_ && preview.valid) {
@@ -516,6 +575,8 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
   status.add("twist_rate_hz", twist_rate);
   status.add("feature_rate_hz", feature_rate);
   status.add("twists_received", twists_received_);
+  status.add("twist_covariance_invalid", twist_covariance_invalid_);
+  status.add("twist_without_tf", twists_without_tf_);
   status.add("frames_received", frames_received_);
   status.add("update_ms_last", last_update_ms_);
   status.add("update_ms_p99", runner_->times().percentile(0.99));

@@ -79,6 +79,10 @@ std::string VislamRosOptions::validate() const {
     why << "ros/world_frame and ros/imu_frame must not be empty";
   } else if (world_frame == imu_frame) {
     why << "ros/world_frame and ros/imu_frame must differ";
+  } else if (twist_type != "twist_stamped" && twist_type != "twist_with_covariance" &&
+             twist_type != "odometry") {
+    why << "ros/twist_type must be twist_stamped, twist_with_covariance or odometry, not '"
+        << twist_type << "'";
   } else if (!(landmark_marker_rate >= 0.0) || !(path_rate >= 0.0)) {
     why << "ros/landmark_marker_rate and ros/path_rate must be >= 0";
   } else if (!(diagnostic_period > 0.0)) {
@@ -107,6 +111,7 @@ bool parseVislamRosOptions(const ParameterSource& source, VislamRosOptions* opti
   VislamRosOptions o = *options;
   r.readString("ros/world_frame", &o.world_frame);
   r.readString("ros/imu_frame", &o.imu_frame);
+  r.readString("ros/twist_type", &o.twist_type);
   r.readBool("ros/publish_tf", &o.publish_tf);
   r.readDouble("ros/landmark_marker_rate", &o.landmark_marker_rate);
   r.readBool("ros/covariance_ellipsoids", &o.covariance_ellipsoids);
@@ -170,7 +175,8 @@ std::string describeOptions(const VislamOptions& o) {
   out << "mode: " << modeName(o.mode) << "\n"
       << "noise: pixel_sigma=" << o.pixel_sigma << " merge_stereo_rows=" << o.merge_stereo_rows
       << " linear_velocity_noise=" << o.linear_velocity_noise
-      << " angular_velocity_noise=" << o.angular_velocity_noise << "\n"
+      << " angular_velocity_noise=" << o.angular_velocity_noise
+      << " use_message_covariance=" << o.use_message_covariance << "\n"
       << "prior: position_sigma=" << o.prior_position_sigma
       << " rotation_sigma=" << o.prior_rotation_sigma << "\n"
       << "bias: estimate_gyro_bias=" << o.estimate_gyro_bias
@@ -200,6 +206,7 @@ std::string describeOptions(const VislamOptions& o) {
 std::string describeOptions(const VislamRosOptions& o) {
   std::ostringstream out;
   out << "ros: world_frame=" << o.world_frame << " imu_frame=" << o.imu_frame
+      << " twist_type=" << o.twist_type
       << " publish_tf=" << o.publish_tf << " landmark_marker_rate=" << o.landmark_marker_rate
       << " covariance_ellipsoids=" << o.covariance_ellipsoids
       << " ellipsoid_sigma_scale=" << o.ellipsoid_sigma_scale

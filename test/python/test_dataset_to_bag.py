@@ -243,6 +243,52 @@ class RoundTripTest(unittest.TestCase):
                                        atol=1e-6)
 
 
+class TwistTypeTest(unittest.TestCase):
+    """--twist-type writes /imu/twist as any of the three types the estimator takes, with the same
+    values; --twist-covariance fills the covariance of the two that carry one."""
+    FRAMES = 12
+
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = ekf_test_paths.make_temp_dir()
+        cls.addClassCleanup(ekf_test_paths.remove_dir, cls.tmp)
+        cls.sim = simulator.simulate(22, frames=cls.FRAMES)
+        cls.npz = simulator.write_outputs(cls.sim, os.path.join(cls.tmp, 'sim'))['npz']
+
+    def twists(self, *args):
+        bag = os.path.join(self.tmp, 'x.bag')
+        proc = ekf_test_paths.run_script(SCRIPT, self.npz, bag, *args)
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        messages, _, headers = read_bag(bag)
+        return [m for m, _ in messages[bag_writer.TOPIC_TWIST]], headers[bag_writer.TOPIC_TWIST]
+
+    def test_each_type_carries_the_same_twist(self):
+        for twist_type, datatype in (('twist_stamped', 'geometry_msgs/TwistStamped'),
+                                     ('twist_with_covariance',
+                                      'geometry_msgs/TwistWithCovarianceStamped'),
+                                     ('odometry', 'nav_msgs/Odometry')):
+            msgs, header = self.twists('--twist-type', twist_type)
+            self.assertEqual(header['type'], datatype.encode())
+            self.assertEqual(len(msgs), self.FRAMES)
+            for k, msg in enumerate(msgs):
+                twist = msg.twist if twist_type == 'twist_stamped' else msg.twist.twist
+                np.testing.assert_array_equal(
+                    [twist.linear.x, twist.linear.y, twist.linear.z],
+                    self.sim['linear_velocity'][:, k])
+                if twist_type != 'twist_stamped':
+                    self.assertEqual(max(abs(c) for c in msg.twist.covariance), 0.0)
+                if twist_type == 'odometry':
+                    self.assertEqual(msg.child_frame_id, 'imu')
+
+    def test_covariance(self):
+        msgs, _ = self.twists('--twist-type', 'odometry', '--twist-covariance', 0.5, 0.05)
+        covariance = np.array(msgs[0].twist.covariance).reshape(6, 6)
+        np.testing.assert_allclose(np.diag(covariance), [0.25] * 3 + [0.0025] * 3)
+        proc = ekf_test_paths.run_script(SCRIPT, self.npz, os.path.join(self.tmp, 'y.bag'),
+                                         '--twist-covariance', 0.5, 0.05)
+        self.assertNotEqual(proc.returncode, 0)
+
+
 class ExtrinsicTest(ConverterTestCase):
     """The 2019 translation fix, its opt-out and the simulator's marker key; the later layout."""
 

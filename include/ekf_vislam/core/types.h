@@ -18,6 +18,10 @@ struct TwistData {
   double stamp = 0.0;
   Eigen::Vector3d v_imu = Eigen::Vector3d::Zero();  ///< linear velocity, m/s, IMU frame
   Eigen::Vector3d w_imu = Eigen::Vector3d::Zero();  ///< angular velocity, rad/s, IMU frame
+  /// Covariance of one sample of [v; w] (the message's own, e.g. TwistWithCovarianceStamped);
+  /// all zero: none given (the configured noise is used).
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
+  bool hasCovariance() const { return !covariance.isZero(0.0); }
 };
 
 /// One tracked feature in a rectified stereo pair (pixels); the core side of the

@@ -178,9 +178,14 @@ class VislamEstimator {
   /// u_true = R_m (u_measured - b) for the current estimates.
   Vector6d trueTwist(const TwistData& twist) const;
   /// Per-component factor of the vehicle prior on u = [v; w] (1 where there is none).
-  Vector6d velocityPriorGain() const;
-  /// Noise density of the corrected twist in the IMU frame (process noise W = density * tau).
-  Matrix6d twistNoiseDensity() const;
+  Vector6d velocityPriorGain(const TwistData& twist) const;
+  /// Noise density of the corrected twist in the IMU frame (process noise W = density * tau):
+  /// from the message's covariance when it has one (noise/use_message_covariance), else from
+  /// noise/linear_velocity_noise and angular_velocity_noise.
+  Matrix6d twistNoiseDensity(const TwistData& twist) const;
+  bool usesMessageCovariance(const TwistData& twist) const;
+  /// The message's per-sample covariance in the IMU frame times the sample period.
+  Matrix6d messageTwistDensity(const TwistData& twist) const;
 
   static constexpr int kPoseDim = 6;
 

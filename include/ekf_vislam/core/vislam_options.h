@@ -48,6 +48,9 @@ struct VislamOptions {
   bool merge_stereo_rows = true;          ///< observe [uL, (vL+vR)/2, uR] (3 rows) instead of 4
   double linear_velocity_noise = 0.10;    ///< m/s/sqrt(Hz): W_v = sigma^2 * tau
   double angular_velocity_noise = 0.015;  ///< rad/s/sqrt(Hz): W_w = sigma^2 * tau
+  /// A twist message with a non-zero covariance (TwistWithCovarianceStamped, Odometry) supplies
+  /// its own noise; all-zero covariances fall back to the two densities above.
+  bool use_message_covariance = true;
 
   // prior/
   double prior_position_sigma = 1e-3;  ///< m, initial pose uncertainty

@@ -17,6 +17,7 @@
 
 namespace rosbag {
 class Bag;
+class MessageInstance;
 }
 
 namespace ekf_vislam {
@@ -54,14 +55,26 @@ class BagReader {
 
   bool readCalibrationData(BagCalibrationData* data, std::string* error);
 
-  /// Every twist and feature message in bag order, converted; `fraction` in [0, 1] is the
-  /// progress through the bag. False (with a message) on a message of the wrong type.
+  /// For twists given as nav_msgs/Odometry in another child frame: the IMU frame and the static
+  /// transforms that lead there.
+  void setTwistFrames(const std::string& imu_frame,
+                      const std::vector<geometry_msgs::TransformStamped>& static_transforms);
+
+  /// Every twist (TwistStamped, TwistWithCovarianceStamped or Odometry) and feature message in
+  /// bag order, converted; `fraction` in [0, 1] is the progress through the bag. False (with a
+  /// message) on a message of another type, or an odometry frame with no transform to the IMU.
   using Callback = std::function<void(Measurement&& measurement, double fraction)>;
   bool forEachMeasurement(const Callback& callback, std::string* error);
 
  private:
+  bool convertTwist(const rosbag::MessageInstance& m, TwistData* twist, std::string* error);
+
   std::unique_ptr<rosbag::Bag> bag_;
   BagTopics topics_;
+  std::string imu_frame_ = "imu";
+  std::vector<geometry_msgs::TransformStamped> static_transforms_;
+  std::string imu_T_child_frame_;  ///< child frame of the cached transform
+  Eigen::Isometry3d imu_T_child_ = Eigen::Isometry3d::Identity();
 };
 
 /// Transform of camera_frame in imu_frame (imu_T_cam) from static transforms, chains allowed

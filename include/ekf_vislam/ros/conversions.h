@@ -11,6 +11,7 @@
 #include <boost/array.hpp>
 #include <geometry_msgs/Transform.h>
 #include <geometry_msgs/TwistStamped.h>
+#include <geometry_msgs/TwistWithCovarianceStamped.h>
 #include <nav_msgs/Odometry.h>
 #include <sensor_msgs/CameraInfo.h>
 
@@ -26,6 +27,18 @@ ros::Time toRosTime(double stamp);
 /// the estimator rejects and counts them.
 TwistData toTwistData(const geometry_msgs::TwistStamped& msg);
 geometry_msgs::TwistStamped toTwistMsg(const TwistData& twist, const std::string& frame_id);
+/// TwistWithCovarianceStamped -> core twist. The covariance is taken when it is finite and not
+/// all zero; a non-finite one is dropped (the configured noise is used) and *covariance_invalid
+/// is set.
+TwistData toTwistData(const geometry_msgs::TwistWithCovarianceStamped& msg,
+                      bool* covariance_invalid = nullptr);
+/// Odometry -> the twist of the IMU. The message's twist is that of child_frame_id, expressed in
+/// it; imu_T_child is the fixed transform from that frame to the IMU frame (identity when they
+/// are the same). With R, p its rotation and translation: w_imu = R w_child and
+/// v_imu = R v_child + p^ R w_child (rigid body; p is the child origin in the IMU frame), and the
+/// covariance goes through J = [[R, p^ R], [0, R]]. Covariance handling as above.
+TwistData toTwistData(const nav_msgs::Odometry& msg, const Eigen::Isometry3d& imu_T_child,
+                      bool* covariance_invalid = nullptr);
 
 /// Feature message -> core frame (stamp in seconds, features in message order).
 FeatureFrame toFeatureFrame(const ekf_vislam::StereoFeatureArray& msg);

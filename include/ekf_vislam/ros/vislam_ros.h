@@ -2,7 +2,8 @@
 // node (vislam_node). Owns an EstimatorRunner (estimator + measurement sequencer); the estimator
 // itself never sees ROS.
 //
-// Subscribes (relative names, remappable): imu/twist (geometry_msgs/TwistStamped),
+// Subscribes (relative names, remappable): imu/twist (geometry_msgs/TwistStamped,
+// TwistWithCovarianceStamped or nav_msgs/Odometry by ros/twist_type),
 // stereo/features (ekf_vislam/StereoFeatureArray), stereo/left/camera_info and
 // stereo/right/camera_info (sensor_msgs/CameraInfo); imu_T_cam from tf (imu_frame -> the
 // features' header.frame_id).
@@ -22,6 +23,7 @@
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <geometry_msgs/TwistStamped.h>
+#include <geometry_msgs/TwistWithCovarianceStamped.h>
 #include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
 #include <ros/ros.h>
@@ -51,6 +53,10 @@ class VislamRos {
  private:
   // Inputs.
   void twistCallback(const geometry_msgs::TwistStamped::ConstPtr& msg);
+  void twistWithCovarianceCallback(const geometry_msgs::TwistWithCovarianceStamped::ConstPtr& msg);
+  void odometryTwistCallback(const nav_msgs::Odometry::ConstPtr& msg);
+  void warnIfNotImuFrame(const std::string& frame_id) const;
+  void onTwist(const TwistData& twist, bool covariance_invalid);  // locked
   void featuresCallback(const ekf_vislam::StereoFeatureArray::ConstPtr& msg);
   void leftInfoCallback(const sensor_msgs::CameraInfo::ConstPtr& msg);
   void rightInfoCallback(const sensor_msgs::CameraInfo::ConstPtr& msg);
@@ -103,6 +109,10 @@ class VislamRos {
   ros::WallTime last_twist_;
   ros::WallTime last_features_;
   uint64_t twists_received_ = 0;
+  uint64_t twist_covariance_invalid_ = 0;
+  uint64_t twists_without_tf_ = 0;
+  std::string imu_T_twist_child_frame_;  ///< frame of the cached imu_T_twist_child_ ("" = none)
+  Eigen::Isometry3d imu_T_twist_child_ = Eigen::Isometry3d::Identity();
   uint64_t frames_received_ = 0;
   uint64_t twists_at_last_diag_ = 0;
   uint64_t frames_at_last_diag_ = 0;

@@ -26,6 +26,8 @@ struct CalibrationOverride {
 struct VislamRosOptions {
   std::string world_frame = "world";   ///< ros/world_frame
   std::string imu_frame = "imu";       ///< ros/imu_frame
+  /// ros/twist_type: message type on imu/twist: twist_stamped | twist_with_covariance | odometry
+  std::string twist_type = "twist_stamped";
   bool publish_tf = true;              ///< ros/publish_tf: world -> imu
   double landmark_marker_rate = 2.0;   ///< ros/landmark_marker_rate, Hz (0 = never)
   bool covariance_ellipsoids = false;  ///< ros/covariance_ellipsoids (active landmarks)

@@ -382,7 +382,12 @@ void VislamRos::publishOdometry(double stamp, const Eigen::Isometry3d& world_T_i
                        name_.c_str(), static_cast<unsigned long>(odometry_non_finite_));
     return;
   }
-  odometry_pub_.publish(odometry);
+  // ~odometry never goes back in time: an update older than a prediction already published
+  // (its frame came after later twists) reaches ~odometry through the next prediction.
+  if (stamp >= last_odometry_stamp_) {
+    odometry_pub_.publish(odometry);
+    last_odometry_stamp_ = stamp;
+  }
   if (!after_update) return;
   // tf follows the filter (once per update): a prediction at a frame's stamp must not take the
   // place of that frame's update (tf2 keeps the first transform of a stamp).
@@ -604,6 +609,7 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
 bool VislamRos::resetService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
   std::lock_guard<std::mutex> lock(mutex_);
   runner_->reset();
+  last_odometry_stamp_ = -1e300;  // time starts again
   path_.poses.clear();
   path_dirty_ = false;
   landmarks_dirty_ = false;

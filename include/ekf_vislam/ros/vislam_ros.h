@@ -135,6 +135,7 @@ class VislamRos {
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   nav_msgs::Path path_;
   nav_msgs::Odometry last_odometry_;
+  double last_odometry_stamp_ = -1e300;  ///< of the last ~odometry message
   bool has_odometry_ = false;
   ros::Time last_tf_stamp_;
   bool path_dirty_ = false;

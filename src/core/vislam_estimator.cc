@@ -732,10 +732,10 @@ void VislamEstimator::update(std::vector<Candidate>* candidates,
   for (Candidate& c : *candidates) {
     if (!c.predicted) continue;
     if (c.jumped) {
-      // The track slid onto another point: the landmark leaves the state (its estimate stays in
-      // the map) and the track goes on as a new landmark from this observation.
+      // The track slid onto another point, or this observation is a gross outlier: the landmark
+      // leaves the state (its estimate stays in the map) and the track goes on as a new landmark
+      // from its next observation (starting from this one would plant an outlier in the map).
       remove_for_jump.push_back(c.block);
-      reinitialize->push_back(c);
       continue;
     }
     const double d2 = c.mahalanobis2;

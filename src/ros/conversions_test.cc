@@ -582,6 +582,7 @@ TEST(EstimatorRunner, ResultDoesNotDependOnArrivalOrderWithinTheWindow) {
 TEST(EstimatorRunner, PropagatedCopyFollowsEveryTwistAndNeverChangesTheFilter) {
   const testing::Scenario& s = shortDrive();
   EstimatorRunner runner = startedRunner();
+  runner.enablePreview(true);
   VislamEstimator eager(testing::matchedOptions(testing::ScenarioOptions()));
   ASSERT_TRUE(eager.setCalibration(s.calibration));
   for (size_t k = 0; k + 1 < s.frames.size(); k += 2) {

@@ -50,7 +50,7 @@ void EstimatorRunner::push(Measurement measurement) {
   if (const TwistData* twist = std::get_if<TwistData>(&measurement)) {
     const TwistData copy = *twist;
     sequencer_.push(std::move(measurement));
-    updatePreview(copy);
+    if (preview_enabled_) updatePreview(copy);
     return;
   }
   frame_arrivals_.emplace_back(stampOf(measurement), Clock::now());

@@ -57,6 +57,7 @@ VislamRos::VislamRos(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string&
       options_, MeasurementSequencer::Options{
                     ros_options_.sequencer_max_delay,
                     static_cast<size_t>(ros_options_.sequencer_max_buffered)});
+  runner_->enablePreview(true);  // twist-rate odometry
   if (ros_options_.calibration.has_intrinsics && ros_options_.calibration.has_extrinsic) {
     tryCalibrate();
   }

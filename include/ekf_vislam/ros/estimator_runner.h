@@ -58,8 +58,10 @@ class EstimatorRunner {
   /// Buffers one message; a twist also advances the propagated copy. Call processReady()
   /// afterwards.
   void push(Measurement measurement);
-  /// The propagated copy after the last pushed twist.
+  /// The propagated copy after the last pushed twist (kept only when enabled: it costs a copy of
+  /// the filter per frame and a second prediction per twist; off by default).
   const Preview& preview() const { return preview_; }
+  void enablePreview(bool enable) { preview_enabled_ = enable; }
   /// Feeds what the sequencer releases; `observer` (optional) sees each one after it was fed.
   size_t processReady(const Observer& observer = Observer());
   /// Feeds everything still buffered, waiting twists included (end of input).
@@ -105,6 +107,7 @@ class EstimatorRunner {
   bool has_frame_ = false;
   double last_frame_stamp_ = 0.0;
   VislamEstimator preview_estimator_;
+  bool preview_enabled_ = false;
   bool preview_stale_ = true;  ///< a frame was processed since the copy was made
   Preview preview_;
   std::deque<std::pair<double, Clock::time_point>> frame_arrivals_;  ///< stamp, push time

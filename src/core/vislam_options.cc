@@ -1,5 +1,7 @@
 #include "ekf_vislam/core/vislam_options.h"
 
+#include "ekf_vislam/core/option_reader.h"
+
 #include <cmath>
 #include <sstream>
 
@@ -27,52 +29,6 @@ bool parseMode(const std::string& name, EstimatorMode* mode) {
 
 namespace {
 
-// Reads keys one by one; remembers the first error.
-class OptionReader {
- public:
-  OptionReader(const ParameterSource& source, std::string* error)
-      : source_(source), error_(error) {}
-  bool ok() const { return ok_; }
-
-  void number(const std::string& key, double* value) {
-    if (!ok_ || !source_.has(key)) return;
-    if (!source_.getDouble(key, value) || !std::isfinite(*value)) fail(key, "a finite number");
-  }
-  void integer(const std::string& key, int* value) {
-    if (!ok_ || !source_.has(key)) return;
-    if (!source_.getInt(key, value)) fail(key, "an integer");
-  }
-  void flag(const std::string& key, bool* value) {
-    if (!ok_ || !source_.has(key)) return;
-    if (!source_.getBool(key, value)) fail(key, "true or false");
-  }
-  template <typename Enum>
-  void choice(const std::string& key, Enum* value,
-              std::initializer_list<std::pair<const char*, Enum>> names) {
-    if (!ok_ || !source_.has(key)) return;
-    std::string text;
-    std::string expected;
-    if (source_.getString(key, &text)) {
-      for (const auto& [name, e] : names) {
-        if (text == name) {
-          *value = e;
-          return;
-        }
-      }
-    }
-    for (const auto& [name, e] : names) expected += (expected.empty() ? "" : " | ") + std::string(name);
-    fail(key, "one of " + expected);
-  }
-
- private:
-  void fail(const std::string& key, const std::string& expected) {
-    ok_ = false;
-    if (error_ != nullptr) *error_ = source_.describe() + ": '" + key + "' must be " + expected;
-  }
-  const ParameterSource& source_;
-  std::string* error_;
-  bool ok_ = true;
-};
 
 }  // namespace
 

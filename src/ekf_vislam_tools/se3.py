@@ -34,17 +34,21 @@ def so3_log(R):
     return theta / (2.0 * np.sin(theta)) * w
 
 
+def so3_left_jacobian(phi):
+    """V = J_l(phi): the translation of se3_exp([rho; phi]) is V rho."""
+    theta = np.linalg.norm(phi)
+    K = hat(phi)
+    if theta < 1e-8:
+        return np.eye(3) + 0.5 * K + K @ K / 6.0
+    return (np.eye(3) + (1.0 - np.cos(theta)) / theta ** 2 * K
+            + (theta - np.sin(theta)) / theta ** 3 * K @ K)
+
+
 def se3_exp(xi):
     """xi = [rho; phi] -> 4x4."""
     xi = np.asarray(xi, dtype=float)
     rho, phi = xi[:3], xi[3:]
-    theta = np.linalg.norm(phi)
-    K = hat(phi)
-    if theta < 1e-8:
-        V = np.eye(3) + 0.5 * K + K @ K / 6.0
-    else:
-        V = (np.eye(3) + (1.0 - np.cos(theta)) / theta ** 2 * K
-             + (theta - np.sin(theta)) / theta ** 3 * K @ K)
+    V = so3_left_jacobian(phi)
     T = np.eye(4)
     T[:3, :3] = so3_exp(phi)
     T[:3, 3] = V @ rho
@@ -98,11 +102,4 @@ def se3_log(T):
     """4x4 -> xi = [rho; phi] with T = se3_exp(xi)."""
     T = np.asarray(T, dtype=float)
     phi = so3_log(T[:3, :3])
-    theta = np.linalg.norm(phi)
-    K = hat(phi)
-    if theta < 1e-8:
-        V = np.eye(3) + 0.5 * K + K @ K / 6.0
-    else:
-        V = (np.eye(3) + (1.0 - np.cos(theta)) / theta ** 2 * K
-             + (theta - np.sin(theta)) / theta ** 3 * K @ K)
-    return np.concatenate([np.linalg.solve(V, T[:3, 3]), phi])
+    return np.concatenate([np.linalg.solve(so3_left_jacobian(phi), T[:3, 3]), phi])

@@ -1,5 +1,7 @@
 #include "ekf_vislam/tracker/tracker_options.h"
 
+#include "ekf_vislam/core/option_reader.h"
+
 #include <cmath>
 #include <initializer_list>
 #include <sstream>
@@ -24,51 +26,6 @@ const char* nameOf(Enum value, std::initializer_list<std::pair<const char*, Enum
   return "unknown";
 }
 
-// Reads keys one by one; remembers the first error.
-class KeyReader {
- public:
-  KeyReader(const ParameterSource& source, std::string* error) : source_(source), error_(error) {}
-  bool ok() const { return ok_; }
-
-  void number(const std::string& key, double* value) {
-    if (!ok_ || !source_.has(key)) return;
-    if (!source_.getDouble(key, value) || !std::isfinite(*value)) fail(key, "a finite number");
-  }
-  void integer(const std::string& key, int* value) {
-    if (!ok_ || !source_.has(key)) return;
-    if (!source_.getInt(key, value)) fail(key, "an integer");
-  }
-  void flag(const std::string& key, bool* value) {
-    if (!ok_ || !source_.has(key)) return;
-    if (!source_.getBool(key, value)) fail(key, "true or false");
-  }
-  template <typename Enum>
-  void choice(const std::string& key, Enum* value,
-              std::initializer_list<std::pair<const char*, Enum>> names) {
-    if (!ok_ || !source_.has(key)) return;
-    std::string text;
-    if (source_.getString(key, &text)) {
-      for (const auto& [name, e] : names) {
-        if (text == name) {
-          *value = e;
-          return;
-        }
-      }
-    }
-    std::string expected;
-    for (const auto& [name, e] : names) expected += (expected.empty() ? "" : " | ") + std::string(name);
-    fail(key, "one of " + expected);
-  }
-
- private:
-  void fail(const std::string& key, const std::string& expected) {
-    ok_ = false;
-    if (error_ != nullptr) *error_ = source_.describe() + ": '" + key + "' must be " + expected;
-  }
-  const ParameterSource& source_;
-  std::string* error_;
-  bool ok_ = true;
-};
 
 void require(bool condition, const char* what, std::ostringstream* why) {
   if (!condition) *why << what << "\n";
@@ -77,7 +34,7 @@ void require(bool condition, const char* what, std::ostringstream* why) {
 }  // namespace
 
 bool parseTrackerOptions(const ParameterSource& source, TrackerOptions* o, std::string* error) {
-  KeyReader r(source, error);
+  OptionReader r(source, error);
   r.choice("detector/type", &o->detector, kDetectorNames);
   r.integer("detector/grid_cols", &o->grid_cols);
   r.integer("detector/grid_rows", &o->grid_rows);

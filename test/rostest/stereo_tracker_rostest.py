@@ -6,7 +6,6 @@ features (count, stamps, frame, persistent ids, positive disparity, same rows), 
 odometry against the ground truth, then bad input in the tracker's diagnostics."""
 import os
 import shutil
-import subprocess
 import sys
 import tempfile
 import threading
@@ -23,6 +22,9 @@ from sensor_msgs.msg import CameraInfo, Image
 
 from ekf_vislam.msg import StereoFeatureArray
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from vislam_rostest import log, run, wait_until  # noqa: E402
+
 PKG = 'ekf_vislam'
 FRAMES = 80
 PLAY_RATE = 2.0
@@ -31,28 +33,6 @@ PLAY_RATE = 2.0
 # twist, this drive's twist is accurate); the limits leave a margin.
 MIN_FEATURES = 100
 FINAL_ERROR_TOLERANCE_M = 2.0
-
-
-def log(message):
-    sys.stderr.write('[stereo_tracker_rostest] %s\n' % message)
-    sys.stderr.flush()
-
-
-def run(cmd, timeout=300):
-    result = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            universal_newlines=True, timeout=timeout)
-    if result.returncode != 0:
-        raise RuntimeError('%s failed:\n%s' % (' '.join(cmd), result.stdout))
-    return result.stdout
-
-
-def wait_until(predicate, timeout, period=0.05):
-    end = time.time() + timeout
-    while time.time() < end:
-        if predicate():
-            return True
-        time.sleep(period)
-    return predicate()
 
 
 class StereoTrackerPipelineTest(unittest.TestCase):

@@ -1,0 +1,61 @@
+// Reads options from a ParameterSource key by key, checking each value's type and remembering
+// the first error (one line naming the source and the key). Absent keys keep their values. Shared
+// by the option parsers of the estimator and the stereo tracker. No ROS.
+#pragma once
+
+#include "ekf_vislam/core/parameter_source.h"
+
+#include <cmath>
+#include <initializer_list>
+#include <string>
+#include <utility>
+
+namespace ekf_vislam {
+
+class OptionReader {
+ public:
+  OptionReader(const ParameterSource& source, std::string* error)
+      : source_(source), error_(error) {}
+  bool ok() const { return ok_; }
+
+  void number(const std::string& key, double* value) {
+    if (!ok_ || !source_.has(key)) return;
+    if (!source_.getDouble(key, value) || !std::isfinite(*value)) fail(key, "a finite number");
+  }
+  void integer(const std::string& key, int* value) {
+    if (!ok_ || !source_.has(key)) return;
+    if (!source_.getInt(key, value)) fail(key, "an integer");
+  }
+  void flag(const std::string& key, bool* value) {
+    if (!ok_ || !source_.has(key)) return;
+    if (!source_.getBool(key, value)) fail(key, "true or false");
+  }
+  template <typename Enum>
+  void choice(const std::string& key, Enum* value,
+              std::initializer_list<std::pair<const char*, Enum>> names) {
+    if (!ok_ || !source_.has(key)) return;
+    std::string text;
+    std::string expected;
+    if (source_.getString(key, &text)) {
+      for (const auto& [name, e] : names) {
+        if (text == name) {
+          *value = e;
+          return;
+        }
+      }
+    }
+    for (const auto& [name, e] : names) expected += (expected.empty() ? "" : " | ") + std::string(name);
+    fail(key, "one of " + expected);
+  }
+
+ private:
+  void fail(const std::string& key, const std::string& expected) {
+    ok_ = false;
+    if (error_ != nullptr) *error_ = source_.describe() + ": '" + key + "' must be " + expected;
+  }
+  const ParameterSource& source_;
+  std::string* error_;
+  bool ok_ = true;
+};
+
+}  // namespace ekf_vislam

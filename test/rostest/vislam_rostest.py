@@ -83,6 +83,7 @@ class Recorder:
     def __init__(self):
         self.lock = threading.Lock()
         self.odometry = {NODELET: [], NODE: []}
+        self.updates = 0
         self.marker_counts = []  # (wall, all landmarks, active landmarks)
         self.marker_actions = []
         self.path_lengths = []
@@ -90,6 +91,8 @@ class Recorder:
         self.diagnostics = []
         self.subscribers = [
             rospy.Subscriber(NODELET + '/odometry', Odometry, self.on_odometry, NODELET,
+                             queue_size=5000),
+            rospy.Subscriber(NODELET + '/odometry_update', Odometry, self.on_update,
                              queue_size=5000),
             rospy.Subscriber(NODE + '/odometry', Odometry, self.on_odometry, NODE,
                              queue_size=5000),
@@ -103,6 +106,10 @@ class Recorder:
     def on_odometry(self, msg, name):
         with self.lock:
             self.odometry[name].append((time.time(), msg))
+
+    def on_update(self, msg):
+        with self.lock:
+            self.updates += 1
 
     def on_markers(self, msg):
         with self.lock:
@@ -246,6 +253,7 @@ class VislamPipelineTest(unittest.TestCase):
         topics = dict(rospy.get_published_topics())
         expected = {
             NODELET + '/odometry': 'nav_msgs/Odometry',
+            NODELET + '/odometry_update': 'nav_msgs/Odometry',
             NODELET + '/path': 'nav_msgs/Path',
             NODELET + '/landmarks': 'visualization_msgs/MarkerArray',
             '/diagnostics': 'diagnostic_msgs/DiagnosticArray',
@@ -260,8 +268,12 @@ class VislamPipelineTest(unittest.TestCase):
     def test_03_odometry(self):
         with self.recorder.lock:
             received = [msg for _, msg in self.recorder.odometry[NODELET]]
-        # After every predict (300 twists) and every update (300 frames).
-        self.assertGreaterEqual(len(received), 2 * FRAMES - 5)
+        # At every twist (300, from the propagated copy) and after every update not older than
+        # a prediction already published (at most 300): never fewer than one per twist.
+        self.assertGreaterEqual(len(received), FRAMES - 2)
+        self.assertLessEqual(len(received), 2 * FRAMES)
+        with self.recorder.lock:
+            self.assertEqual(self.recorder.updates, FRAMES)  # ~odometry_update: every update
         for msg in received:
             self.assertEqual(msg.header.frame_id, 'world')
             self.assertEqual(msg.child_frame_id, 'imu')

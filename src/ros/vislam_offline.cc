@@ -9,7 +9,7 @@
 #include "ekf_vislam/core/yaml_parameter_source.h"
 #include "ekf_vislam/ros/bag_reader.h"
 #include "ekf_vislam/ros/conversions.h"
-#include "ekf_vislam/ros/estimator_runner.h"
+#include "ekf_vislam/core/estimator_runner.h"
 #include "ekf_vislam/ros/vislam_ros_options.h"
 
 #ifdef EKF_VISLAM_HAVE_ROSLIB

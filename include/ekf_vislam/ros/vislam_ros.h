@@ -16,7 +16,7 @@
 #pragma once
 
 #include "ekf_vislam/core/types.h"
-#include "ekf_vislam/ros/estimator_runner.h"
+#include "ekf_vislam/core/estimator_runner.h"
 #include <ekf_vislam/StereoFeature.h>
 #include <ekf_vislam/StereoFeatureArray.h>
 #include "ekf_vislam/ros/vislam_ros_options.h"

@@ -1,4 +1,4 @@
-#include "ekf_vislam/ros/estimator_runner.h"
+#include "ekf_vislam/core/estimator_runner.h"
 
 #include <algorithm>
 #include <limits>

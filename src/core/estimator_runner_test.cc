@@ -1,0 +1,234 @@
+// EstimatorRunner: stamp order, lazy propagation, the propagated copy, latency, saving.
+#include "ekf_vislam/core/estimator_runner.h"
+
+#include "testing/synthetic_scenario.h"
+
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <limits>
+#include <string>
+#include <sys/stat.h>
+#include <unistd.h>
+
+namespace ekf_vislam {
+namespace {
+
+// A KITTI-like camera looking along the IMU's x axis, at the IMU's origin.
+StereoCalibration forwardCamera() {
+  StereoCalibration c = testing::kittiLikeCalibration();
+  c.baseline = 0.5379;
+  c.cam_T_imu.translation().setZero();
+  return c;
+}
+
+FeatureFrame frameSeeing(double stamp, const Eigen::Vector3d& p_imu, const StereoCalibration& c) {
+  const Eigen::Vector3d q = c.cam_T_imu * p_imu;
+  StereoObservation f;
+  f.id = 1;
+  f.u_left = c.fx * q.x() / q.z() + c.cx;
+  f.v_left = f.v_right = c.fy * q.y() / q.z() + c.cy;
+  f.u_right = c.fx * (q.x() - c.baseline) / q.z() + c.cx;
+  FeatureFrame frame;
+  frame.stamp = stamp;
+  frame.features.push_back(f);
+  return frame;
+}
+
+std::string tempDir() {
+  char pattern[] = "/tmp/ekf_vislam_runner_test_XXXXXX";
+  const char* dir = ::mkdtemp(pattern);
+  return dir ? dir : "";
+}
+
+bool fileExists(const std::string& path) {
+  struct stat info;
+  return ::stat(path.c_str(), &info) == 0;
+}
+
+TEST(EstimatorRunner, FeedsInStampOrderAndRecordsTheTrajectory) {
+  EstimatorRunner runner{VislamOptions(), MeasurementSequencer::Options()};
+  const StereoCalibration calibration = forwardCamera();
+  std::string error;
+  ASSERT_TRUE(runner.estimator().setCalibration(calibration, &error)) << error;
+  std::vector<std::pair<bool, double>> seen;
+  const auto observer = [&](const EstimatorRunner::Processed& p) {
+    seen.emplace_back(p.is_frame, p.stamp);
+    EXPECT_FALSE(p.without_calibration);
+  };
+  for (int k = 0; k < 5; ++k) {
+    const double t = 0.1 * k;
+    TwistData twist;
+    twist.stamp = t;
+    twist.v_imu.x() = 1.0;
+    // The frame of a stamp arrives before its twist: the sequencer puts the twist first.
+    runner.push(frameSeeing(t, Eigen::Vector3d(20.0 - t, 0.5, 0.2), calibration));
+    runner.processReady(observer);
+    runner.push(twist);
+    runner.processReady(observer);
+  }
+  runner.flush(observer);
+  ASSERT_EQ(seen.size(), 10u);
+  for (size_t i = 0; i < seen.size(); ++i) {
+    EXPECT_EQ(seen[i].first, i % 2 == 1) << i;  // twist first at equal stamps
+    EXPECT_DOUBLE_EQ(seen[i].second, 0.1 * static_cast<double>(i / 2)) << i;
+  }
+  EXPECT_EQ(runner.framesFed(), 5u);
+  EXPECT_EQ(runner.twistsFed(), 5u);
+  ASSERT_EQ(runner.trajectory().size(), 5u);
+  EXPECT_EQ(runner.times().count(), 5u);
+  EXPECT_NEAR(runner.trajectory().back().world_T_imu.translation().x(), 0.4, 0.2);
+  const RunSummary summary = runner.summary();
+  EXPECT_EQ(summary.frames, 5u);
+  EXPECT_EQ(summary.mode, "slam");
+  EXPECT_NEAR(summary.data_s, 0.4, 1e-9);
+  EXPECT_GE(summary.landmarks_total, 1u);
+
+  const std::string dir = tempDir();
+  ASSERT_FALSE(dir.empty());
+  ASSERT_TRUE(runner.save(dir + "/run/a", &error)) << error;  // creates folders
+  for (const char* name : {"trajectory.tum", "landmarks.csv", "stats.json"}) {
+    EXPECT_TRUE(fileExists(dir + "/run/a/" + name)) << name;
+  }
+  std::ifstream tum(dir + "/run/a/trajectory.tum");
+  int lines = 0;
+  for (std::string line; std::getline(tum, line);) lines += line.empty() ? 0 : 1;
+  EXPECT_EQ(lines, 5);
+
+  runner.reset();
+  EXPECT_TRUE(runner.trajectory().empty());
+  EXPECT_TRUE(runner.estimator().landmarks().empty());
+  EXPECT_TRUE(runner.estimator().hasCalibration());  // kept
+  EXPECT_EQ(runner.buffered(), 0u);
+  std::system(("rm -rf " + dir).c_str());
+}
+
+
+// A short synthetic drive (twist k and frame k share stamp k).
+const testing::Scenario& shortDrive() {
+  static const testing::Scenario drive = [] {
+    testing::ScenarioOptions options;
+    options.frames = 80;
+    return testing::makeScenario(options);
+  }();
+  return drive;
+}
+
+EstimatorRunner startedRunner() {
+  EstimatorRunner runner{testing::matchedOptions(testing::ScenarioOptions()),
+                         MeasurementSequencer::Options{10.0, 2000}};
+  EXPECT_TRUE(runner.estimator().setCalibration(shortDrive().calibration));
+  return runner;
+}
+
+double maxPositionDifference(const std::vector<StampedPose>& a, const std::vector<StampedPose>& b) {
+  if (a.size() != b.size()) return std::numeric_limits<double>::infinity();
+  double worst = 0.0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    if (a[i].stamp != b[i].stamp) return std::numeric_limits<double>::infinity();
+    worst = std::max(worst, (a[i].world_T_imu.translation() - b[i].world_T_imu.translation()).norm());
+  }
+  return worst;
+}
+
+TEST(EstimatorRunner, ResultDoesNotDependOnArrivalOrderWithinTheWindow) {
+  const testing::Scenario& s = shortDrive();
+  const size_t n = s.frames.size();
+  EstimatorRunner in_order = startedRunner();
+  for (size_t k = 0; k < n; ++k) {
+    in_order.push(s.twists[k]);
+    in_order.processReady();
+    in_order.push(s.frames[k]);
+    in_order.processReady();
+  }
+  in_order.flush();
+  // A stalled reader: backlogs of 20 messages per stream read one stream at a time, twists first
+  // in one block and frames first in the next.
+  EstimatorRunner stalled = startedRunner();
+  for (size_t block = 0; block < n; block += 20) {
+    const size_t end = std::min(n, block + 20);
+    for (int pass = 0; pass < 2; ++pass) {
+      const bool twists = (pass == 0) == ((block / 20) % 2 == 0);
+      for (size_t k = block; k < end; ++k) {
+        if (twists) {
+          stalled.push(s.twists[k]);
+        } else {
+          stalled.push(s.frames[k]);
+        }
+        stalled.processReady();
+      }
+    }
+  }
+  stalled.flush();
+  ASSERT_EQ(in_order.trajectory().size(), n);
+  EXPECT_EQ(maxPositionDifference(in_order.trajectory(), stalled.trajectory()), 0.0);
+  for (Counter c : {Counter::kFrameStale, Counter::kTwistLate, Counter::kTwistUsed,
+                    Counter::kFrameUsed, Counter::kObservationUpdate}) {
+    EXPECT_EQ(in_order.estimator().stats().get(c), stalled.estimator().stats().get(c))
+        << counterName(c);
+  }
+  EXPECT_EQ(stalled.estimator().stats().get(Counter::kFrameStale), 0u);
+  EXPECT_EQ(stalled.estimator().stats().get(Counter::kTwistLate), 0u);
+  EXPECT_EQ(stalled.latencies().count(), n);
+}
+
+TEST(EstimatorRunner, PropagatedCopyFollowsEveryTwistAndNeverChangesTheFilter) {
+  const testing::Scenario& s = shortDrive();
+  EstimatorRunner runner = startedRunner();
+  runner.enablePreview(true);
+  VislamEstimator eager(testing::matchedOptions(testing::ScenarioOptions()));
+  ASSERT_TRUE(eager.setCalibration(s.calibration));
+  for (size_t k = 0; k + 1 < s.frames.size(); k += 2) {
+    runner.push(s.twists[k]);
+    runner.processReady();
+    runner.push(s.frames[k]);
+    runner.processReady();
+    eager.feedTwist(s.twists[k]);
+    eager.feedFeatures(s.frames[k]);
+    // The next twist arrives before its frame: odometry from the copy, filter untouched.
+    const Eigen::Isometry3d filter_before = runner.estimator().worldTImu();
+    const Eigen::MatrixXd covariance_before = runner.estimator().stateCovariance();
+    runner.push(s.twists[k + 1]);
+    runner.processReady();
+    EXPECT_TRUE(runner.estimator().worldTImu().isApprox(filter_before, 0.0)) << k;
+    EXPECT_EQ((runner.estimator().stateCovariance() - covariance_before).norm(), 0.0) << k;
+    eager.feedTwist(s.twists[k + 1]);
+    const EstimatorRunner::Preview& preview = runner.preview();
+    ASSERT_TRUE(preview.valid);
+    EXPECT_EQ(preview.stamp, s.twists[k + 1].stamp);
+    EXPECT_LT((preview.world_T_imu.matrix() - eager.worldTImu().matrix()).norm(), 1e-12) << k;
+    EXPECT_LT((preview.pose_covariance_world - eager.poseCovarianceWorld()).norm(), 1e-12) << k;
+    // The filter catches up when the frame comes.
+    runner.push(s.frames[k + 1]);
+    runner.processReady();
+    eager.feedFeatures(s.frames[k + 1]);
+    EXPECT_LT((runner.estimator().worldTImu().matrix() - eager.worldTImu().matrix()).norm(), 1e-12);
+  }
+}
+
+TEST(EstimatorRunner, FlagsFramesWithoutCalibration) {
+  EstimatorRunner runner{VislamOptions(), MeasurementSequencer::Options()};
+  int without = 0;
+  TwistData twist;
+  twist.stamp = 1.0;
+  runner.push(twist);
+  runner.push(frameSeeing(1.0, Eigen::Vector3d(20.0, 0.0, 0.0), forwardCamera()));
+  runner.flush([&](const EstimatorRunner::Processed& p) { without += p.without_calibration; });
+  EXPECT_EQ(without, 1);
+  EXPECT_EQ(runner.framesWithoutCalibration(), 1u);
+  EXPECT_EQ(runner.estimator().stats().get(Counter::kFrameNoCalibration), 1u);
+}
+
+TEST(EstimatorRunner, SaveFailsWithAMessage) {
+  EstimatorRunner runner{VislamOptions(), MeasurementSequencer::Options()};
+  std::string error;
+  EXPECT_FALSE(runner.save("", &error));
+  EXPECT_FALSE(error.empty());
+  error.clear();
+  EXPECT_FALSE(runner.save("/proc/ekf_vislam_cannot_create", &error));
+  EXPECT_NE(error.find("/proc"), std::string::npos) << error;
+}
+
+}  // namespace
+}  // namespace ekf_vislam

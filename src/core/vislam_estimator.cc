@@ -454,7 +454,7 @@ FeedResult VislamEstimator::feedFeatures(const FeatureFrame& frame) {
 void VislamEstimator::holdRepeatedFrame(const FeatureFrame& frame,
                                         const std::vector<size_t>& new_tracks,
                                         FeedResult* result) {
-  // Measured on the course files (README, "Repeated frames"): from the next frame on, each track
+  // Measured on the course files (doc/estimator.md, "Repeated frames"): from the next frame on, each track
   // through a repeated frame reports its landmark carried along by that frame's motion. With
   // equal motion over the repeated frame and the next one, its next observation is the landmark
   // seen from the pose at the repeated frame (the clone), which bridges the frame; then the

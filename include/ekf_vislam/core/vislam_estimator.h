@@ -135,7 +135,7 @@ class VislamEstimator {
   void clonePose();
   /// Moves each landmark of a track through the last repeated frame by the motion from the
   /// clone to now, p <- world_T_imu imu_T_world(clone) p, with its covariance through the exact
-  /// Jacobian: from now on its track reports that point (README, "Repeated frames").
+  /// Jacobian: from now on its track reports that point (doc/estimator.md, "Repeated frames").
   void shiftCrossingTracks(FeedResult* result);
   /// Screens one observation (finite, in both images, rows agree, positive disparity): false
   /// with the reason counted.

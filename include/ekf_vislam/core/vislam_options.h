@@ -24,7 +24,7 @@ enum class RepeatedFramePolicy {
   kSkip,   ///< predict to its stamp, do not use its observations (its tracks stay alive)
   kShift,  ///< start its new tracks, clone the pose; at the next frame update its other tracks
            ///< against the clone, then move their landmarks by the clone-to-now motion (the
-           ///< course files' tracks through a repeated frame lag by its motion, see README)
+           ///< course files' tracks through a repeated frame lag by its motion, doc/estimator.md)
 };
 
 /// What to do when twist messages stop for longer than limits/max_twist_gap.
@@ -104,7 +104,7 @@ struct VislamOptions {
   int reinitialize_after_gated = 1;
   /// A landmark whose track has been seen in this many frames leaves the state (its estimate stays in
   /// the map) and its track continues as a new landmark (a new map entry with the same id): real
-  /// feature tracks drift away from the physical point over time (README, "Accuracy"). 0 = never.
+  /// feature tracks drift away from the physical point over time (doc/experiments.md). 0 = never.
   int max_track_length = 0;
   /// Track-jump test (track_jump_detector.h): once the pose error common to all landmarks is
   /// removed, a re-observed landmark whose frame-to-frame flow error in uL or v exceeds

@@ -18,15 +18,17 @@ namespace ekf_vislam {
 namespace {
 
 constexpr double kWarnPeriod = 5.0;  // s, throttle of the bad-input warnings
-constexpr size_t kMaxTwists = 400;
+constexpr double kTwistHistory = 5.0;  // s of twists kept for the motion prior
 
 bool readRosOptions(const ros::NodeHandle& pnh, StereoTrackerRosOptions* o, std::string* why) {
   pnh.param("ros/queue_size", o->queue_size, o->queue_size);
   pnh.param("ros/max_stamp_difference", o->max_stamp_difference, o->max_stamp_difference);
   pnh.param("ros/use_twist", o->use_twist, o->use_twist);
+  pnh.param("ros/max_twist_wait", o->max_twist_wait, o->max_twist_wait);
   pnh.param("ros/diagnostic_period", o->diagnostic_period, o->diagnostic_period);
   if (o->queue_size < 1) *why = "ros/queue_size must be >= 1";
   if (!(o->max_stamp_difference >= 0)) *why = "ros/max_stamp_difference must be >= 0";
+  if (!(o->max_twist_wait >= 0)) *why = "ros/max_twist_wait must be >= 0";
   if (!(o->diagnostic_period > 0)) *why = "ros/diagnostic_period must be > 0";
   return why->empty();
 }
@@ -58,11 +60,12 @@ StereoTrackerRos::StereoTrackerRos(ros::NodeHandle nh, ros::NodeHandle pnh, cons
                                            });
 
   const int queue = ros_options_.queue_size;
-  left_info_sub_ = nh_.subscribe("stereo/left/camera_info", 5, &StereoTrackerRos::leftInfoCallback, this);
+  left_info_sub_ =
+      nh_.subscribe("stereo/left/camera_info", queue, &StereoTrackerRos::leftInfoCallback, this);
   right_info_sub_ =
-      nh_.subscribe("stereo/right/camera_info", 5, &StereoTrackerRos::rightInfoCallback, this);
+      nh_.subscribe("stereo/right/camera_info", queue, &StereoTrackerRos::rightInfoCallback, this);
   if (ros_options_.use_twist) {
-    twist_sub_ = nh_.subscribe("imu/twist", 200, &StereoTrackerRos::twistCallback, this);
+    twist_sub_ = nh_.subscribe("imu/twist", 20 * queue, &StereoTrackerRos::twistCallback, this);
   }
   left_sub_.subscribe(nh_, "stereo/left/image_rect", queue);
   right_sub_.subscribe(nh_, "stereo/right/image_rect", queue);
@@ -74,18 +77,53 @@ StereoTrackerRos::StereoTrackerRos(ros::NodeHandle nh, ros::NodeHandle pnh, cons
 void StereoTrackerRos::leftInfoCallback(const sensor_msgs::CameraInfoConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   left_info_ = msg;
+  processReadyPairs();
 }
 
 void StereoTrackerRos::rightInfoCallback(const sensor_msgs::CameraInfoConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   right_info_ = msg;
+  processReadyPairs();
 }
 
 void StereoTrackerRos::twistCallback(const geometry_msgs::TwistStampedConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (!twists_.empty() && msg->header.stamp <= twists_.back().header.stamp) return;
   twists_.push_back(*msg);
-  while (twists_.size() > kMaxTwists) twists_.pop_front();
+  // Keep what the oldest waiting pair and the last tracked one may still need.
+  double keep_from = msg->header.stamp.toSec() - kTwistHistory;
+  if (prev_stamp_ > 0) keep_from = std::min(keep_from, prev_stamp_);
+  while (twists_.size() > 2 && twists_[1].header.stamp.toSec() < keep_from) twists_.pop_front();
+  processReadyPairs();
+}
+
+bool StereoTrackerRos::pairReady(const ImagePair& pair) const {
+  if (!left_info_ || !right_info_) return false;
+  if (!ros_options_.use_twist || twists_.empty()) return true;  // no twist stream: no wait
+  const ros::Time& stamp = pair.first->header.stamp;
+  if (twists_.back().header.stamp >= stamp) return true;
+  return (waiting_pairs_.back().first->header.stamp - stamp).toSec() > ros_options_.max_twist_wait;
+}
+
+void StereoTrackerRos::processReadyPairs() {
+  while (!waiting_pairs_.empty() && pairReady(waiting_pairs_.front())) {
+    const ImagePair pair = waiting_pairs_.front();
+    waiting_pairs_.pop_front();
+    trackPair(pair);
+  }
+  // Without camera_info nothing can be tracked: keep the newest pairs only.
+  while (waiting_pairs_.size() > static_cast<size_t>(ros_options_.queue_size)) {
+    waiting_pairs_.pop_front();
+    ++pairs_dropped_waiting_;
+    if (!left_info_ || !right_info_) ++missing_camera_info_;
+    ROS_WARN_THROTTLE(kWarnPeriod, "%s: %s: oldest waiting pair dropped (%lu so far)",
+                      name_.c_str(),
+                      (!left_info_ || !right_info_)
+                          ? "no camera_info yet on stereo/left/camera_info and "
+                            "stereo/right/camera_info"
+                          : "ros/queue_size pairs wait for the twist stream",
+                      pairs_dropped_waiting_);
+  }
 }
 
 bool StereoTrackerRos::toGray(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray,
@@ -180,7 +218,27 @@ void StereoTrackerRos::imageCallback(const sensor_msgs::ImageConstPtr& left_msg,
                                      const sensor_msgs::ImageConstPtr& right_msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   ++pairs_received_;
+  if (!waiting_pairs_.empty() && left_msg->header.stamp <= waiting_pairs_.back().first->header.stamp) {
+    ++pairs_out_of_order_;
+    ROS_WARN_THROTTLE(kWarnPeriod, "%s: pair stamp %.4f not after the last one: pair skipped "
+                      "(%lu so far)", name_.c_str(), left_msg->header.stamp.toSec(),
+                      pairs_out_of_order_);
+    return;
+  }
+  waiting_pairs_.emplace_back(left_msg, right_msg);
+  processReadyPairs();
+}
+
+void StereoTrackerRos::trackPair(const ImagePair& pair) {
+  const sensor_msgs::ImageConstPtr& left_msg = pair.first;
+  const sensor_msgs::ImageConstPtr& right_msg = pair.second;
   const double stamp = left_msg->header.stamp.toSec();
+  if (prev_stamp_ > 0 && stamp <= prev_stamp_) {
+    ++pairs_out_of_order_;
+    ROS_WARN_THROTTLE(kWarnPeriod, "%s: pair stamp %.4f not after the last tracked one: pair "
+                      "skipped (%lu so far)", name_.c_str(), stamp, pairs_out_of_order_);
+    return;
+  }
   if (std::abs(stamp - right_msg->header.stamp.toSec()) > ros_options_.max_stamp_difference) {
     ++unsynchronized_;
     ROS_WARN_THROTTLE(kWarnPeriod, "%s: left and right images %.4f s apart (more than "
@@ -256,7 +314,8 @@ void StereoTrackerRos::publish(const sensor_msgs::Image& left_msg, const cv::Mat
 void StereoTrackerRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) {
   std::lock_guard<std::mutex> lock(mutex_);
   const uint64_t bad = bad_encoding_ + size_mismatch_ + unsynchronized_ + missing_camera_info_ +
-                       bad_camera_info_ + tracker_refused_;
+                       bad_camera_info_ + tracker_refused_ + pairs_out_of_order_ +
+                       pairs_dropped_waiting_;
   if (pairs_received_ == 0) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no synchronized stereo pair yet");
   } else if (pairs_tracked_ == 0) {
@@ -274,6 +333,9 @@ void StereoTrackerRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWr
   status.add("missing_camera_info", missing_camera_info_);
   status.add("bad_camera_info", bad_camera_info_);
   status.add("tracker_refused", tracker_refused_);
+  status.add("pairs_out_of_order", pairs_out_of_order_);
+  status.add("pairs_dropped_waiting", pairs_dropped_waiting_);
+  status.add("pairs_waiting", waiting_pairs_.size());
   status.add("twist_predictions", twist_used_);
   status.add("features_last", last_features_);
   status.add("track_ms_last", last_ms_);

@@ -66,7 +66,10 @@ class StereoTrackerPipelineTest(unittest.TestCase):
         time.sleep(2.0)
         run(['rosbag', 'play', '--clock', '--quiet', '--rate', str(PLAY_RATE), cls.bag],
             timeout=120)
-        wait_until(lambda: len(cls.odometry) >= FRAMES - 1, 10.0)
+        # On a loaded machine the tracker and the estimator lag behind the bag: wait until the
+        # estimator has reached the last image.
+        wait_until(lambda: cls.images and cls.odometry and
+                   cls.odometry[-1].header.stamp >= max(cls.images), 60.0)
         time.sleep(1.0)
 
     @staticmethod
@@ -92,7 +95,7 @@ class StereoTrackerPipelineTest(unittest.TestCase):
     def test_01_features(self):
         features = list(self.features)
         log('%d feature messages, %d images' % (len(features), len(self.images)))
-        self.assertGreaterEqual(len(features), FRAMES - 2)
+        self.assertEqual(len(features), FRAMES)  # a pair late for any reason waits
         image_stamps = set(s.to_nsec() for s in self.images)
         ids_seen = {}
         for msg in features:

@@ -25,14 +25,16 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <utility>
 
 namespace ekf_vislam {
 
 /// ROS-only options, read from the private namespace under ros/ (see config/tracker.yaml).
 struct StereoTrackerRosOptions {
-  int queue_size = 5;                 ///< image and synchronizer queues
+  int queue_size = 200;               ///< image, synchronizer and waiting-pair queues
   double max_stamp_difference = 0.002;  ///< s, left and right stamps further apart: unsynchronized
   bool use_twist = true;              ///< predict KLT start points from imu/twist (needs tf)
+  double max_twist_wait = 0.5;        ///< s of message time a pair waits for the twist stream
   double diagnostic_period = 1.0;     ///< s
 };
 
@@ -45,7 +47,15 @@ class StereoTrackerRos {
   using SyncPolicy =
       message_filters::sync_policies::ApproximateTime<sensor_msgs::Image, sensor_msgs::Image>;
 
+  using ImagePair = std::pair<sensor_msgs::ImageConstPtr, sensor_msgs::ImageConstPtr>;
+
   void imageCallback(const sensor_msgs::ImageConstPtr& left, const sensor_msgs::ImageConstPtr& right);
+  /// Tracks the waiting pairs that are ready, oldest first (caller holds mutex_).
+  void processReadyPairs();
+  /// A pair is tracked once both camera_infos are known and, with ros/use_twist, once the twist
+  /// stream reaches its stamp or a pair ros/max_twist_wait newer waits behind it (message time).
+  bool pairReady(const ImagePair& pair) const;
+  void trackPair(const ImagePair& pair);
   void leftInfoCallback(const sensor_msgs::CameraInfoConstPtr& msg);
   void rightInfoCallback(const sensor_msgs::CameraInfoConstPtr& msg);
   void twistCallback(const geometry_msgs::TwistStampedConstPtr& msg);
@@ -78,11 +88,13 @@ class StereoTrackerRos {
   std::mutex mutex_;
   sensor_msgs::CameraInfoConstPtr left_info_, right_info_;
   std::deque<geometry_msgs::TwistStamped> twists_;
+  std::deque<ImagePair> waiting_pairs_;  // in stamp order
   double prev_stamp_ = -1;
   // Counters (diagnostics).
   uint64_t pairs_received_ = 0, pairs_tracked_ = 0, bad_encoding_ = 0, size_mismatch_ = 0;
   uint64_t unsynchronized_ = 0, missing_camera_info_ = 0, bad_camera_info_ = 0;
-  uint64_t tracker_refused_ = 0, twist_used_ = 0;
+  uint64_t tracker_refused_ = 0, twist_used_ = 0, pairs_dropped_waiting_ = 0;
+  uint64_t pairs_out_of_order_ = 0;
   int last_features_ = 0;
   double last_ms_ = 0;
 };

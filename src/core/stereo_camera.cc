@@ -89,4 +89,20 @@ bool StereoCamera::inImage(double u, double v, double margin_px) const {
          v <= calibration_.image_height - 1 + margin_px;
 }
 
+Eigen::MatrixXd stereoObservationSelector(bool merge_rows) {
+  if (!merge_rows) return Eigen::Matrix4d::Identity();
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(3, 4);
+  M(0, 0) = 1.0;
+  M(1, 1) = 0.5;
+  M(1, 3) = 0.5;
+  M(2, 2) = 1.0;
+  return M;
+}
+
+StereoCamera scaledStereoCamera(const StereoCalibration& nominal, double baseline_scale_error) {
+  StereoCalibration scaled = nominal;
+  scaled.baseline *= 1.0 + baseline_scale_error;
+  return StereoCamera(scaled);
+}
+
 }  // namespace ekf_vislam

@@ -11,6 +11,14 @@ namespace ekf_vislam {
 using Matrix46d = Eigen::Matrix<double, 4, 6>;
 using Matrix43d = Eigen::Matrix<double, 4, 3>;
 
+/// Rows of the stereo observation [uL, vL, uR, vR] the filter uses: [uL, (vL + vR) / 2, uR]
+/// (merge_rows: vL and vR are one row of a rectified pair) or all four. Rows x 4.
+Eigen::MatrixXd stereoObservationSelector(bool merge_rows);
+
+class StereoCamera;
+/// The camera of `nominal` with its baseline times (1 + baseline_scale_error).
+StereoCamera scaledStereoCamera(const StereoCalibration& nominal, double baseline_scale_error);
+
 class StereoCamera {
  public:
   StereoCamera() = default;

@@ -1,0 +1,117 @@
+// The EKF state: named variables (pose, twist bias, twist rotation, stereo calibration, pose
+// clone, landmarks), their means and one joint covariance. No ROS.
+//
+// Error definitions (doc/estimator.md): pose world_T_imu = exp(eps^) world_T_imu_mean with
+// eps = [rho; phi] (world frame, translation first); bias b_true = b_mean + db; twist rotation
+// R_m = exp(theta^) R_m_mean; disparity offset and baseline-scale error additive; the clone like
+// the pose; landmark i: p_i = exp(phi^) p_i_mean + xi_i in SLAM mode (right-invariant error),
+// p_i = p_i_mean + xi_i otherwise.
+#pragma once
+
+#include "ekf_vislam/core/types.h"
+
+#include <Eigen/Core>
+
+#include <vector>
+
+namespace ekf_vislam {
+
+/// Which variables the state holds and where their rows are. Order: pose, bias, twist rotation,
+/// disparity offset, baseline scale, clone, then the landmarks (3 rows each).
+struct StateLayout {
+  static constexpr int kPoseRow = 0;
+  static constexpr int kPoseDim = 6;
+  /// Entries of u = [v; w] whose bias is estimated (one state row each, in this order).
+  std::vector<int> bias_components;
+  int rotation_dim = 0;   ///< 3 when the twist rotation R_m is estimated
+  int disparity_dim = 0;  ///< 1 when the disparity offset is estimated
+  int scale_dim = 0;      ///< 1 when the baseline scale is estimated
+  int clone_dim = 0;      ///< 6 when the pose clone has rows (repeated frames, SLAM mode)
+
+  int biasDim() const { return static_cast<int>(bias_components.size()); }
+  int biasRow() const { return kPoseDim; }
+  int rotationRow() const { return biasRow() + biasDim(); }
+  int calibrationRow() const { return rotationRow() + rotation_dim; }
+  int calibrationDim() const { return disparity_dim + scale_dim; }
+  int disparityRow() const { return calibrationRow(); }
+  int scaleRow() const { return calibrationRow() + disparity_dim; }
+  /// States the prediction moves besides the pose: bias, twist rotation, calibration.
+  int auxDim() const { return biasDim() + rotation_dim + calibrationDim(); }
+  int cloneRow() const { return kPoseDim + auxDim(); }
+  /// Rows before the first landmark.
+  int headDim() const { return cloneRow() + clone_dim; }
+  int landmarkRow(size_t index) const { return headDim() + 3 * static_cast<int>(index); }
+};
+
+/// Initial standard deviations of the variables (prior/, bias/, extrinsic/, intrinsic/ options).
+struct StatePrior {
+  double position_sigma = 0.0;  ///< m, isotropic in world axes
+  double rotation_sigma = 0.0;  ///< rad
+  double velocity_bias_sigma = 0.0;
+  double gyro_bias_sigma = 0.0;
+  double twist_rotation_sigma = 0.0;
+  double disparity_offset_sigma = 0.0;
+  double baseline_scale_sigma = 0.0;
+};
+
+class FilterState {
+ public:
+  explicit FilterState(StateLayout layout);
+
+  const StateLayout& layout() const { return layout_; }
+  /// Active dimension: head plus 3 per landmark.
+  int dim() const { return dim_; }
+  size_t landmarkCount() const { return static_cast<size_t>(dim_ - layout_.headDim()) / 3; }
+
+  /// Live covariance block (dim x dim) of the capacity-sized storage.
+  Eigen::Block<Eigen::MatrixXd> covariance() { return sigma_.topLeftCorner(dim_, dim_); }
+  Eigen::Block<const Eigen::MatrixXd> covariance() const {
+    return sigma_.topLeftCorner(dim_, dim_);
+  }
+
+  // Means.
+  Eigen::Matrix4d imu_T_world = Eigen::Matrix4d::Identity();
+  /// Pose at the last repeated frame; its error has rows when layout().clone_dim is 6.
+  Eigen::Matrix4d imu_T_world_clone = Eigen::Matrix4d::Identity();
+  Eigen::VectorXd bias;  ///< estimated bias components (layout().bias_components)
+  Eigen::Matrix3d imu_R_twist = Eigen::Matrix3d::Identity();  ///< R_m
+  double disparity_offset = 0.0;      ///< px, measured minus true disparity
+  double baseline_scale_error = 0.0;  ///< beta: baseline = calibrated baseline x (1 + beta)
+  Eigen::Vector3d landmark(size_t index) const {
+    return landmark_means_.segment<3>(layout_.landmarkRow(index));
+  }
+  void setLandmark(size_t index, const Eigen::Vector3d& p_world) {
+    landmark_means_.segment<3>(layout_.landmarkRow(index)) = p_world;
+  }
+
+  /// Means to the origin, no landmark, then setPrior.
+  void reset(const StatePrior& prior);
+  /// Head covariance from the prior about the current pose (landmark rows must be gone), and the
+  /// clone set to the pose.
+  void setPrior(const StatePrior& prior);
+  /// The bias as a full [v; w] vector (zeros where not estimated).
+  Vector6d biasVector() const;
+  /// Copies the pose into the clone (mean, and covariance rows and columns when it has rows).
+  void clonePose();
+
+  /// Adds one landmark at the end: mean, covariance with the rest of the state (3 x dim) and its
+  /// own (3 x 3).
+  void appendLandmark(const Eigen::Vector3d& p_world, const Eigen::MatrixXd& cross_covariance,
+                      const Eigen::Matrix3d& own_covariance);
+  /// Keeps only these rows (ascending, the head included), in place; capacity shrinks after a
+  /// burst.
+  void keepRows(const std::vector<int>& rows);
+  /// Applies an EKF correction dx (dim) to every mean; the pose (and the landmarks' rotation
+  /// with it) only when correct_pose.
+  void applyCorrection(const Eigen::VectorXd& dx, bool correct_pose);
+
+ private:
+  void ensureCapacity(int dim);
+
+  StateLayout layout_;
+  int dim_ = 0;
+  Eigen::VectorXd landmark_means_;  ///< landmark means at their state rows (capacity sized)
+  Eigen::MatrixXd sigma_;           ///< capacity >= dim_; only the top-left dim_ block is live
+};
+
+}  // namespace ekf_vislam

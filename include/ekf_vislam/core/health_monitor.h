@@ -1,0 +1,26 @@
+// Divergence detection: a pose covariance that blew up, or many frames in a row in which most
+// observations disagree with the filter (health/ options). No ROS.
+#pragma once
+
+#include "ekf_vislam/core/vislam_options.h"
+
+#include <string>
+
+namespace ekf_vislam {
+
+class HealthMonitor {
+ public:
+  explicit HealthMonitor(const VislamOptions& options) : options_(&options) {}
+
+  /// One frame: `candidates` re-observed landmarks of which `disagreeing` were gated or jumped,
+  /// and the position sigma (world axes) after it. True when the filter diverged (*why says
+  /// how); the count of bad frames then restarts.
+  bool diverged(int candidates, int disagreeing, double position_sigma, std::string* why);
+  void reset() { consecutive_rejected_frames_ = 0; }
+
+ private:
+  const VislamOptions* options_;  ///< not owned (the estimator keeps it alive)
+  int consecutive_rejected_frames_ = 0;
+};
+
+}  // namespace ekf_vislam

@@ -1,0 +1,50 @@
+// Prediction of the filter state with a body-frame twist: the twist correction (bias, twist
+// rotation, vehicle prior), its noise and the covariance propagation. No ROS.
+#pragma once
+
+#include "ekf_vislam/core/filter_state.h"
+#include "ekf_vislam/core/types.h"
+#include "ekf_vislam/core/vislam_options.h"
+
+namespace ekf_vislam {
+
+class Propagator {
+ public:
+  explicit Propagator(const VislamOptions& options) : options_(&options) {}
+
+  /// Period of the twist samples (time since the previous twist): the message covariance is per
+  /// sample, the configured noise a density.
+  void setSamplePeriod(double period) { sample_period_ = period; }
+
+  /// Moves the state over dt with `twist` (sample k+1 drives [t_k, t_k+1]): the mean by
+  /// T(k+1) = T(k) exp(dt u^), u the corrected twist; the covariance with the process noise
+  /// times noise_scale (a twist gap), the auxiliary states' random walks, and in SLAM mode the
+  /// landmarks' invariant errors moving with the pose error.
+  void predict(double dt, const TwistData& twist, double noise_scale, FilterState* state) const;
+
+  /// u_true = G R_m (u_measured - b) for the current estimates (G: vehicle prior gains).
+  Vector6d correctedTwist(const FilterState& state, const TwistData& twist) const;
+  /// Noise density of the corrected twist in the IMU frame (process noise W = density * dt):
+  /// from the message's covariance when it has one (noise/use_message_covariance), else from
+  /// noise/linear_velocity_noise and angular_velocity_noise; reduced by the vehicle prior.
+  Matrix6d noiseDensity(const FilterState& state, const TwistData& twist) const;
+  /// Covariance of one corrected twist sample [v; w] (density / period).
+  Matrix6d sampleCovariance(const FilterState& state, const TwistData& twist) const;
+
+ private:
+  /// Per-component factor of the vehicle prior on u = [v; w] (1 where there is none).
+  Vector6d velocityPriorGain(const FilterState& state, const TwistData& twist) const;
+  bool usesMessageCovariance(const TwistData& twist) const;
+  /// The message's per-sample covariance in the IMU frame times the sample period.
+  Matrix6d messageDensity(const FilterState& state, const TwistData& twist) const;
+  /// d u / d (bias, twist rotation), 6 x aux (calibration columns zero).
+  Eigen::MatrixXd twistJacobian(const FilterState& state, const TwistData& twist,
+                                const Vector6d& u) const;
+  void addRandomWalks(double dt, FilterState* state) const;
+  double period() const { return std::max(1e-3, sample_period_); }
+
+  const VislamOptions* options_;  ///< not owned (the estimator keeps it alive)
+  double sample_period_ = 0.1;
+};
+
+}  // namespace ekf_vislam

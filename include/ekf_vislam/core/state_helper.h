@@ -1,0 +1,53 @@
+// Generic EKF operations on a FilterState, touching only the variables a Jacobian names: the
+// Mahalanobis distance of one observation, the stacked update, augmentation with a new
+// landmark and marginalization. No ROS.
+#pragma once
+
+#include "ekf_vislam/core/filter_state.h"
+
+#include <Eigen/Core>
+
+#include <vector>
+
+namespace ekf_vislam {
+
+/// The Jacobian of an observation with respect to one variable: the state columns
+/// first_row .. first_row + H.cols() - 1.
+struct JacobianBlock {
+  int first_row = 0;
+  Eigen::MatrixXd H;
+};
+/// An observation's Jacobian: only the blocks it touches (every block has the same rows). The
+/// block order fixes the floating-point summation order.
+using SparseJacobian = std::vector<JacobianBlock>;
+
+enum class UpdateStatus { kApplied, kNotPositiveDefinite, kNonFinite };
+
+struct UpdateOutcome {
+  UpdateStatus status = UpdateStatus::kApplied;
+  bool covariance_repaired = false;  ///< a diagonal entry was not positive and was floored
+};
+
+namespace state_helper {
+
+/// r^T (H Sigma H^T + noise_var I)^-1 r over the touched variables only.
+double mahalanobis2(const FilterState& state, const SparseJacobian& jacobian,
+                    const Eigen::VectorXd& residual, double noise_var);
+
+/// Joint EKF update with the observations stacked (residuals stacked in the same order, each
+/// observation's rows equal to its blocks' rows), noise noise_var I. Covariance through the
+/// Cholesky factor of the innovation covariance (symmetric by construction), then
+/// FilterState::applyCorrection(dx, correct_pose). Nothing changes unless kApplied.
+UpdateOutcome update(FilterState* state, const std::vector<SparseJacobian>& jacobians,
+                     const Eigen::VectorXd& residual, double noise_var, bool correct_pose);
+
+/// Appends a landmark whose error is x_new = A x_head + n (A: 3 x head dim, only pose and
+/// auxiliary columns non-zero; n: independent, covariance own_covariance).
+void augment(FilterState* state, const Eigen::Vector3d& p_world, const Eigen::MatrixXd& A_head,
+             const Eigen::Matrix3d& own_covariance);
+
+/// Marginalizes the landmarks whose flag is set (flags: one per landmark).
+void marginalizeLandmarks(FilterState* state, const std::vector<bool>& remove);
+
+}  // namespace state_helper
+}  // namespace ekf_vislam

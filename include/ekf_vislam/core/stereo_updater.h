@@ -1,0 +1,90 @@
+// The stereo update: for each re-observed landmark the predicted observation
+// z = Ks pi(cam_T_imu T^-1 m), its residual and Jacobians, a verdict (gated, restarted, split,
+// jumped, accepted), then one stacked EKF update with the accepted ones. No ROS.
+#pragma once
+
+#include "ekf_vislam/core/estimator_stats.h"
+#include "ekf_vislam/core/feed_result.h"
+#include "ekf_vislam/core/filter_state.h"
+#include "ekf_vislam/core/landmark_manager.h"
+#include "ekf_vislam/core/state_helper.h"
+#include "ekf_vislam/core/stereo_camera.h"
+#include "ekf_vislam/core/vislam_options.h"
+
+#include <Eigen/Core>
+
+#include <vector>
+
+namespace ekf_vislam {
+
+/// One observation of a landmark in the state (or, for initialization, of a new track).
+struct StereoCandidate {
+  StereoObservation feature;
+  size_t landmark = 0;  ///< state index (update candidates)
+  /// A restart: overwrite this map entry instead of adding one.
+  size_t reuse_map_index = LandmarkManager::kNewMapEntry;
+  /// The track ran through the last repeated frame: this observation shows its landmark from the
+  /// clone (the pose at that frame), not from the current pose.
+  bool via_clone = false;
+  // Filled by the updater.
+  Eigen::VectorXd residual;
+  Eigen::MatrixXd H_pose;         ///< rows x 6
+  Eigen::MatrixXd H_landmark;     ///< rows x 3
+  Eigen::MatrixXd H_calibration;  ///< rows x calibration dim
+  Eigen::MatrixXd H_clone;        ///< rows x 6, when seen from the clone in SLAM mode
+  bool clone_columns = false;     ///< H_clone is used
+  double mahalanobis2 = 0.0;  ///< of the residual against its own innovation covariance
+  bool predicted = false;     ///< false: the landmark is not in front of the camera
+  bool jumped = false;        ///< the track-jump test flagged it
+};
+
+/// What the update decided besides the correction.
+struct StereoUpdateOutcome {
+  LandmarkDecisions leaving;  ///< landmarks that leave the state (apply at once)
+  /// Observations that start a landmark again (restarts and splits), in candidate order.
+  std::vector<StereoCandidate> restart_from;
+  /// Observations that disagreed with the filter (gated or jumped).
+  int disagreeing = 0;
+};
+
+class StereoUpdater {
+ public:
+  explicit StereoUpdater(const VislamOptions& options);
+
+  int rowsPerObservation() const { return rows_per_observation_; }
+
+  /// Linearizes every candidate, runs the track-jump test (when jump_test), decides each one and
+  /// updates the state with the accepted observations. Landmark bookkeeping (gating counts,
+  /// flow references, observation counts) follows; removals are returned, not applied. With
+  /// the baseline scale in the state, *camera follows its corrected estimate (from `nominal`).
+  StereoUpdateOutcome update(std::vector<StereoCandidate>* candidates, bool jump_test,
+                             const StereoCalibration& nominal, StereoCamera* camera,
+                             FilterState* state, LandmarkManager* landmarks,
+                             EstimatorStats* stats, FeedResult* result) const;
+
+ private:
+  /// Predicted observation, residual, Jacobians and Mahalanobis distance of one candidate;
+  /// false when the landmark is not in front of the camera.
+  bool linearize(const StereoCamera& camera, const FilterState& state,
+                 StereoCandidate* c) const;
+  /// Jacobian blocks over the touched variables: for the gate, and for the stacked update.
+  SparseJacobian gateJacobian(const FilterState& state, const StereoCandidate& c) const;
+  SparseJacobian updateJacobian(const FilterState& state, const StereoCandidate& c) const;
+  /// Flags the candidates whose track jumped (track_jump_detector.h).
+  void detectJumps(const FilterState& state, const LandmarkManager& landmarks,
+                   std::vector<StereoCandidate>* candidates) const;
+  /// Gate, restart and split policy for one linearized candidate: true when it is accepted.
+  bool decide(StereoCandidate* c, LandmarkManager* landmarks, StereoUpdateOutcome* outcome,
+              EstimatorStats* stats, FeedResult* result) const;
+  /// True when the state was corrected.
+  bool stackedUpdate(const std::vector<StereoCandidate*>& accepted, FilterState* state,
+                     LandmarkManager* landmarks, EstimatorStats* stats, FeedResult* result) const;
+
+  const VislamOptions* options_;  ///< not owned (the estimator keeps it alive)
+  int rows_per_observation_ = 3;
+  Eigen::MatrixXd observation_selector_;  ///< rows x 4
+  double gate_threshold_ = 0.0;
+  double restart_threshold_ = 0.0;  ///< chi-square 0.9999: gross disagreement (track jumped)
+};
+
+}  // namespace ekf_vislam

@@ -1,0 +1,151 @@
+#include "ekf_vislam/core/filter_state.h"
+
+#include "ekf_vislam/core/se3.h"
+
+#include <algorithm>
+
+namespace ekf_vislam {
+
+FilterState::FilterState(StateLayout layout) : layout_(std::move(layout)) {}
+
+void FilterState::reset(const StatePrior& prior) {
+  imu_T_world.setIdentity();
+  imu_T_world_clone.setIdentity();
+  bias = Eigen::VectorXd::Zero(layout_.biasDim());
+  imu_R_twist.setIdentity();
+  disparity_offset = 0.0;
+  baseline_scale_error = 0.0;
+  dim_ = layout_.headDim();
+  const int capacity = std::max(64, dim_);
+  sigma_ = Eigen::MatrixXd::Zero(capacity, capacity);
+  landmark_means_ = Eigen::VectorXd::Zero(capacity);
+  setPrior(prior);
+}
+
+void FilterState::setPrior(const StatePrior& prior) {
+  auto S = covariance();
+  S.setZero();
+  const double p2 = prior.position_sigma * prior.position_sigma;
+  const double r2 = prior.rotation_sigma * prior.rotation_sigma;
+  // The prior is isotropic in (delta p, delta theta) about the current position; the internal
+  // world-frame error has rho = delta p - phi x p, i.e. Sigma = M^-1 diag M^-T, M^-1 = [[I, p^],
+  // [0, I]] (the identity at the origin).
+  Matrix6d M_inv = Matrix6d::Identity();
+  const Eigen::Vector3d p_imu_world = se3::inverse(imu_T_world).topRightCorner<3, 1>();
+  M_inv.topRightCorner<3, 3>() = se3::hat(p_imu_world);
+  Vector6d diagonal;
+  diagonal << p2, p2, p2, r2, r2, r2;
+  sigma_.topLeftCorner<6, 6>() = M_inv * diagonal.asDiagonal() * M_inv.transpose();
+  for (int i = 0; i < layout_.biasDim(); ++i) {
+    const double s = layout_.bias_components[i] < 3 ? prior.velocity_bias_sigma
+                                                    : prior.gyro_bias_sigma;
+    const int row = layout_.biasRow() + i;
+    sigma_(row, row) = s * s;
+  }
+  for (int i = 0; i < layout_.rotation_dim; ++i) {
+    const int row = layout_.rotationRow() + i;
+    sigma_(row, row) = prior.twist_rotation_sigma * prior.twist_rotation_sigma;
+  }
+  if (layout_.disparity_dim > 0) {
+    const int row = layout_.disparityRow();
+    sigma_(row, row) = prior.disparity_offset_sigma * prior.disparity_offset_sigma;
+  }
+  if (layout_.scale_dim > 0) {
+    const int row = layout_.scaleRow();
+    sigma_(row, row) = prior.baseline_scale_sigma * prior.baseline_scale_sigma;
+  }
+  clonePose();
+}
+
+Vector6d FilterState::biasVector() const {
+  Vector6d b = Vector6d::Zero();
+  for (int i = 0; i < layout_.biasDim(); ++i) b(layout_.bias_components[i]) = bias(i);
+  return b;
+}
+
+void FilterState::clonePose() {
+  imu_T_world_clone = imu_T_world;
+  if (layout_.clone_dim == 0) return;
+  // The clone's error equals the pose error now: rows, then columns (which sets the clone block
+  // to the pose block).
+  auto S = covariance();
+  const int c = layout_.cloneRow();
+  S.middleRows(c, StateLayout::kPoseDim) = S.topRows(StateLayout::kPoseDim);
+  S.middleCols(c, StateLayout::kPoseDim) = S.leftCols(StateLayout::kPoseDim);
+}
+
+void FilterState::ensureCapacity(int dim) {
+  const int capacity = static_cast<int>(sigma_.rows());
+  if (dim <= capacity) return;
+  const int new_capacity = std::max(dim, 2 * capacity);
+  Eigen::MatrixXd grown = Eigen::MatrixXd::Zero(new_capacity, new_capacity);
+  grown.topLeftCorner(dim_, dim_) = sigma_.topLeftCorner(dim_, dim_);
+  sigma_.swap(grown);
+  Eigen::VectorXd grown_mean = Eigen::VectorXd::Zero(new_capacity);
+  grown_mean.head(dim_) = landmark_means_.head(dim_);
+  landmark_means_.swap(grown_mean);
+}
+
+void FilterState::appendLandmark(const Eigen::Vector3d& p_world,
+                                 const Eigen::MatrixXd& cross_covariance,
+                                 const Eigen::Matrix3d& own_covariance) {
+  const int row = dim_;
+  ensureCapacity(dim_ + 3);
+  auto S = sigma_.topLeftCorner(dim_ + 3, dim_ + 3);
+  S.block(row, 0, 3, dim_) = cross_covariance;
+  S.block(0, row, dim_, 3) = cross_covariance.transpose();
+  S.block<3, 3>(row, row) = own_covariance;
+  landmark_means_.segment<3>(row) = p_world;
+  dim_ += 3;
+}
+
+void FilterState::keepRows(const std::vector<int>& rows) {
+  // New indices never exceed old ones, so ascending copies are safe.
+  const int new_dim = static_cast<int>(rows.size());
+  for (int c = 0; c < new_dim; ++c) {
+    if (rows[c] != c) sigma_.col(c).head(dim_) = sigma_.col(rows[c]).head(dim_);
+  }
+  for (int c = 0; c < new_dim; ++c) {
+    for (int r = 0; r < new_dim; ++r) {
+      if (rows[r] != r) sigma_(r, c) = sigma_(rows[r], c);
+    }
+  }
+  for (int r = 0; r < new_dim; ++r) landmark_means_(r) = landmark_means_(rows[r]);
+  dim_ = new_dim;
+  // Give memory back after a burst (a frame with thousands of new landmarks).
+  const int capacity = static_cast<int>(sigma_.rows());
+  if (capacity > 256 && dim_ < capacity / 4) {
+    const int new_capacity = std::max(64, 2 * dim_);
+    Eigen::MatrixXd shrunk = sigma_.topLeftCorner(new_capacity, new_capacity);
+    sigma_.swap(shrunk);
+    Eigen::VectorXd shrunk_mean = landmark_means_.head(new_capacity);
+    landmark_means_.swap(shrunk_mean);
+  }
+}
+
+void FilterState::applyCorrection(const Eigen::VectorXd& dx, bool correct_pose) {
+  const StateLayout& L = layout_;
+  if (correct_pose) {
+    // world_T_imu <- exp(eps^) world_T_imu  <=>  imu_T_world <- imu_T_world exp(-eps^).
+    imu_T_world = imu_T_world * se3::exp(-dx.head<6>());
+    se3::normalizeRotation(&imu_T_world);
+  }
+  if (L.clone_dim > 0) {
+    imu_T_world_clone = imu_T_world_clone * se3::exp(-dx.segment<6>(L.cloneRow()));
+    se3::normalizeRotation(&imu_T_world_clone);
+  }
+  if (L.biasDim() > 0) bias += dx.segment(L.biasRow(), L.biasDim());
+  if (L.rotation_dim > 0) imu_R_twist = se3::expSO3(dx.segment<3>(L.rotationRow())) * imu_R_twist;
+  if (L.disparity_dim > 0) disparity_offset += dx(L.disparityRow());
+  if (L.scale_dim > 0) baseline_scale_error += dx(L.scaleRow());
+  // Landmarks: p <- exp(dphi^) p + J_l(dphi) dxi (the SE_K(3) exponential).
+  const Eigen::Vector3d dphi =
+      correct_pose ? Eigen::Vector3d(dx.segment<3>(3)) : Eigen::Vector3d::Zero();
+  const Eigen::Matrix3d R = se3::expSO3(dphi);
+  const Eigen::Matrix3d J = se3::leftJacobianSO3(dphi);
+  for (int row = L.headDim(); row < dim_; row += 3) {
+    landmark_means_.segment<3>(row) = R * landmark_means_.segment<3>(row) + J * dx.segment<3>(row);
+  }
+}
+
+}  // namespace ekf_vislam

@@ -1,0 +1,161 @@
+#include "ekf_vislam/core/propagator.h"
+
+#include "ekf_vislam/core/se3.h"
+
+#include <algorithm>
+
+namespace ekf_vislam {
+
+Vector6d Propagator::correctedTwist(const FilterState& state, const TwistData& twist) const {
+  const Vector6d b = state.biasVector();
+  const Eigen::Vector3d v_twist = twist.v_imu - b.head<3>();
+  const Eigen::Vector3d w_twist = twist.w_imu - b.tail<3>();
+  Vector6d u;
+  u.head<3>() =
+      velocityPriorGain(state, twist).head<3>().cwiseProduct(state.imu_R_twist * v_twist);
+  u.tail<3>() = state.imu_R_twist * w_twist;
+  return u;
+}
+
+Vector6d Propagator::velocityPriorGain(const FilterState& state, const TwistData& twist) const {
+  // A measured component (IMU frame) with per-sample variance r fused with a zero-mean prior of
+  // variance s^2: mean g * measured, variance g * r, with g = s^2 / (s^2 + r). r is the
+  // message's own variance when it carries a covariance (noise/use_message_covariance), else
+  // sigma_v^2 / dt (isotropic: rotating by R_m keeps it).
+  Vector6d gain = Vector6d::Ones();
+  const bool own = usesMessageCovariance(twist);
+  const Matrix6d own_density = own ? messageDensity(state, twist) : Matrix6d::Zero();
+  const double dt = period();
+  const double r_configured = options_->linear_velocity_noise * options_->linear_velocity_noise / dt;
+  const double sigmas[2] = {options_->lateral_velocity_sigma, options_->vertical_velocity_sigma};
+  for (int axis = 1; axis <= 2; ++axis) {
+    const double r = own ? own_density(axis, axis) / dt : r_configured;
+    const double s2 = sigmas[axis - 1] * sigmas[axis - 1];
+    if (s2 > 0.0 && r > 0.0) gain(axis) = s2 / (s2 + r);
+  }
+  return gain;
+}
+
+bool Propagator::usesMessageCovariance(const TwistData& twist) const {
+  return options_->use_message_covariance && twist.hasCovariance();
+}
+
+Matrix6d Propagator::messageDensity(const FilterState& state, const TwistData& twist) const {
+  Matrix6d R = Matrix6d::Zero();
+  R.topLeftCorner<3, 3>() = state.imu_R_twist;
+  R.bottomRightCorner<3, 3>() = state.imu_R_twist;
+  return period() * R * twist.covariance * R.transpose();
+}
+
+Matrix6d Propagator::noiseDensity(const FilterState& state, const TwistData& twist) const {
+  const Vector6d gain = velocityPriorGain(state, twist);
+  if (usesMessageCovariance(twist)) {
+    const Vector6d root = gain.cwiseSqrt();
+    return root.asDiagonal() * messageDensity(state, twist) * root.asDiagonal();
+  }
+  const double qv = options_->linear_velocity_noise * options_->linear_velocity_noise;
+  const double qw = options_->angular_velocity_noise * options_->angular_velocity_noise;
+  Vector6d q = gain;
+  q.head<3>() *= qv;
+  q.tail<3>() *= qw;
+  return q.asDiagonal();
+}
+
+Matrix6d Propagator::sampleCovariance(const FilterState& state, const TwistData& twist) const {
+  Matrix6d cov = noiseDensity(state, twist) / period();
+  const StateLayout& layout = state.layout();
+  const auto S = state.covariance();
+  for (int i = 0; i < layout.biasDim(); ++i) {
+    for (int j = 0; j < layout.biasDim(); ++j) {
+      cov(layout.bias_components[i], layout.bias_components[j]) +=
+          S(layout.biasRow() + i, layout.biasRow() + j);
+    }
+  }
+  return cov;
+}
+
+Eigen::MatrixXd Propagator::twistJacobian(const FilterState& state, const TwistData& twist,
+                                          const Vector6d& u) const {
+  // u = [Gv R_m (v - b_v); R_m (w - b_w)] (Gv: vehicle prior gains): du/db = -[Gv R_m; R_m]
+  // (bias components) and du/dtheta = -[Gv (R_m (v - b_v))^; (R_m (w - b_w))^].
+  const StateLayout& layout = state.layout();
+  const int bias_dim = layout.biasDim();
+  Eigen::MatrixXd du_daux = Eigen::MatrixXd::Zero(StateLayout::kPoseDim, layout.auxDim());
+  const Eigen::Matrix3d Gv = velocityPriorGain(state, twist).head<3>().asDiagonal();
+  for (int i = 0; i < bias_dim; ++i) {
+    const int c = layout.bias_components[i];
+    if (c < 3) {
+      du_daux.block<3, 1>(0, i) = -Gv * state.imu_R_twist.col(c);
+    } else {
+      du_daux.block<3, 1>(3, i) = -state.imu_R_twist.col(c - 3);
+    }
+  }
+  if (layout.rotation_dim > 0) {
+    const Eigen::Vector3d v_imu = state.imu_R_twist * (twist.v_imu - state.biasVector().head<3>());
+    du_daux.block<3, 3>(0, bias_dim) = -Gv * se3::hat(v_imu);
+    du_daux.block<3, 3>(3, bias_dim) = -se3::hat(Eigen::Vector3d(u.tail<3>()));
+  }
+  return du_daux;
+}
+
+void Propagator::predict(double dt, const TwistData& twist, double noise_scale,
+                         FilterState* state) const {
+  const StateLayout& layout = state->layout();
+  constexpr int kPoseDim = StateLayout::kPoseDim;
+  const Vector6d u = correctedTwist(*state, twist);
+  const Vector6d xi = -dt * u;
+  state->imu_T_world = se3::exp(xi) * state->imu_T_world;
+  se3::normalizeRotation(&state->imu_T_world);
+
+  // World-frame error: T' = exp(eps^) T_mean exp(dt (u - b)^), so eps' = eps + d with
+  // d = -dt Ad(T') J_l(xi) db + Ad(T') dt n (n: twist noise). A change d of the pose error moves
+  // the invariant landmark errors too: xi_i' = xi_i + p_i^ d_phi (the landmark is static,
+  // exp(phi^) p_mean is not). D maps d into the state: identity on the pose, [0, p_i^] on each
+  // landmark (SLAM mode; in mapping mode the landmarks do not depend on the pose).
+  const Matrix6d Ad = se3::adjoint(se3::inverse(state->imu_T_world));
+  const int dim = state->dim();
+  auto S = state->covariance();
+  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(dim, kPoseDim);
+  D.topLeftCorner<6, 6>().setIdentity();
+  if (options_->mode == EstimatorMode::kSlam) {
+    for (size_t k = 0; k < state->landmarkCount(); ++k) {
+      D.block<3, 3>(layout.landmarkRow(k), 3) = se3::hat(state->landmark(k));
+    }
+  }
+  const int aux = layout.auxDim();
+  if (aux > 0) {
+    // F = I + E on the auxiliary columns, E = D G (dim x aux), G = dt Ad J_l(xi) du/daux.
+    const Eigen::MatrixXd G = dt * Ad * se3::leftJacobian(xi) * twistJacobian(*state, twist, u);
+    const Eigen::MatrixXd E = D * G;
+    const Eigen::MatrixXd E_sigma = E * S.middleRows(kPoseDim, aux);  // dim x dim
+    const Eigen::MatrixXd sigma_aa = S.block(kPoseDim, kPoseDim, aux, aux);
+    S += E_sigma + E_sigma.transpose() + E * sigma_aa * E.transpose();
+  }
+  const Matrix6d Q_world = (noise_scale * dt) * Ad * noiseDensity(*state, twist) * Ad.transpose();
+  S.noalias() += D * Q_world * D.transpose();
+  addRandomWalks(dt, state);
+}
+
+void Propagator::addRandomWalks(double dt, FilterState* state) const {
+  const StateLayout& layout = state->layout();
+  auto S = state->covariance();
+  for (int i = 0; i < layout.biasDim(); ++i) {
+    const double rw = layout.bias_components[i] < 3 ? options_->velocity_bias_random_walk
+                                                    : options_->gyro_bias_random_walk;
+    S(layout.biasRow() + i, layout.biasRow() + i) += dt * rw * rw;
+  }
+  const double rot_rw = options_->twist_rotation_random_walk;
+  for (int i = 0; i < layout.rotation_dim; ++i) {
+    S(layout.rotationRow() + i, layout.rotationRow() + i) += dt * rot_rw * rot_rw;
+  }
+  if (layout.disparity_dim > 0) {
+    const double rw = options_->disparity_offset_random_walk;
+    S(layout.disparityRow(), layout.disparityRow()) += dt * rw * rw;
+  }
+  if (layout.scale_dim > 0) {
+    const double rw = options_->baseline_scale_random_walk;
+    S(layout.scaleRow(), layout.scaleRow()) += dt * rw * rw;
+  }
+}
+
+}  // namespace ekf_vislam

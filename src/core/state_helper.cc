@@ -1,0 +1,121 @@
+#include "ekf_vislam/core/state_helper.h"
+
+#include <Eigen/Cholesky>
+
+namespace ekf_vislam {
+namespace state_helper {
+
+double mahalanobis2(const FilterState& state, const SparseJacobian& jacobian,
+                    const Eigen::VectorXd& residual, double noise_var) {
+  int columns = 0;
+  for (const JacobianBlock& block : jacobian) columns += static_cast<int>(block.H.cols());
+  const int rows = static_cast<int>(residual.size());
+  Eigen::MatrixXd H(rows, columns);
+  std::vector<int> index;
+  index.reserve(columns);
+  int used = 0;
+  for (const JacobianBlock& block : jacobian) {
+    H.middleCols(used, block.H.cols()) = block.H;
+    used += static_cast<int>(block.H.cols());
+    for (int a = 0; a < block.H.cols(); ++a) index.push_back(block.first_row + a);
+  }
+  const auto S = state.covariance();
+  Eigen::MatrixXd sub(columns, columns);
+  for (int a = 0; a < columns; ++a) {
+    for (int b = 0; b < columns; ++b) sub(a, b) = S(index[a], index[b]);
+  }
+  Eigen::MatrixXd innovation_cov = H * sub * H.transpose();
+  innovation_cov.diagonal().array() += noise_var;
+  return residual.dot(innovation_cov.ldlt().solve(residual));
+}
+
+UpdateOutcome update(FilterState* state, const std::vector<SparseJacobian>& jacobians,
+                     const Eigen::VectorXd& residual, double noise_var, bool correct_pose) {
+  UpdateOutcome outcome;
+  auto S = state->covariance();
+  const int dim = state->dim();
+  const int m = static_cast<int>(residual.size());
+  // P H^T (dim x m) from the touched columns only, then H P H^T + R (m x m).
+  Eigen::MatrixXd PHt(dim, m);
+  int row = 0;
+  for (const SparseJacobian& jacobian : jacobians) {
+    const int r = static_cast<int>(jacobian.front().H.rows());
+    bool first = true;
+    for (const JacobianBlock& block : jacobian) {
+      const auto columns = S.middleCols(block.first_row, block.H.cols());
+      if (first) {
+        PHt.middleCols(row, r).noalias() = columns * block.H.transpose();
+      } else {
+        PHt.middleCols(row, r).noalias() += columns * block.H.transpose();
+      }
+      first = false;
+    }
+    row += r;
+  }
+  Eigen::MatrixXd innovation_cov(m, m);
+  row = 0;
+  for (const SparseJacobian& jacobian : jacobians) {
+    const int r = static_cast<int>(jacobian.front().H.rows());
+    bool first = true;
+    for (const JacobianBlock& block : jacobian) {
+      const auto rows = PHt.middleRows(block.first_row, block.H.cols());
+      if (first) {
+        innovation_cov.middleRows(row, r).noalias() = block.H * rows;
+      } else {
+        innovation_cov.middleRows(row, r).noalias() += block.H * rows;
+      }
+      first = false;
+    }
+    row += r;
+  }
+  innovation_cov.diagonal().array() += noise_var;
+  Eigen::LLT<Eigen::MatrixXd> llt(innovation_cov);
+  if (llt.info() != Eigen::Success) {
+    outcome.status = UpdateStatus::kNotPositiveDefinite;
+    return outcome;
+  }
+  // B = L^-1 (P H^T)^T; dx = B^T L^-1 r; Sigma -= B^T B (symmetric by construction).
+  const Eigen::MatrixXd B = llt.matrixL().solve(PHt.transpose());
+  const Eigen::VectorXd w = llt.matrixL().solve(residual);
+  const Eigen::VectorXd dx = B.transpose() * w;
+  if (!dx.allFinite() || !B.allFinite()) {
+    outcome.status = UpdateStatus::kNonFinite;
+    return outcome;
+  }
+  S.selfadjointView<Eigen::Lower>().rankUpdate(B.transpose(), -1.0);
+  for (int j = 1; j < dim; ++j) S.col(j).head(j) = S.row(j).head(j).transpose();
+  state->applyCorrection(dx, correct_pose);
+  // Guard: the diagonal must stay positive.
+  if (!(S.diagonal().array() > 0.0).all()) {
+    outcome.covariance_repaired = true;
+    S.diagonal() = S.diagonal().cwiseMax(1e-12);
+  }
+  return outcome;
+}
+
+void augment(FilterState* state, const Eigen::Vector3d& p_world, const Eigen::MatrixXd& A_head,
+             const Eigen::Matrix3d& own_covariance) {
+  // Cov(x_new, state) = A Sigma_[head, :]: O(head x dim), not O(dim^2).
+  const int head = static_cast<int>(A_head.cols());
+  const auto S = state->covariance();
+  const Eigen::MatrixXd cross = A_head * S.topRows(head);
+  Eigen::Matrix3d sigma_new = own_covariance;
+  sigma_new += cross.leftCols(head) * A_head.transpose();
+  state->appendLandmark(p_world, cross, sigma_new);
+}
+
+void marginalizeLandmarks(FilterState* state, const std::vector<bool>& remove) {
+  const StateLayout& layout = state->layout();
+  std::vector<int> keep_rows;
+  keep_rows.reserve(state->dim());
+  for (int i = 0; i < layout.headDim(); ++i) keep_rows.push_back(i);
+  for (size_t k = 0; k < remove.size(); ++k) {
+    if (remove[k]) continue;
+    const int row = layout.landmarkRow(k);
+    for (int i = 0; i < 3; ++i) keep_rows.push_back(row + i);
+  }
+  state->keepRows(keep_rows);
+}
+
+}  // namespace state_helper
+}  // namespace ekf_vislam

@@ -1,0 +1,222 @@
+#include "ekf_vislam/core/stereo_updater.h"
+
+#include "ekf_vislam/core/chi_square.h"
+#include "ekf_vislam/core/se3.h"
+#include "ekf_vislam/core/track_jump_detector.h"
+
+namespace ekf_vislam {
+
+StereoUpdater::StereoUpdater(const VislamOptions& options)
+    : options_(&options),
+      rows_per_observation_(options.merge_stereo_rows ? 3 : 4),
+      observation_selector_(stereoObservationSelector(options.merge_stereo_rows)),
+      gate_threshold_(chiSquareQuantile(options.gating_probability, rows_per_observation_)),
+      restart_threshold_(chiSquareQuantile(0.9999, rows_per_observation_)) {}
+
+bool StereoUpdater::linearize(const StereoCamera& camera, const FilterState& state,
+                              StereoCandidate* c) const {
+  const StateLayout& layout = state.layout();
+  const Eigen::MatrixXd& M = observation_selector_;
+  const Eigen::Vector3d p_world = state.landmark(c->landmark);
+  Eigen::Vector4d z_pred;
+  Matrix43d H_landmark;
+  const Eigen::Matrix4d& imu_T_world = c->via_clone ? state.imu_T_world_clone : state.imu_T_world;
+  if (!camera.project(imu_T_world, p_world, &z_pred, nullptr, &H_landmark,
+                      options_->min_depth * 0.5)) {
+    return false;
+  }
+  const Eigen::Vector4d z(c->feature.u_left, c->feature.v_left, c->feature.u_right,
+                          c->feature.v_right);
+  // d z / d calibration: the uR row only. Offset: measured uR = true uR - offset. Baseline
+  // scale: uR = fx (x - b0 (1 + beta)) / z + cx, d uR / d beta = -fx b0 / z.
+  Eigen::Matrix<double, 4, 2> H_calibration = Eigen::Matrix<double, 4, 2>::Zero();
+  if (layout.disparity_dim > 0) H_calibration(2, 0) = -1.0;
+  if (layout.scale_dim > 0) {
+    H_calibration(2, layout.disparity_dim) =
+        -(z_pred(0) - z_pred(2)) / (1.0 + state.baseline_scale_error);
+  }
+  c->H_calibration = M * H_calibration.leftCols(layout.calibrationDim());
+  z_pred(2) -= state.disparity_offset;
+  c->residual = M * (z - z_pred);
+  // Invariant error: p_imu = R^T (p_mean + xi - rho - p) to first order, so the observation
+  // depends on rho through -H_landmark and not at all on phi.
+  c->H_landmark = M * H_landmark;
+  c->H_pose = Eigen::MatrixXd::Zero(rows_per_observation_, StateLayout::kPoseDim);
+  c->clone_columns = c->via_clone && layout.clone_dim > 0;
+  if (c->clone_columns) {
+    // Seen from the clone (error [rho_c; phi_c]): p_imu = R_c^T (p_mean + xi - rho_c +
+    // p^ (phi_c - phi) - t_c) to first order, so the current pose enters through phi only.
+    const Eigen::MatrixXd H_p = c->H_landmark * se3::hat(p_world);
+    c->H_pose.rightCols<3>() = -H_p;
+    c->H_clone = Eigen::MatrixXd::Zero(rows_per_observation_, StateLayout::kPoseDim);
+    c->H_clone.leftCols<3>() = -c->H_landmark;
+    c->H_clone.rightCols<3>() = H_p;
+  } else if (options_->mode == EstimatorMode::kSlam) {
+    c->H_pose.leftCols<3>() = -c->H_landmark;
+  }
+  const double pixel_var = options_->pixel_sigma * options_->pixel_sigma;
+  c->mahalanobis2 =
+      state_helper::mahalanobis2(state, gateJacobian(state, *c), c->residual, pixel_var);
+  return true;
+}
+
+SparseJacobian StereoUpdater::gateJacobian(const FilterState& state,
+                                           const StereoCandidate& c) const {
+  const StateLayout& layout = state.layout();
+  SparseJacobian jacobian{{StateLayout::kPoseRow, c.H_pose}};
+  if (layout.calibrationDim() > 0) jacobian.push_back({layout.calibrationRow(), c.H_calibration});
+  if (c.clone_columns) jacobian.push_back({layout.cloneRow(), c.H_clone});
+  jacobian.push_back({layout.landmarkRow(c.landmark), c.H_landmark});
+  return jacobian;
+}
+
+SparseJacobian StereoUpdater::updateJacobian(const FilterState& state,
+                                             const StereoCandidate& c) const {
+  const StateLayout& layout = state.layout();
+  SparseJacobian jacobian{{layout.landmarkRow(c.landmark), c.H_landmark}};
+  if (options_->mode == EstimatorMode::kSlam) jacobian.push_back({StateLayout::kPoseRow, c.H_pose});
+  if (c.clone_columns) jacobian.push_back({layout.cloneRow(), c.H_clone});
+  if (layout.calibrationDim() > 0) jacobian.push_back({layout.calibrationRow(), c.H_calibration});
+  return jacobian;
+}
+
+StereoUpdateOutcome StereoUpdater::update(std::vector<StereoCandidate>* candidates,
+                                          bool jump_test, const StereoCalibration& nominal,
+                                          StereoCamera* camera, FilterState* state,
+                                          LandmarkManager* landmarks, EstimatorStats* stats,
+                                          FeedResult* result) const {
+  StereoUpdateOutcome outcome;
+  for (StereoCandidate& c : *candidates) {
+    c.predicted = linearize(*camera, *state, &c);
+    if (!c.predicted) {
+      stats->increment(Counter::kObsBehindCamera);
+      ++result->observations_rejected;
+      landmarks->track(c.landmark).has_flow_reference = false;
+    }
+  }
+  if (jump_test) detectJumps(*state, *landmarks, candidates);
+  std::vector<StereoCandidate*> accepted;
+  accepted.reserve(candidates->size());
+  for (StereoCandidate& c : *candidates) {
+    if (c.predicted && decide(&c, landmarks, &outcome, stats, result)) accepted.push_back(&c);
+  }
+  if (!accepted.empty() && stackedUpdate(accepted, state, landmarks, stats, result) &&
+      state->layout().scale_dim > 0) {
+    *camera = scaledStereoCamera(nominal, state->baseline_scale_error);
+  }
+  for (const StereoCandidate* c : accepted) {
+    landmarks->setFlowReference(c->landmark, c->feature, *camera, *state);
+  }
+  return outcome;
+}
+
+bool StereoUpdater::decide(StereoCandidate* c, LandmarkManager* landmarks,
+                           StereoUpdateOutcome* outcome, EstimatorStats* stats,
+                           FeedResult* result) const {
+  LandmarkTrack& track = landmarks->track(c->landmark);
+  if (c->jumped) {
+    // The track slid onto another point, or this observation is a gross outlier: the landmark
+    // leaves the state (its estimate stays in the map) and the track goes on as a new landmark
+    // from its next observation (starting from this one would plant an outlier in the map).
+    outcome->leaving.jumped.push_back(c->landmark);
+    ++outcome->disagreeing;
+    return false;
+  }
+  const double d2 = c->mahalanobis2;
+  if (!(d2 <= gate_threshold_)) {
+    stats->increment(Counter::kObsGated);
+    ++result->observations_rejected;
+    ++outcome->disagreeing;
+    // A landmark known from one observation may have been started by an outlier, and a track
+    // that keeps failing the gate has jumped (seen in the KITTI tracks): restart either from
+    // its current observation instead of gating the rest of its track away.
+    track.has_flow_reference = false;
+    // Only gross disagreement counts towards a restart: chance gatings of a good track (5 % at
+    // a 95 % gate) must not throw its accumulated information away.
+    if (d2 > restart_threshold_) ++track.consecutive_gated;
+    const bool restart = landmarks->mapEntry(c->landmark).observations <= 1 ||
+                         (options_->reinitialize_after_gated > 0 &&
+                          track.consecutive_gated >= options_->reinitialize_after_gated);
+    if (restart) {
+      outcome->leaving.restart.push_back(c->landmark);
+      outcome->restart_from.push_back(*c);
+      outcome->restart_from.back().reuse_map_index = track.map_index;
+    }
+    return false;
+  }
+  track.consecutive_gated = 0;
+  if (options_->max_track_length > 0 && track.frames > options_->max_track_length) {
+    // Long track (real tracks drift off their point): the landmark leaves the state and the
+    // track goes on as a new landmark (new map entry) from this observation, which has just
+    // passed the gate, so an outlier never starts the new segment.
+    outcome->leaving.split.push_back(c->landmark);
+    outcome->restart_from.push_back(*c);
+    return false;
+  }
+  return true;
+}
+
+bool StereoUpdater::stackedUpdate(const std::vector<StereoCandidate*>& accepted,
+                                  FilterState* state, LandmarkManager* landmarks,
+                                  EstimatorStats* stats, FeedResult* result) const {
+  const int r = rows_per_observation_;
+  const int n = static_cast<int>(accepted.size());
+  std::vector<SparseJacobian> jacobians;
+  jacobians.reserve(n);
+  Eigen::VectorXd residual(r * n);
+  for (int k = 0; k < n; ++k) {
+    jacobians.push_back(updateJacobian(*state, *accepted[k]));
+    residual.segment(k * r, r) = accepted[k]->residual;
+  }
+  const double pixel_var = options_->pixel_sigma * options_->pixel_sigma;
+  const UpdateOutcome outcome = state_helper::update(
+      state, jacobians, residual, pixel_var, options_->mode == EstimatorMode::kSlam);
+  if (outcome.status == UpdateStatus::kNotPositiveDefinite) {
+    stats->increment(Counter::kUpdateNonFinite);
+    result->message = "innovation covariance not positive definite: update skipped";
+    return false;
+  }
+  if (outcome.status == UpdateStatus::kNonFinite) {
+    stats->increment(Counter::kUpdateNonFinite);
+    result->message = "update produced non-finite numbers: discarded";
+    return false;
+  }
+  for (const StereoCandidate* c : accepted) ++landmarks->mapEntry(c->landmark).observations;
+  stats->increment(Counter::kObservationUpdate, n);
+  result->observations_updated += n;
+  if (outcome.covariance_repaired) stats->increment(Counter::kCovarianceRepaired);
+  return true;
+}
+
+void StereoUpdater::detectJumps(const FilterState& state, const LandmarkManager& landmarks,
+                                std::vector<StereoCandidate>* candidates) const {
+  if (options_->jump_threshold_px <= 0.0) return;
+  const auto S = state.covariance();
+  std::vector<FlowCheck> checks;
+  std::vector<StereoCandidate*> checked;
+  checks.reserve(candidates->size());
+  checked.reserve(candidates->size());
+  for (StereoCandidate& c : *candidates) {
+    const LandmarkTrack& track = landmarks.track(c.landmark);
+    if (!c.predicted || !track.has_flow_reference) continue;
+    const int row = state.layout().landmarkRow(c.landmark);
+    FlowCheck check;
+    check.residual_change = c.residual.head<2>() - track.flow_residual;
+    // Pose error exp(eps^) world_T_imu with the landmark fixed: d p_world = -rho - phi x p.
+    const Eigen::Matrix<double, 2, 3> H = c.H_landmark.topRows<2>();
+    check.H_pose.leftCols<3>() = -H;
+    check.H_pose.rightCols<3>() = H * se3::hat(state.landmark(c.landmark));
+    // The landmark's own error moves both predictions: (H_now - H_before) Sigma_l (...)^T.
+    const Eigen::Matrix<double, 2, 3> D = H - track.flow_H_landmark;
+    check.landmark_variance = (D * S.block<3, 3>(row, row) * D.transpose()).diagonal();
+    checks.push_back(check);
+    checked.push_back(&c);
+  }
+  TrackJumpOptions jump_options;
+  jump_options.threshold_px = options_->jump_threshold_px;
+  jump_options.threshold_sigmas = options_->jump_threshold_sigmas;
+  const TrackJumpResult jumps = detectTrackJumps(checks, jump_options);
+  for (size_t i = 0; i < checked.size(); ++i) checked[i]->jumped = jumps.jumped[i];
+}
+
+}  // namespace ekf_vislam

@@ -281,8 +281,8 @@ TEST(FaultHandling, TwistImplausibleMagnitudeIsRejected) {
   VislamEstimator e = startedEstimator();
   const VislamOptions o = faultOptions();
   TwistData fast = twistAt(kFault), spin = twistAt(kFault);
-  fast.v_imu = Eigen::Vector3d(1.5 * o.max_linear_speed, 0.0, 0.0);
-  spin.w_imu = Eigen::Vector3d(0.0, 0.0, -1.5 * o.max_angular_speed);
+  fast.v_imu = Eigen::Vector3d(1.5 * o.limits.max_linear_speed, 0.0, 0.0);
+  spin.w_imu = Eigen::Vector3d(0.0, 0.0, -1.5 * o.limits.max_angular_speed);
   const Snapshot snapshot(e);
   const EstimatorStats before = e.stats();
   for (const TwistData& t : {fast, spin}) {
@@ -352,15 +352,15 @@ constexpr size_t kGapFrames = 15;
 
 TEST(FaultHandling, TwistGapBeyondMaxTwistGapPredictPolicy) {
   VislamOptions o = faultOptions();
-  o.gap_policy = GapPolicy::kPredict;
+  o.limits.gap_policy = GapPolicy::kPredict;
   // Measured against the clean drive with the same options. The jump test is off here: it lowers
   // the clean drive's final error to 0.487 m (0.642 m without) but not the heading error that
   // 1+ s of prediction on a held twist adds (1.101 m with it, 1.225 m without), so 2x the clean
   // figure would measure the jump test, not the gap handling.
-  o.jump_threshold_px = 0.0;
+  o.landmarks.jump_threshold_px = 0.0;
   VislamEstimator e = startedEstimator(o);
   const size_t resume = kFault + kGapFrames;
-  ASSERT_GT(twistAt(resume).stamp - twistAt(kFault - 1).stamp, o.max_twist_gap);
+  ASSERT_GT(twistAt(resume).stamp - twistAt(kFault - 1).stamp, o.limits.max_twist_gap);
   const EstimatorStats before = e.stats();
   const FeedResult r = e.feedTwist(twistAt(resume));
   EXPECT_TRUE(r.accepted);
@@ -376,7 +376,7 @@ TEST(FaultHandling, TwistGapBeyondMaxTwistGapPredictPolicy) {
 
 TEST(FaultHandling, TwistGapBeyondMaxTwistGapResetPolicy) {
   VislamOptions o = faultOptions();
-  o.gap_policy = GapPolicy::kReset;
+  o.limits.gap_policy = GapPolicy::kReset;
   VislamEstimator e = startedEstimator(o);
   const size_t resume = kFault + kGapFrames;
   const size_t map_before = e.landmarks().size();
@@ -416,7 +416,7 @@ TEST(FaultHandling, TwistStreamStoppingWhileFramesContinueIsAGap) {
   const FeedResult r = e.feedTwist(twistAt(kFault + kGapFrames));
   EXPECT_TRUE(r.accepted);
   EXPECT_EQ(delta(before, e.stats(), Counter::kTwistGap), 1)
-      << "1.5 s without any twist (max_twist_gap " << o.max_twist_gap << " s) not counted";
+      << "1.5 s without any twist (max_twist_gap " << o.limits.max_twist_gap << " s) not counted";
   ASSERT_TRUE(e.feedFeatures(drive().frames[kFault + kGapFrames]).accepted);
   expectRecovers(&e, kFault + kGapFrames + 1, o);
 }
@@ -467,7 +467,7 @@ TEST_F(ObservationFault, ZeroAndNegativeDisparity) {
   StereoObservation& negative = faulty_.features[idx[1]];
   std::swap(negative.u_left, negative.u_right);
   StereoObservation& tiny = faulty_.features[idx[2]];
-  tiny.u_right = tiny.u_left - 0.5 * faultOptions().min_disparity_px;
+  tiny.u_right = tiny.u_left - 0.5 * faultOptions().landmarks.min_disparity_px;
   const TwinResult r = feed();
   expectOnlyObservationFault(r, Counter::kObsDisparity, 3);
   finish();
@@ -480,7 +480,7 @@ TEST_F(ObservationFault, TooFarForTheDepthRange) {
   far.u_left = 600.0;
   far.v_left = far.v_right = 200.0;
   const StereoCalibration& c = drive().calibration;
-  far.u_right = far.u_left - c.fx * c.baseline / (3.0 * faultOptions().max_depth);
+  far.u_right = far.u_left - c.fx * c.baseline / (3.0 * faultOptions().landmarks.max_depth);
   faulty_.features.push_back(far);
   const TwinResult r = feed();
   expectOnlyObservationFault(r, Counter::kObsDepth, 1);
@@ -502,7 +502,7 @@ TEST_F(ObservationFault, CoordinatesOutsideTheImage) {
 
 TEST_F(ObservationFault, LeftAndRightRowsDisagree) {
   const std::vector<size_t> idx = trackedFeatures(kFault, 2);
-  const double limit = faultOptions().max_row_difference_px;
+  const double limit = faultOptions().limits.max_row_difference_px;
   for (size_t i : idx) {
     StereoObservation& f = faulty_.features[i];
     // Move the right row towards the image centre so it stays inside the image.
@@ -621,7 +621,7 @@ TEST_F(ObservationFault, EmptyMessage) {
 
 TEST_F(ObservationFault, TenThousandFeaturesAreCappedWithoutStalling) {
   const VislamOptions o = faultOptions();
-  ASSERT_GT(o.max_features_per_frame, 0);
+  ASSERT_GT(o.limits.max_features_per_frame, 0);
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> u(40.0, 1200.0), v(20.0, 350.0), disparity(8.0, 60.0);
   while (faulty_.features.size() < 10000) {
@@ -643,25 +643,25 @@ TEST_F(ObservationFault, TenThousandFeaturesAreCappedWithoutStalling) {
   EXPECT_TRUE(r.faulty.accepted);
   EXPECT_EQ(r.extra(Counter::kFrameCapped), 1);
   EXPECT_NE(r.faulty.message.find("max_features_per_frame"), std::string::npos) << r.faulty.message;
-  EXPECT_GE(r.faulty.observations_rejected, 10000 - o.max_features_per_frame);
+  EXPECT_GE(r.faulty.observations_rejected, 10000 - o.limits.max_features_per_frame);
   // The clean features (first in the message) were used as usual.
   EXPECT_EQ(r.faulty.observations_updated, r.clean.observations_updated);
   // Only the first max_features_per_frame features can be in the state, besides the landmarks
   // kept through their gap (landmarks/max_track_gap).
   EXPECT_LE(e_->activeLandmarkCount(),
-            static_cast<size_t>(o.max_features_per_frame) + active_before);
+            static_cast<size_t>(o.limits.max_features_per_frame) + active_before);
   expectHealthy(*e_, "after the 10000-feature frame");
   // The next frames shed the extra landmarks once their gap (landmarks/max_track_gap) is over
   // and run at the usual speed.
   const auto next = std::chrono::steady_clock::now();
-  for (int k = 1; k <= o.max_track_gap + 1; ++k) step(e_.get(), kFault + k);
+  for (int k = 1; k <= o.landmarks.max_track_gap + 1; ++k) step(e_.get(), kFault + k);
   const double next_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - next).count();
-  std::printf("    next %d frames: %.3f s, state dimension %d\n", o.max_track_gap + 1, next_s,
+  std::printf("    next %d frames: %.3f s, state dimension %d\n", o.landmarks.max_track_gap + 1, next_s,
               e_->stateDimension());
-  EXPECT_LT(next_s, 2.0 * (o.max_track_gap + 1));
+  EXPECT_LT(next_s, 2.0 * (o.landmarks.max_track_gap + 1));
   EXPECT_LT(e_->activeLandmarkCount(), 200u);
-  expectRecovers(e_.get(), kFault + o.max_track_gap + 2, o);
+  expectRecovers(e_.get(), kFault + o.landmarks.max_track_gap + 2, o);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -849,11 +849,11 @@ TEST(FaultHandling, DivergenceFromFramesWhoseObservationsAreMostlyGated) {
     SCOPED_TRACE(policyName(policy));
     std::printf("  policy %s\n", policyName(policy));
     VislamOptions o = faultOptions();
-    o.divergence_policy = policy;
+    o.health.divergence_policy = policy;
     VislamEstimator e = startedEstimator(o);
     const EstimatorStats before = e.stats();
     std::mt19937 rng(5);
-    const size_t bad_frames = static_cast<size_t>(o.max_rejected_frames);
+    const size_t bad_frames = static_cast<size_t>(o.health.max_rejected_frames);
     FeedResult last;
     for (size_t i = 0; i < bad_frames; ++i) {
       const size_t k = kFault + i;
@@ -869,8 +869,8 @@ TEST(FaultHandling, DivergenceFromFramesWhoseObservationsAreMostlyGated) {
     if (policy == DivergencePolicy::kResetFilter) {
       // Restarted at the current pose with the prior covariance (of the pose as published).
       const Matrix6d P = e.poseCovarianceWorld();
-      const double p2 = o.prior_position_sigma * o.prior_position_sigma;
-      const double r2 = o.prior_rotation_sigma * o.prior_rotation_sigma;
+      const double p2 = o.prior.position_sigma * o.prior.position_sigma;
+      const double r2 = o.prior.rotation_sigma * o.prior.rotation_sigma;
       for (int i = 0; i < 3; ++i) {
         EXPECT_NEAR(P(i, i), p2, 1e-3 * p2) << "position " << i;
         EXPECT_NEAR(P(i + 3, i + 3), r2, 1e-3 * r2) << "rotation " << i;
@@ -892,8 +892,8 @@ TEST(FaultHandling, DivergenceFromPositionSigmaBeyondTheHealthLimit) {
   for (DivergencePolicy policy : kPolicies) {
     SCOPED_TRACE(policyName(policy));
     VislamOptions o = faultOptions();
-    o.divergence_policy = policy;
-    o.max_position_sigma = 0.2;
+    o.health.divergence_policy = policy;
+    o.health.max_position_sigma = 0.2;
     VislamEstimator e(o);
     ASSERT_TRUE(e.setCalibration(drive().calibration));
     std::vector<size_t> recoveries;
@@ -905,7 +905,7 @@ TEST(FaultHandling, DivergenceFromPositionSigmaBeyondTheHealthLimit) {
         recoveries.push_back(k);
         if (recoveries.size() <= 3) {
           expectHealthy(e, "after a recovery");
-          EXPECT_LE(positionSigma(e), o.max_position_sigma) << "frame " << k;
+          EXPECT_LE(positionSigma(e), o.health.max_position_sigma) << "frame " << k;
           EXPECT_EQ(e.activeLandmarkCount(), 0u);
         }
       }

@@ -10,13 +10,13 @@ std::optional<Counter> InputScreening::checkTwist(const TwistData& twist, std::s
     *why = "twist with NaN/Inf rejected";
     return Counter::kTwistNonFinite;
   }
-  if (twist.v_imu.norm() > options_->max_linear_speed ||
-      twist.w_imu.norm() > options_->max_angular_speed) {
+  if (twist.v_imu.norm() > options_->limits.max_linear_speed ||
+      twist.w_imu.norm() > options_->limits.max_angular_speed) {
     std::ostringstream text;
     text << "implausible twist rejected (|v| = " << twist.v_imu.norm()
          << " m/s, |w| = " << twist.w_imu.norm() << " rad/s; limits/max_linear_speed = "
-         << options_->max_linear_speed << ", limits/max_angular_speed = "
-         << options_->max_angular_speed << ")";
+         << options_->limits.max_linear_speed << ", limits/max_angular_speed = "
+         << options_->limits.max_angular_speed << ")";
     *why = text.str();
     return Counter::kTwistImplausible;
   }
@@ -32,10 +32,10 @@ std::optional<Counter> InputScreening::checkObservation(const StereoObservation&
   if (!camera.inImage(f.u_left, f.v_left) || !camera.inImage(f.u_right, f.v_right)) {
     return Counter::kObsOutsideImage;
   }
-  if (std::fabs(f.v_left - f.v_right) > options_->max_row_difference_px) {
+  if (std::fabs(f.v_left - f.v_right) > options_->limits.max_row_difference_px) {
     return Counter::kObsRowMismatch;
   }
-  if (f.u_left - f.u_right < options_->min_disparity_px) return Counter::kObsDisparity;
+  if (f.u_left - f.u_right < options_->landmarks.min_disparity_px) return Counter::kObsDisparity;
   return std::nullopt;
 }
 

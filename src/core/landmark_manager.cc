@@ -7,7 +7,7 @@ namespace ekf_vislam {
 
 LandmarkManager::LandmarkManager(const VislamOptions& options)
     : options_(&options),
-      observation_selector_(stereoObservationSelector(options.merge_stereo_rows)) {}
+      observation_selector_(stereoObservationSelector(options.noise.merge_stereo_rows)) {}
 
 void LandmarkManager::clear() {
   tracks_.clear();
@@ -24,7 +24,7 @@ std::optional<size_t> LandmarkManager::find(uint32_t id) const {
 bool LandmarkManager::initialize(const StereoObservation& f, double stamp, size_t reuse_map_index,
                                  const StereoCamera& camera, FilterState* state,
                                  EstimatorStats* stats, FeedResult* result) {
-  const double v = options_->merge_stereo_rows ? 0.5 * (f.v_left + f.v_right) : f.v_left;
+  const double v = options_->noise.merge_stereo_rows ? 0.5 * (f.v_left + f.v_right) : f.v_left;
   Eigen::Vector3d p_cam;
   Eigen::Matrix3d J_uvu;
   // Measured uR = true uR - offset.
@@ -33,7 +33,7 @@ bool LandmarkManager::initialize(const StereoObservation& f, double stamp, size_
     ++result->observations_rejected;
     return false;
   }
-  if (p_cam.z() < options_->min_depth || p_cam.z() > options_->max_depth) {
+  if (p_cam.z() < options_->landmarks.min_depth || p_cam.z() > options_->landmarks.max_depth) {
     stats->increment(Counter::kObsDepth);
     ++result->observations_rejected;
     return false;
@@ -45,7 +45,7 @@ bool LandmarkManager::initialize(const StereoObservation& f, double stamp, size_
   const Eigen::Vector3d p_world =
       R_world_imu * (p_imu - state->imu_T_world.topRightCorner<3, 1>());
 
-  const double pixel_var = options_->pixel_sigma * options_->pixel_sigma;
+  const double pixel_var = options_->noise.pixel_sigma * options_->noise.pixel_sigma;
   const Eigen::Matrix3d J_z = R_world_imu * imu_T_cam.topLeftCorner<3, 3>() * J_uvu;
   // Error of the new landmark as a function of the state error: in SLAM mode the invariant error
   // xi = p_true - exp(phi^) p_mean = rho + R dp_imu to first order (correlated through rho), and
@@ -93,7 +93,7 @@ void LandmarkManager::setFlowReference(size_t k, const StereoObservation& f,
   Eigen::Vector4d z_pred;
   Matrix43d H_landmark;
   track.has_flow_reference = camera.project(state.imu_T_world, state.landmark(k), &z_pred,
-                                            nullptr, &H_landmark, options_->min_depth * 0.5);
+                                            nullptr, &H_landmark, options_->landmarks.min_depth * 0.5);
   if (!track.has_flow_reference) return;
   // Rows uL and v of the observation (the first two of the selector in either layout).
   const Eigen::Matrix<double, 2, 4> M2 = observation_selector_.topRows<2>();
@@ -111,7 +111,7 @@ std::vector<bool> LandmarkManager::endedTracks(const std::unordered_set<uint32_t
       track.frames_absent = 0;
     } else if (!frame_empty) {
       track.has_flow_reference = false;  // its next observation is not one frame after the last
-      if (++track.frames_absent > options_->max_track_gap) ended[k] = true;
+      if (++track.frames_absent > options_->landmarks.max_track_gap) ended[k] = true;
     }
   }
   return ended;
@@ -119,7 +119,7 @@ std::vector<bool> LandmarkManager::endedTracks(const std::unordered_set<uint32_t
 
 int LandmarkManager::endTracks(const std::vector<bool>& ended, FilterState* state,
                                EstimatorStats* stats) {
-  if (options_->keep_all_landmarks_in_state) {
+  if (options_->landmarks.keep_all_in_state) {
     for (size_t k = 0; k < tracks_.size(); ++k) {
       if (!ended[k]) continue;
       tracking_.erase(map_[tracks_[k].map_index].id);

@@ -26,8 +26,8 @@ Vector6d Propagator::velocityPriorGain(const FilterState& state, const TwistData
   const bool own = usesMessageCovariance(twist);
   const Matrix6d own_density = own ? messageDensity(state, twist) : Matrix6d::Zero();
   const double dt = period();
-  const double r_configured = options_->linear_velocity_noise * options_->linear_velocity_noise / dt;
-  const double sigmas[2] = {options_->lateral_velocity_sigma, options_->vertical_velocity_sigma};
+  const double r_configured = options_->noise.linear_velocity_noise * options_->noise.linear_velocity_noise / dt;
+  const double sigmas[2] = {options_->vehicle.lateral_velocity_sigma, options_->vehicle.vertical_velocity_sigma};
   for (int axis = 1; axis <= 2; ++axis) {
     const double r = own ? own_density(axis, axis) / dt : r_configured;
     const double s2 = sigmas[axis - 1] * sigmas[axis - 1];
@@ -37,7 +37,7 @@ Vector6d Propagator::velocityPriorGain(const FilterState& state, const TwistData
 }
 
 bool Propagator::usesMessageCovariance(const TwistData& twist) const {
-  return options_->use_message_covariance && twist.hasCovariance();
+  return options_->noise.use_message_covariance && twist.hasCovariance();
 }
 
 Matrix6d Propagator::messageDensity(const FilterState& state, const TwistData& twist) const {
@@ -53,8 +53,8 @@ Matrix6d Propagator::noiseDensity(const FilterState& state, const TwistData& twi
     const Vector6d root = gain.cwiseSqrt();
     return root.asDiagonal() * messageDensity(state, twist) * root.asDiagonal();
   }
-  const double qv = options_->linear_velocity_noise * options_->linear_velocity_noise;
-  const double qw = options_->angular_velocity_noise * options_->angular_velocity_noise;
+  const double qv = options_->noise.linear_velocity_noise * options_->noise.linear_velocity_noise;
+  const double qw = options_->noise.angular_velocity_noise * options_->noise.angular_velocity_noise;
   Vector6d q = gain;
   q.head<3>() *= qv;
   q.tail<3>() *= qw;
@@ -140,20 +140,20 @@ void Propagator::addRandomWalks(double dt, FilterState* state) const {
   const StateLayout& layout = state->layout();
   auto S = state->covariance();
   for (int i = 0; i < layout.biasDim(); ++i) {
-    const double rw = layout.bias_components[i] < 3 ? options_->velocity_bias_random_walk
-                                                    : options_->gyro_bias_random_walk;
+    const double rw = layout.bias_components[i] < 3 ? options_->bias.velocity_random_walk
+                                                    : options_->bias.gyro_random_walk;
     S(layout.biasRow() + i, layout.biasRow() + i) += dt * rw * rw;
   }
-  const double rot_rw = options_->twist_rotation_random_walk;
+  const double rot_rw = options_->extrinsic.twist_rotation_random_walk;
   for (int i = 0; i < layout.rotation_dim; ++i) {
     S(layout.rotationRow() + i, layout.rotationRow() + i) += dt * rot_rw * rot_rw;
   }
   if (layout.disparity_dim > 0) {
-    const double rw = options_->disparity_offset_random_walk;
+    const double rw = options_->intrinsic.disparity_offset_random_walk;
     S(layout.disparityRow(), layout.disparityRow()) += dt * rw * rw;
   }
   if (layout.scale_dim > 0) {
-    const double rw = options_->baseline_scale_random_walk;
+    const double rw = options_->intrinsic.baseline_scale_random_walk;
     S(layout.scaleRow(), layout.scaleRow()) += dt * rw * rw;
   }
 }

@@ -78,7 +78,7 @@ void RepeatedFrameHandler::shiftCrossingTracks(const StereoCamera& camera, Filte
       world_T_imu.topLeftCorner<3, 3>() * camera.imuTCam().topRightCorner<3, 1>() +
       world_T_imu.topRightCorner<3, 1>();
   const double relative_var =
-      options_->repeated_frame_depth_sigma * options_->repeated_frame_depth_sigma;
+      options_->limits.repeated_frame_depth_sigma * options_->limits.repeated_frame_depth_sigma;
   for (const auto& moved_row : moved) {
     const int row = moved_row.first;
     S.middleRows(row, 3) = S.middleCols(row, 3).transpose();

@@ -8,9 +8,9 @@ namespace ekf_vislam {
 
 StereoUpdater::StereoUpdater(const VislamOptions& options)
     : options_(&options),
-      rows_per_observation_(options.merge_stereo_rows ? 3 : 4),
-      observation_selector_(stereoObservationSelector(options.merge_stereo_rows)),
-      gate_threshold_(chiSquareQuantile(options.gating_probability, rows_per_observation_)),
+      rows_per_observation_(options.noise.merge_stereo_rows ? 3 : 4),
+      observation_selector_(stereoObservationSelector(options.noise.merge_stereo_rows)),
+      gate_threshold_(chiSquareQuantile(options.landmarks.gating_probability, rows_per_observation_)),
       restart_threshold_(chiSquareQuantile(0.9999, rows_per_observation_)) {}
 
 bool StereoUpdater::linearize(const StereoCamera& camera, const FilterState& state,
@@ -22,7 +22,7 @@ bool StereoUpdater::linearize(const StereoCamera& camera, const FilterState& sta
   Matrix43d H_landmark;
   const Eigen::Matrix4d& imu_T_world = c->via_clone ? state.imu_T_world_clone : state.imu_T_world;
   if (!camera.project(imu_T_world, p_world, &z_pred, nullptr, &H_landmark,
-                      options_->min_depth * 0.5)) {
+                      options_->landmarks.min_depth * 0.5)) {
     return false;
   }
   const Eigen::Vector4d z(c->feature.u_left, c->feature.v_left, c->feature.u_right,
@@ -54,7 +54,7 @@ bool StereoUpdater::linearize(const StereoCamera& camera, const FilterState& sta
   } else if (options_->mode == EstimatorMode::kSlam) {
     c->H_pose.leftCols<3>() = -c->H_landmark;
   }
-  const double pixel_var = options_->pixel_sigma * options_->pixel_sigma;
+  const double pixel_var = options_->noise.pixel_sigma * options_->noise.pixel_sigma;
   c->mahalanobis2 =
       state_helper::mahalanobis2(state, gateJacobian(state, *c), c->residual, pixel_var);
   return true;
@@ -135,8 +135,8 @@ bool StereoUpdater::decide(StereoCandidate* c, LandmarkManager* landmarks,
     // a 95 % gate) must not throw its accumulated information away.
     if (d2 > restart_threshold_) ++track.consecutive_gated;
     const bool restart = landmarks->mapEntry(c->landmark).observations <= 1 ||
-                         (options_->reinitialize_after_gated > 0 &&
-                          track.consecutive_gated >= options_->reinitialize_after_gated);
+                         (options_->landmarks.reinitialize_after_gated > 0 &&
+                          track.consecutive_gated >= options_->landmarks.reinitialize_after_gated);
     if (restart) {
       outcome->leaving.restart.push_back(c->landmark);
       outcome->restart_from.push_back(*c);
@@ -145,7 +145,7 @@ bool StereoUpdater::decide(StereoCandidate* c, LandmarkManager* landmarks,
     return false;
   }
   track.consecutive_gated = 0;
-  if (options_->max_track_length > 0 && track.frames > options_->max_track_length) {
+  if (options_->landmarks.max_track_length > 0 && track.frames > options_->landmarks.max_track_length) {
     // Long track (real tracks drift off their point): the landmark leaves the state and the
     // track goes on as a new landmark (new map entry) from this observation, which has just
     // passed the gate, so an outlier never starts the new segment.
@@ -168,7 +168,7 @@ bool StereoUpdater::stackedUpdate(const std::vector<StereoCandidate*>& accepted,
     jacobians.push_back(updateJacobian(*state, *accepted[k]));
     residual.segment(k * r, r) = accepted[k]->residual;
   }
-  const double pixel_var = options_->pixel_sigma * options_->pixel_sigma;
+  const double pixel_var = options_->noise.pixel_sigma * options_->noise.pixel_sigma;
   const UpdateOutcome outcome = state_helper::update(
       state, jacobians, residual, pixel_var, options_->mode == EstimatorMode::kSlam);
   if (outcome.status == UpdateStatus::kNotPositiveDefinite) {
@@ -190,7 +190,7 @@ bool StereoUpdater::stackedUpdate(const std::vector<StereoCandidate*>& accepted,
 
 void StereoUpdater::detectJumps(const FilterState& state, const LandmarkManager& landmarks,
                                 std::vector<StereoCandidate>* candidates) const {
-  if (options_->jump_threshold_px <= 0.0) return;
+  if (options_->landmarks.jump_threshold_px <= 0.0) return;
   const auto S = state.covariance();
   std::vector<FlowCheck> checks;
   std::vector<StereoCandidate*> checked;
@@ -213,8 +213,8 @@ void StereoUpdater::detectJumps(const FilterState& state, const LandmarkManager&
     checked.push_back(&c);
   }
   TrackJumpOptions jump_options;
-  jump_options.threshold_px = options_->jump_threshold_px;
-  jump_options.threshold_sigmas = options_->jump_threshold_sigmas;
+  jump_options.threshold_px = options_->landmarks.jump_threshold_px;
+  jump_options.threshold_sigmas = options_->landmarks.jump_threshold_sigmas;
   const TrackJumpResult jumps = detectTrackJumps(checks, jump_options);
   for (size_t i = 0; i < checked.size(); ++i) checked[i]->jumped = jumps.jumped[i];
 }

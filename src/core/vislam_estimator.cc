@@ -13,16 +13,16 @@ namespace {
 
 StateLayout layoutFor(const VislamOptions& options) {
   StateLayout layout;
-  if (options.estimate_velocity_bias) {
+  if (options.bias.estimate_velocity_bias) {
     layout.bias_components.insert(layout.bias_components.end(), {0, 1, 2});
   }
-  if (options.estimate_gyro_bias) {
+  if (options.bias.estimate_gyro_bias) {
     layout.bias_components.insert(layout.bias_components.end(), {3, 4, 5});
   }
-  layout.rotation_dim = options.estimate_twist_rotation ? 3 : 0;
-  layout.disparity_dim = options.estimate_disparity_offset ? 1 : 0;
-  layout.scale_dim = options.estimate_baseline_scale ? 1 : 0;
-  layout.clone_dim = options.repeated_frames == RepeatedFramePolicy::kShift &&
+  layout.rotation_dim = options.extrinsic.estimate_twist_rotation ? 3 : 0;
+  layout.disparity_dim = options.intrinsic.estimate_disparity_offset ? 1 : 0;
+  layout.scale_dim = options.intrinsic.estimate_baseline_scale ? 1 : 0;
+  layout.clone_dim = options.limits.repeated_frames == RepeatedFramePolicy::kShift &&
                              options.mode == EstimatorMode::kSlam
                          ? StateLayout::kPoseDim
                          : 0;
@@ -58,13 +58,13 @@ bool VislamEstimator::setCalibration(const StereoCalibration& calibration, std::
 StatePrior VislamEstimator::prior() const {
   const VislamOptions& o = *options_;
   StatePrior prior;
-  prior.position_sigma = o.prior_position_sigma;
-  prior.rotation_sigma = o.prior_rotation_sigma;
-  prior.velocity_bias_sigma = o.velocity_bias_prior_sigma;
-  prior.gyro_bias_sigma = o.gyro_bias_prior_sigma;
-  prior.twist_rotation_sigma = o.twist_rotation_prior_sigma;
-  prior.disparity_offset_sigma = o.disparity_offset_prior_sigma;
-  prior.baseline_scale_sigma = o.baseline_scale_prior_sigma;
+  prior.position_sigma = o.prior.position_sigma;
+  prior.rotation_sigma = o.prior.rotation_sigma;
+  prior.velocity_bias_sigma = o.bias.velocity_prior_sigma;
+  prior.gyro_bias_sigma = o.bias.gyro_prior_sigma;
+  prior.twist_rotation_sigma = o.extrinsic.twist_rotation_prior_sigma;
+  prior.disparity_offset_sigma = o.intrinsic.disparity_offset_prior_sigma;
+  prior.baseline_scale_sigma = o.intrinsic.baseline_scale_prior_sigma;
   return prior;
 }
 
@@ -146,17 +146,17 @@ void VislamEstimator::advanceTo(double stamp, const TwistData& twist, double twi
   if (dt <= 0.0) return;
   double noise_scale = 1.0;
   const double since_twist = stamp - twist_stamp;
-  if (since_twist > o.max_twist_gap) {
+  if (since_twist > o.limits.max_twist_gap) {
     // No twist for too long (whether frames kept coming or not): once per gap, apply the policy.
-    noise_scale = o.gap_noise_scale;
+    noise_scale = o.limits.gap_noise_scale;
     jump_test_paused_ = true;
     if (!in_twist_gap_) {
       in_twist_gap_ = true;
       stats_.increment(Counter::kTwistGap);
       std::ostringstream why;
-      why << "no twist for " << since_twist << " s (limits/max_twist_gap = " << o.max_twist_gap
+      why << "no twist for " << since_twist << " s (limits/max_twist_gap = " << o.limits.max_twist_gap
           << " s): ";
-      if (o.gap_policy == GapPolicy::kReset) {
+      if (o.limits.gap_policy == GapPolicy::kReset) {
         why << "filter reset (map kept)";
         landmarks_.remove(std::vector<bool>(landmarks_.activeCount(), true),
                           /*count_as_marginalized=*/true, &state_, &stats_);
@@ -167,7 +167,7 @@ void VislamEstimator::advanceTo(double stamp, const TwistData& twist, double twi
         result->message = why.str();
         return;
       }
-      why << "predicting across with process noise x " << o.gap_noise_scale;
+      why << "predicting across with process noise x " << o.limits.gap_noise_scale;
       result->message = why.str();
     }
   }
@@ -220,7 +220,7 @@ FeedResult VislamEstimator::feedFeatures(const FeatureFrame& frame) {
   last_frame_stamp_ = frame.stamp;
   stats_.increment(Counter::kFrameUsed);
   if (frame.features.empty()) stats_.increment(Counter::kFrameEmpty);
-  const RepeatedFramePolicy policy = options_->repeated_frames;
+  const RepeatedFramePolicy policy = options_->limits.repeated_frames;
   std::vector<size_t> new_tracks;
   if (repeated_frames_.isRepeat(frame, &new_tracks)) {
     stats_.increment(Counter::kFrameRepeated);
@@ -292,7 +292,7 @@ void VislamEstimator::endAbsentTracks(const FeatureFrame& frame,
 }
 
 bool VislamEstimator::consumeJumpTest() {
-  if (options_->jump_threshold_px <= 0.0) return false;
+  if (options_->landmarks.jump_threshold_px <= 0.0) return false;
   if (!jump_test_paused_) return true;
   jump_test_paused_ = false;
   return false;
@@ -300,7 +300,7 @@ bool VislamEstimator::consumeJumpTest() {
 
 void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result) {
   size_t count = frame.features.size();
-  const int cap = options_->max_features_per_frame;
+  const int cap = options_->limits.max_features_per_frame;
   if (cap > 0 && count > static_cast<size_t>(cap)) {
     stats_.increment(Counter::kFrameCapped);
     std::ostringstream why;
@@ -352,14 +352,14 @@ void VislamEstimator::checkHealth(int candidates, int disagreeing, FeedResult* r
   stats_.increment(Counter::kDivergenceRecovery);
   landmarks_.remove(std::vector<bool>(landmarks_.activeCount(), true),
                     /*count_as_marginalized=*/true, &state_, &stats_);
-  if (options_->divergence_policy == DivergencePolicy::kResetFilter) {
+  if (options_->health.divergence_policy == DivergencePolicy::kResetFilter) {
     state_.bias.setZero();
     resetToPrior();
     result->message = "divergence: " + why + "; filter restarted at the current pose";
   } else {
     // Keep the pose and bias estimates; their covariance must stay finite and bounded.
     if (!state_.covariance().allFinite() ||
-        !(positionSigma() <= options_->max_position_sigma)) {
+        !(positionSigma() <= options_->health.max_position_sigma)) {
       resetToPrior();
     }
     result->message = "divergence: " + why + "; landmarks dropped from the state";

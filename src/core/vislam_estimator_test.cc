@@ -134,7 +134,7 @@ TEST(VislamEstimator, TwistRotationIsEstimatedFromVision) {
     t.w_imu = twist_R_imu * t.w_imu;
   }
   VislamOptions with = defaultOptions(), without = defaultOptions();
-  without.estimate_twist_rotation = false;
+  without.extrinsic.estimate_twist_rotation = false;
   VislamEstimator estimator(with);
   ASSERT_TRUE(estimator.setCalibration(s.calibration));
   for (size_t k = 0; k < s.frames.size(); ++k) {
@@ -188,9 +188,9 @@ TEST(VislamEstimator, PoseCovarianceWorldMatchesItsErrorDefinition) {
 TEST(VislamEstimator, TwistMessageCovarianceSuppliesTheProcessNoise) {
   VislamOptions options = defaultOptions();
   options.mode = EstimatorMode::kDeadReckoning;
-  options.estimate_gyro_bias = false;
-  options.estimate_twist_rotation = false;
-  options.lateral_velocity_sigma = options.vertical_velocity_sigma = 0.0;
+  options.bias.estimate_gyro_bias = false;
+  options.extrinsic.estimate_twist_rotation = false;
+  options.vehicle.lateral_velocity_sigma = options.vehicle.vertical_velocity_sigma = 0.0;
   auto run = [&](const VislamOptions& o, const Matrix6d& covariance) {
     VislamEstimator e(o);
     for (int k = 0; k <= 10; ++k) {
@@ -211,10 +211,10 @@ TEST(VislamEstimator, TwistMessageCovarianceSuppliesTheProcessNoise) {
   const auto [configured, configured_pose] = run(options, Matrix6d::Zero());
   const double dt = 0.1;
   EXPECT_NEAR(configured(0, 0),
-              options.linear_velocity_noise * options.linear_velocity_noise / dt, 1e-12);
+              options.noise.linear_velocity_noise * options.noise.linear_velocity_noise / dt, 1e-12);
   // Switched off: the message's covariance is ignored.
   VislamOptions off = options;
-  off.use_message_covariance = false;
+  off.noise.use_message_covariance = false;
   const auto [ignored, ignored_pose] = run(off, per_sample.asDiagonal());
   EXPECT_NEAR(ignored(0, 0), configured(0, 0), 1e-15);
   EXPECT_LT((ignored_pose - configured_pose).norm(), 1e-15);
@@ -231,7 +231,7 @@ TEST(VislamEstimator, DeadReckoningIntegratesTheTwist) {
   s.twists = s.true_twists;
   VislamOptions o;
   o.mode = EstimatorMode::kDeadReckoning;
-  o.lateral_velocity_sigma = o.vertical_velocity_sigma = 0.0;  // integrate the twist as given
+  o.vehicle.lateral_velocity_sigma = o.vehicle.vertical_velocity_sigma = 0.0;  // integrate the twist as given
   const RunResult r = run(s, o);
   EXPECT_LT(r.final_error_m, 1e-9);
 }
@@ -241,12 +241,12 @@ TEST(VislamEstimator, VehiclePriorShrinksLateralAndVerticalVelocity) {
   // r = sigma^2 / dt; a prior of std s gives g = s^2 / (s^2 + r) on y and z, none on x.
   VislamOptions o;
   o.mode = EstimatorMode::kDeadReckoning;
-  o.estimate_gyro_bias = false;
-  o.estimate_twist_rotation = false;
-  o.lateral_velocity_sigma = 0.1;
-  o.vertical_velocity_sigma = 0.2;
-  o.angular_velocity_noise = 0.0;  // no rotation uncertainty to leak into the position
-  o.prior_rotation_sigma = 1e-9;
+  o.bias.estimate_gyro_bias = false;
+  o.extrinsic.estimate_twist_rotation = false;
+  o.vehicle.lateral_velocity_sigma = 0.1;
+  o.vehicle.vertical_velocity_sigma = 0.2;
+  o.noise.angular_velocity_noise = 0.0;  // no rotation uncertainty to leak into the position
+  o.prior.rotation_sigma = 1e-9;
   VislamEstimator estimator(o);
   ASSERT_TRUE(estimator.setCalibration(testing::kittiLikeCalibration()));
   TwistData twist;
@@ -257,7 +257,7 @@ TEST(VislamEstimator, VehiclePriorShrinksLateralAndVerticalVelocity) {
   estimator.feedTwist(twist);
   twist.stamp = 10.2;
   estimator.feedTwist(twist);  // predicts [10.1, 10.2] with the sample of 10.1
-  const double r = o.linear_velocity_noise * o.linear_velocity_noise / 0.1;
+  const double r = o.noise.linear_velocity_noise * o.noise.linear_velocity_noise / 0.1;
   const double g_y = 0.01 / (0.01 + r), g_z = 0.04 / (0.04 + r);
   const Eigen::Vector3d p = estimator.worldTImu().translation();
   EXPECT_NEAR(p.x(), 2 * 0.1 * 5.0, 1e-9);
@@ -281,10 +281,10 @@ TEST(VislamEstimator, LandmarkInitializationCovarianceFromJacobians) {
   so.frames = 3;
   const Scenario s = makeScenario(so);
   VislamOptions o;
-  o.estimate_gyro_bias = false;
-  o.estimate_twist_rotation = false;   // state: pose, disparity offset, baseline scale, landmark
-  o.estimate_disparity_offset = true;
-  o.estimate_baseline_scale = true;
+  o.bias.estimate_gyro_bias = false;
+  o.extrinsic.estimate_twist_rotation = false;   // state: pose, disparity offset, baseline scale, landmark
+  o.intrinsic.estimate_disparity_offset = true;
+  o.intrinsic.estimate_baseline_scale = true;
   VislamEstimator estimator(o);
   ASSERT_TRUE(estimator.setCalibration(s.calibration));
   estimator.feedTwist(s.twists[0]);
@@ -320,7 +320,7 @@ TEST(VislamEstimator, LandmarkInitializationCovarianceFromJacobians) {
     Jx.col(i) = (init(uvu, d.head<6>(), d(6), d(7)) - init(uvu, -d.head<6>(), -d(6), -d(7))) /
                 (2 * h);
   }
-  const double var = o.pixel_sigma * o.pixel_sigma;
+  const double var = o.noise.pixel_sigma * o.noise.pixel_sigma;
   const Eigen::MatrixXd full = estimator.stateCovariance();
   // Pose, offset, scale, the pose clone of the repeated-frame policy (a copy of the pose at the
   // last frame), the landmark.
@@ -346,8 +346,8 @@ TEST(VislamEstimator, DisparityOffsetAndBaselineScaleAreRecovered) {
     Scenario s = makeScenario(so);
     if (!offset_case) s.calibration.baseline *= 0.97;
     VislamOptions o = defaultOptions();
-    o.estimate_disparity_offset = offset_case;
-    o.estimate_baseline_scale = !offset_case;
+    o.intrinsic.estimate_disparity_offset = offset_case;
+    o.intrinsic.estimate_baseline_scale = !offset_case;
     VislamEstimator estimator(o);
     ASSERT_TRUE(estimator.setCalibration(s.calibration));
     for (size_t k = 0; k < s.frames.size(); ++k) {
@@ -359,7 +359,7 @@ TEST(VislamEstimator, DisparityOffsetAndBaselineScaleAreRecovered) {
     const double sigma =
         offset_case ? estimator.disparityOffsetSigma() : estimator.baselineScaleSigma();
     VislamOptions ignore = o;
-    ignore.estimate_disparity_offset = ignore.estimate_baseline_scale = false;
+    ignore.intrinsic.estimate_disparity_offset = ignore.intrinsic.estimate_baseline_scale = false;
     const RunResult with = run(s, o), without = run(s, ignore);
     std::printf("%s: %.4f +- %.4f (true %.4f); ATE %.3f m estimating it, %.3f m ignoring it\n",
                 offset_case ? "disparity offset (px)" : "baseline scale", estimate, sigma, truth,
@@ -380,7 +380,7 @@ TEST(VislamEstimator, LongTracksAreSplitIntoNewLandmarks) {
   so.pixel_sigma = 0.0;
   const Scenario s = makeScenario(so);
   VislamOptions o = defaultOptions();
-  o.max_track_length = 3;
+  o.landmarks.max_track_length = 3;
   VislamEstimator estimator(o);
   ASSERT_TRUE(estimator.setCalibration(s.calibration));
   // A track seen in the first 7 frames.
@@ -444,7 +444,7 @@ TEST(VislamEstimator, TrackJumpsBecomeNewLandmarks) {
   ASSERT_GT(slides, 50);
   auto runWith = [&](double threshold_px, uint64_t* jumps) {
     VislamOptions o = testing::matchedOptions(so);
-    o.jump_threshold_px = threshold_px;
+    o.landmarks.jump_threshold_px = threshold_px;
     const RunResult r = run(s, o);
     *jumps = r.stats.get(Counter::kLandmarkJump);
     return r.ate_m;
@@ -470,7 +470,7 @@ TEST(VislamEstimator, RepeatedFramesAreCountedAndOptionallySkipped) {
   enum class Frame11 { kRepeated, kAbsent };
   auto runWith = [&](RepeatedFramePolicy policy, Frame11 frame11, uint64_t* repeated) {
     VislamOptions o = testing::matchedOptions(so);
-    o.repeated_frames = policy;
+    o.limits.repeated_frames = policy;
     VislamEstimator estimator(o);
     EXPECT_TRUE(estimator.setCalibration(s.calibration));
     for (size_t k = 0; k < s.frames.size(); ++k) {
@@ -541,7 +541,7 @@ TEST(VislamEstimator, ShiftPolicyFollowsTracksThatLagAfterARepeatedFrame) {
   }
   auto runWith = [&](RepeatedFramePolicy policy, uint64_t* shifted) {
     VislamOptions o = testing::matchedOptions(so);
-    o.repeated_frames = policy;
+    o.limits.repeated_frames = policy;
     const RunResult r = run(s, o);
     EXPECT_EQ(r.stats.get(Counter::kFrameRepeated), static_cast<uint64_t>(repeated_frames));
     *shifted = r.stats.get(Counter::kLandmarkShifted);
@@ -565,7 +565,7 @@ TEST(VislamEstimator, LandmarkLifeCycleAugmentMarginalizeKeepInMap) {
   so.frames = 40;
   const Scenario s = makeScenario(so);
   VislamOptions options = defaultOptions();
-  options.max_track_gap = 0;  // a missing id ends its track at once (the gap has its own test)
+  options.landmarks.max_track_gap = 0;  // a missing id ends its track at once (the gap has its own test)
   VislamEstimator estimator(options);
   ASSERT_TRUE(estimator.setCalibration(s.calibration));
   estimator.feedTwist(s.twists[0]);
@@ -638,7 +638,7 @@ TEST(VislamEstimator, TracksSurviveEmptyMessagesAndGapsUpToMaxTrackGap) {
   }
   ASSERT_TRUE(found);
   VislamOptions options = defaultOptions();
-  ASSERT_EQ(options.max_track_gap, 2);
+  ASSERT_EQ(options.landmarks.max_track_gap, 2);
   VislamEstimator estimator(options);
   ASSERT_TRUE(estimator.setCalibration(s.calibration));
   size_t k = 0;
@@ -698,7 +698,7 @@ TEST(VislamEstimator, MarginalizationEqualsKeepingEveryLandmark) {
   so.frames = 120;
   const Scenario s = makeScenario(so);
   VislamOptions keep = defaultOptions();
-  keep.keep_all_landmarks_in_state = true;
+  keep.landmarks.keep_all_in_state = true;
   const RunResult marginalized = run(s, defaultOptions());
   const RunResult full = run(s, keep);
   double max_diff = 0.0;

@@ -2,160 +2,148 @@
 
 #include "ekf_vislam/core/option_reader.h"
 
-#include <cmath>
-#include <sstream>
-
 namespace ekf_vislam {
 
-const char* modeName(EstimatorMode mode) {
-  switch (mode) {
-    case EstimatorMode::kDeadReckoning: return "deadreckoning";
-    case EstimatorMode::kMapping: return "mapping";
-    case EstimatorMode::kSlam: return "slam";
-  }
-  return "unknown";
+namespace {
+
+constexpr EnumNames<EstimatorMode, 3> kModeNames{{{"deadreckoning", EstimatorMode::kDeadReckoning},
+                                                  {"mapping", EstimatorMode::kMapping},
+                                                  {"slam", EstimatorMode::kSlam}}};
+constexpr EnumNames<GapPolicy, 2> kGapPolicyNames{
+    {{"predict", GapPolicy::kPredict}, {"reset", GapPolicy::kReset}}};
+constexpr EnumNames<RepeatedFramePolicy, 3> kRepeatedFrameNames{
+    {{"use", RepeatedFramePolicy::kUse},
+     {"skip", RepeatedFramePolicy::kSkip},
+     {"shift", RepeatedFramePolicy::kShift}}};
+constexpr EnumNames<DivergencePolicy, 2> kDivergenceNames{
+    {{"reset_landmarks", DivergencePolicy::kResetLandmarks},
+     {"reset_filter", DivergencePolicy::kResetFilter}}};
+
+/// The key table: every key once, with its field and range (config/default.yaml documents
+/// them in the same order). `Options` is VislamOptions or const VislamOptions.
+template <typename Options, typename Visitor>
+void visitVislamOptions(Options& o, Visitor& v) {
+  v.choice("mode", o.mode, kModeNames);
+
+  auto& noise = o.noise;
+  v.number("noise/pixel_sigma", noise.pixel_sigma, Bound::kPositive);
+  v.flag("noise/merge_stereo_rows", noise.merge_stereo_rows);
+  v.number("noise/linear_velocity_noise", noise.linear_velocity_noise, Bound::kNonNegative);
+  v.number("noise/angular_velocity_noise", noise.angular_velocity_noise, Bound::kNonNegative);
+  v.flag("noise/use_message_covariance", noise.use_message_covariance);
+
+  v.number("prior/position_sigma", o.prior.position_sigma, Bound::kPositive);
+  v.number("prior/rotation_sigma", o.prior.rotation_sigma, Bound::kPositive);
+
+  auto& bias = o.bias;
+  v.flag("bias/estimate_gyro_bias", bias.estimate_gyro_bias);
+  v.number("bias/gyro_prior_sigma", bias.gyro_prior_sigma, Bound::kPositive);
+  v.number("bias/gyro_random_walk", bias.gyro_random_walk, Bound::kNonNegative);
+  v.flag("bias/estimate_velocity_bias", bias.estimate_velocity_bias);
+  v.number("bias/velocity_prior_sigma", bias.velocity_prior_sigma, Bound::kPositive);
+  v.number("bias/velocity_random_walk", bias.velocity_random_walk, Bound::kNonNegative);
+
+  auto& extrinsic = o.extrinsic;
+  v.flag("extrinsic/estimate_twist_rotation", extrinsic.estimate_twist_rotation);
+  v.number("extrinsic/twist_rotation_prior_sigma", extrinsic.twist_rotation_prior_sigma,
+           Bound::kPositive);
+  v.number("extrinsic/twist_rotation_random_walk", extrinsic.twist_rotation_random_walk,
+           Bound::kNonNegative);
+
+  auto& intrinsic = o.intrinsic;
+  v.flag("intrinsic/estimate_disparity_offset", intrinsic.estimate_disparity_offset);
+  v.number("intrinsic/disparity_offset_prior_sigma", intrinsic.disparity_offset_prior_sigma,
+           Bound::kPositive);
+  v.number("intrinsic/disparity_offset_random_walk", intrinsic.disparity_offset_random_walk,
+           Bound::kNonNegative);
+  v.flag("intrinsic/estimate_baseline_scale", intrinsic.estimate_baseline_scale);
+  v.number("intrinsic/baseline_scale_prior_sigma", intrinsic.baseline_scale_prior_sigma,
+           Bound::kPositive);
+  v.number("intrinsic/baseline_scale_random_walk", intrinsic.baseline_scale_random_walk,
+           Bound::kNonNegative);
+
+  v.number("vehicle/lateral_velocity_sigma", o.vehicle.lateral_velocity_sigma, Bound::kNonNegative);
+  v.number("vehicle/vertical_velocity_sigma", o.vehicle.vertical_velocity_sigma,
+           Bound::kNonNegative);
+
+  auto& landmarks = o.landmarks;
+  v.number("landmarks/min_disparity_px", landmarks.min_disparity_px, Bound::kPositive);
+  v.number("landmarks/min_depth", landmarks.min_depth, Bound::kPositive);
+  v.number("landmarks/max_depth", landmarks.max_depth, Bound::kPositive);
+  v.number("landmarks/gating_probability", landmarks.gating_probability, Bound::kOpenUnit);
+  v.integer("landmarks/reinitialize_after_gated", landmarks.reinitialize_after_gated,
+            Bound::kNonNegative);
+  v.integer("landmarks/max_track_length", landmarks.max_track_length, Bound::kNonNegative);
+  v.number("landmarks/jump_threshold_px", landmarks.jump_threshold_px, Bound::kNonNegative);
+  v.number("landmarks/jump_threshold_sigmas", landmarks.jump_threshold_sigmas, Bound::kPositive);
+  v.flag("landmarks/keep_all_in_state", landmarks.keep_all_in_state);
+  v.integer("landmarks/max_track_gap", landmarks.max_track_gap, Bound::kNonNegative);
+
+  auto& limits = o.limits;
+  v.number("limits/max_linear_speed", limits.max_linear_speed, Bound::kPositive);
+  v.number("limits/max_angular_speed", limits.max_angular_speed, Bound::kPositive);
+  v.number("limits/max_twist_gap", limits.max_twist_gap, Bound::kPositive);
+  v.choice("limits/gap_policy", limits.gap_policy, kGapPolicyNames);
+  v.number("limits/gap_noise_scale", limits.gap_noise_scale, Bound::kPositive);
+  v.number("limits/max_row_difference_px", limits.max_row_difference_px, Bound::kPositive);
+  v.choice("limits/repeated_frames", limits.repeated_frames, kRepeatedFrameNames);
+  v.number("limits/repeated_frame_depth_sigma", limits.repeated_frame_depth_sigma,
+           Bound::kNonNegative);
+  v.integer("limits/max_features_per_frame", limits.max_features_per_frame, Bound::kNonNegative);
+
+  auto& health = o.health;
+  v.number("health/max_position_sigma", health.max_position_sigma, Bound::kPositive);
+  v.integer("health/max_rejected_frames", health.max_rejected_frames, Bound::kAtLeastOne);
+  v.number("health/rejected_fraction", health.rejected_fraction, Bound::kUnitFraction);
+  v.choice("health/divergence_policy", health.divergence_policy, kDivergenceNames);
 }
 
+}  // namespace
+
+const char* modeName(EstimatorMode mode) { return enumName(kModeNames, mode); }
+
 bool parseMode(const std::string& name, EstimatorMode* mode) {
-  for (EstimatorMode m :
-       {EstimatorMode::kDeadReckoning, EstimatorMode::kMapping, EstimatorMode::kSlam}) {
-    if (name == modeName(m)) {
-      *mode = m;
+  for (const auto& [mode_name, value] : kModeNames) {
+    if (name == mode_name) {
+      *mode = value;
       return true;
     }
   }
   return false;
 }
 
-namespace {
-
-
-}  // namespace
-
 std::string VislamOptions::validate() const {
-  std::ostringstream why;
-  auto positive = [&why](const char* key, double v) {
-    if (!(v > 0.0) && why.str().empty()) why << "'" << key << "' must be positive (" << v << ")";
-  };
-  auto non_negative = [&why](const char* key, double v) {
-    if (!(v >= 0.0) && why.str().empty()) why << "'" << key << "' must be >= 0 (" << v << ")";
-  };
-  positive("noise/pixel_sigma", pixel_sigma);
-  non_negative("noise/linear_velocity_noise", linear_velocity_noise);
-  non_negative("noise/angular_velocity_noise", angular_velocity_noise);
-  positive("prior/position_sigma", prior_position_sigma);
-  positive("prior/rotation_sigma", prior_rotation_sigma);
-  positive("bias/gyro_prior_sigma", gyro_bias_prior_sigma);
-  non_negative("bias/gyro_random_walk", gyro_bias_random_walk);
-  positive("bias/velocity_prior_sigma", velocity_bias_prior_sigma);
-  non_negative("bias/velocity_random_walk", velocity_bias_random_walk);
-  positive("extrinsic/twist_rotation_prior_sigma", twist_rotation_prior_sigma);
-  non_negative("extrinsic/twist_rotation_random_walk", twist_rotation_random_walk);
-  positive("intrinsic/disparity_offset_prior_sigma", disparity_offset_prior_sigma);
-  non_negative("intrinsic/disparity_offset_random_walk", disparity_offset_random_walk);
-  positive("intrinsic/baseline_scale_prior_sigma", baseline_scale_prior_sigma);
-  non_negative("intrinsic/baseline_scale_random_walk", baseline_scale_random_walk);
-  non_negative("vehicle/lateral_velocity_sigma", lateral_velocity_sigma);
-  non_negative("vehicle/vertical_velocity_sigma", vertical_velocity_sigma);
-  positive("landmarks/min_disparity_px", min_disparity_px);
-  positive("landmarks/min_depth", min_depth);
-  positive("landmarks/max_depth", max_depth);
-  non_negative("landmarks/jump_threshold_px", jump_threshold_px);
-  positive("landmarks/jump_threshold_sigmas", jump_threshold_sigmas);
-  positive("limits/max_linear_speed", max_linear_speed);
-  positive("limits/max_angular_speed", max_angular_speed);
-  positive("limits/max_twist_gap", max_twist_gap);
-  positive("limits/gap_noise_scale", gap_noise_scale);
-  positive("limits/max_row_difference_px", max_row_difference_px);
-  positive("health/max_position_sigma", max_position_sigma);
-  if (why.str().empty()) {
-    if (max_depth <= min_depth) {
-      why << "'landmarks/max_depth' must exceed 'landmarks/min_depth'";
-    } else if (!(gating_probability > 0.0 && gating_probability < 1.0)) {
-      why << "'landmarks/gating_probability' must be in (0, 1)";
-    } else if (reinitialize_after_gated < 0) {
-      why << "'landmarks/reinitialize_after_gated' must be >= 0";
-    } else if (max_track_length < 0) {
-      why << "'landmarks/max_track_length' must be >= 0";
-    } else if (max_track_gap < 0) {
-      why << "'landmarks/max_track_gap' must be >= 0";
-    } else if (max_features_per_frame < 0) {
-      why << "'limits/max_features_per_frame' must be >= 0";
-    } else if (max_rejected_frames < 1) {
-      why << "'health/max_rejected_frames' must be >= 1";
-    } else if (!(rejected_fraction > 0.0 && rejected_fraction <= 1.0)) {
-      why << "'health/rejected_fraction' must be in (0, 1]";
-    }
+  OptionValidator validator;
+  visitVislamOptions(*this, validator);
+  if (landmarks.max_depth <= landmarks.min_depth) {
+    validator.fail("'landmarks/max_depth' must exceed 'landmarks/min_depth'");
   }
-  return why.str();
+  return validator.error();
 }
 
-bool parseVislamOptions(const ParameterSource& source, VislamOptions* o, std::string* error) {
-  OptionReader r(source, error);
-  r.choice("mode", &o->mode,
-           {{"deadreckoning", EstimatorMode::kDeadReckoning},
-            {"mapping", EstimatorMode::kMapping},
-            {"slam", EstimatorMode::kSlam}});
-  r.number("noise/pixel_sigma", &o->pixel_sigma);
-  r.flag("noise/use_message_covariance", &o->use_message_covariance);
-  r.flag("noise/merge_stereo_rows", &o->merge_stereo_rows);
-  r.number("noise/linear_velocity_noise", &o->linear_velocity_noise);
-  r.number("noise/angular_velocity_noise", &o->angular_velocity_noise);
-  r.number("prior/position_sigma", &o->prior_position_sigma);
-  r.number("prior/rotation_sigma", &o->prior_rotation_sigma);
-  r.flag("bias/estimate_gyro_bias", &o->estimate_gyro_bias);
-  r.number("bias/gyro_prior_sigma", &o->gyro_bias_prior_sigma);
-  r.number("bias/gyro_random_walk", &o->gyro_bias_random_walk);
-  r.flag("bias/estimate_velocity_bias", &o->estimate_velocity_bias);
-  r.number("bias/velocity_prior_sigma", &o->velocity_bias_prior_sigma);
-  r.number("bias/velocity_random_walk", &o->velocity_bias_random_walk);
-  r.flag("extrinsic/estimate_twist_rotation", &o->estimate_twist_rotation);
-  r.number("extrinsic/twist_rotation_prior_sigma", &o->twist_rotation_prior_sigma);
-  r.number("extrinsic/twist_rotation_random_walk", &o->twist_rotation_random_walk);
-  r.flag("intrinsic/estimate_disparity_offset", &o->estimate_disparity_offset);
-  r.number("intrinsic/disparity_offset_prior_sigma", &o->disparity_offset_prior_sigma);
-  r.number("intrinsic/disparity_offset_random_walk", &o->disparity_offset_random_walk);
-  r.flag("intrinsic/estimate_baseline_scale", &o->estimate_baseline_scale);
-  r.number("intrinsic/baseline_scale_prior_sigma", &o->baseline_scale_prior_sigma);
-  r.number("intrinsic/baseline_scale_random_walk", &o->baseline_scale_random_walk);
-  r.number("vehicle/lateral_velocity_sigma", &o->lateral_velocity_sigma);
-  r.number("vehicle/vertical_velocity_sigma", &o->vertical_velocity_sigma);
-  r.number("landmarks/min_disparity_px", &o->min_disparity_px);
-  r.number("landmarks/min_depth", &o->min_depth);
-  r.number("landmarks/max_depth", &o->max_depth);
-  r.number("landmarks/gating_probability", &o->gating_probability);
-  r.integer("landmarks/reinitialize_after_gated", &o->reinitialize_after_gated);
-  r.integer("landmarks/max_track_length", &o->max_track_length);
-  r.number("landmarks/jump_threshold_px", &o->jump_threshold_px);
-  r.number("landmarks/jump_threshold_sigmas", &o->jump_threshold_sigmas);
-  r.flag("landmarks/keep_all_in_state", &o->keep_all_landmarks_in_state);
-  r.integer("landmarks/max_track_gap", &o->max_track_gap);
-  r.number("limits/max_linear_speed", &o->max_linear_speed);
-  r.number("limits/max_angular_speed", &o->max_angular_speed);
-  r.number("limits/max_twist_gap", &o->max_twist_gap);
-  r.choice("limits/gap_policy", &o->gap_policy,
-           {{"predict", GapPolicy::kPredict}, {"reset", GapPolicy::kReset}});
-  r.number("limits/gap_noise_scale", &o->gap_noise_scale);
-  r.number("limits/max_row_difference_px", &o->max_row_difference_px);
-  r.choice("limits/repeated_frames", &o->repeated_frames,
-           {{"use", RepeatedFramePolicy::kUse},
-            {"skip", RepeatedFramePolicy::kSkip},
-            {"shift", RepeatedFramePolicy::kShift}});
-  r.number("limits/repeated_frame_depth_sigma", &o->repeated_frame_depth_sigma);
-  r.integer("limits/max_features_per_frame", &o->max_features_per_frame);
-  r.number("health/max_position_sigma", &o->max_position_sigma);
-  r.integer("health/max_rejected_frames", &o->max_rejected_frames);
-  r.number("health/rejected_fraction", &o->rejected_fraction);
-  r.choice("health/divergence_policy", &o->divergence_policy,
-           {{"reset_landmarks", DivergencePolicy::kResetLandmarks},
-            {"reset_filter", DivergencePolicy::kResetFilter}});
-  if (!r.ok()) return false;
-  const std::string why = o->validate();
+bool parseVislamOptions(const ParameterSource& source, VislamOptions* options, std::string* error) {
+  OptionReader reader(source, error);
+  visitVislamOptions(*options, reader);
+  if (!reader.ok()) return false;
+  const std::string why = options->validate();
   if (!why.empty()) {
     if (error != nullptr) *error = source.describe() + ": " + why;
     return false;
   }
   return true;
+}
+
+std::string describeOptions(const VislamOptions& options) {
+  OptionDescriber describer;
+  visitVislamOptions(options, describer);
+  return describer.text();
+}
+
+std::vector<OptionKeyList::Key> vislamOptionKeys() {
+  const VislamOptions defaults;
+  OptionKeyList list;
+  visitVislamOptions(defaults, list);
+  return list.keys();
 }
 
 }  // namespace ekf_vislam

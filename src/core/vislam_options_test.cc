@@ -4,56 +4,60 @@
 
 #include <gtest/gtest.h>
 
+#include <sstream>
+#include <vector>
+
 namespace ekf_vislam {
 namespace {
 
-TEST(VislamOptions, ShippedConfigParsesAndMatchesBuiltInDefaults) {
+TEST(VislamOptions, ShippedConfigHasEveryKeyWithItsBuiltInDefault) {
   const YamlParameterSource source(std::string(EKF_VISLAM_SOURCE_DIR) + "/config/default.yaml");
   ASSERT_TRUE(source.ok()) << source.error();
+  const std::vector<OptionKeyList::Key> keys = vislamOptionKeys();
+  EXPECT_GE(keys.size(), 45u);
+  for (const OptionKeyList::Key& key : keys) {
+    EXPECT_TRUE(source.has(key.name)) << key.name << " is not documented in config/default.yaml";
+  }
   VislamOptions parsed;
-  // Start the newer keys away from their defaults: the file itself must set them.
-  parsed.estimate_disparity_offset = !parsed.estimate_disparity_offset;
-  parsed.disparity_offset_prior_sigma = 7.0;
-  parsed.estimate_baseline_scale = !parsed.estimate_baseline_scale;
-  parsed.baseline_scale_prior_sigma = 7.0;
-  parsed.lateral_velocity_sigma = parsed.vertical_velocity_sigma = 7.0;
-  parsed.max_track_length = 77;
-  parsed.repeated_frames = RepeatedFramePolicy::kUse;
-  parsed.repeated_frame_depth_sigma = 7.0;
   std::string error;
   ASSERT_TRUE(parseVislamOptions(source, &parsed, &error)) << error;
-  // The file documents the defaults: both must agree.
-  const VislamOptions defaults;
-  EXPECT_EQ(parsed.estimate_disparity_offset, defaults.estimate_disparity_offset);
-  EXPECT_DOUBLE_EQ(parsed.disparity_offset_prior_sigma, defaults.disparity_offset_prior_sigma);
-  EXPECT_DOUBLE_EQ(parsed.disparity_offset_random_walk, defaults.disparity_offset_random_walk);
-  EXPECT_EQ(parsed.estimate_baseline_scale, defaults.estimate_baseline_scale);
-  EXPECT_DOUBLE_EQ(parsed.baseline_scale_prior_sigma, defaults.baseline_scale_prior_sigma);
-  EXPECT_DOUBLE_EQ(parsed.baseline_scale_random_walk, defaults.baseline_scale_random_walk);
-  EXPECT_DOUBLE_EQ(parsed.lateral_velocity_sigma, defaults.lateral_velocity_sigma);
-  EXPECT_DOUBLE_EQ(parsed.vertical_velocity_sigma, defaults.vertical_velocity_sigma);
-  EXPECT_EQ(parsed.max_track_length, defaults.max_track_length);
-  EXPECT_EQ(parsed.mode, defaults.mode);
-  EXPECT_DOUBLE_EQ(parsed.pixel_sigma, defaults.pixel_sigma);
-  EXPECT_EQ(parsed.merge_stereo_rows, defaults.merge_stereo_rows);
-  EXPECT_DOUBLE_EQ(parsed.linear_velocity_noise, defaults.linear_velocity_noise);
-  EXPECT_DOUBLE_EQ(parsed.angular_velocity_noise, defaults.angular_velocity_noise);
-  EXPECT_DOUBLE_EQ(parsed.prior_position_sigma, defaults.prior_position_sigma);
-  EXPECT_DOUBLE_EQ(parsed.gyro_bias_prior_sigma, defaults.gyro_bias_prior_sigma);
-  EXPECT_DOUBLE_EQ(parsed.gyro_bias_random_walk, defaults.gyro_bias_random_walk);
-  EXPECT_EQ(parsed.estimate_gyro_bias, defaults.estimate_gyro_bias);
-  EXPECT_EQ(parsed.estimate_velocity_bias, defaults.estimate_velocity_bias);
-  EXPECT_DOUBLE_EQ(parsed.max_depth, defaults.max_depth);
-  EXPECT_DOUBLE_EQ(parsed.gating_probability, defaults.gating_probability);
-  EXPECT_EQ(parsed.reinitialize_after_gated, defaults.reinitialize_after_gated);
-  EXPECT_DOUBLE_EQ(parsed.max_row_difference_px, defaults.max_row_difference_px);
-  EXPECT_EQ(parsed.max_features_per_frame, defaults.max_features_per_frame);
-  EXPECT_EQ(parsed.repeated_frames, defaults.repeated_frames);
-  EXPECT_DOUBLE_EQ(parsed.repeated_frame_depth_sigma, defaults.repeated_frame_depth_sigma);
-  EXPECT_EQ(parsed.gap_policy, defaults.gap_policy);
-  EXPECT_EQ(parsed.divergence_policy, defaults.divergence_policy);
-  EXPECT_EQ(parsed.estimate_twist_rotation, defaults.estimate_twist_rotation);
-  EXPECT_DOUBLE_EQ(parsed.twist_rotation_prior_sigma, defaults.twist_rotation_prior_sigma);
+  // The file documents the defaults: every value must agree (the description lists every key).
+  EXPECT_EQ(describeOptions(parsed), describeOptions(VislamOptions()));
+}
+
+TEST(VislamOptions, DescriptionListsEveryKeyByGroup) {
+  const std::string text = describeOptions(VislamOptions());
+  for (const OptionKeyList::Key& key : vislamOptionKeys()) {
+    const size_t slash = key.name.rfind('/');
+    const std::string group = key.name.substr(0, slash == std::string::npos ? 0 : slash);
+    const std::string name = key.name.substr(slash == std::string::npos ? 0 : slash + 1);
+    EXPECT_NE(text.find(name + "="), std::string::npos) << key.name;
+    if (!group.empty()) {
+      EXPECT_NE(text.find(group + ":"), std::string::npos) << key.name;
+    }
+  }
+  EXPECT_NE(text.find("limits: max_linear_speed=100 "), std::string::npos) << text;
+  EXPECT_NE(text.find("repeated_frames=shift"), std::string::npos) << text;
+}
+
+TEST(VislamOptions, EveryBoundedKeyRejectsAValueOutsideItsRange) {
+  int bounded = 0;
+  for (const OptionKeyList::Key& key : vislamOptionKeys()) {
+    if (key.bound == Bound::kAny) continue;
+    ++bounded;
+    const double outside = valueOutside(key.bound);
+    const size_t slash = key.name.rfind('/');
+    ASSERT_NE(slash, std::string::npos) << key.name;
+    std::ostringstream yaml;
+    yaml << key.name.substr(0, slash) << ":\n  " << key.name.substr(slash + 1) << ": " << outside
+         << "\n";
+    const YamlParameterSource source = YamlParameterSource::fromString(yaml.str());
+    VislamOptions o;
+    std::string error;
+    EXPECT_FALSE(parseVislamOptions(source, &o, &error)) << yaml.str();
+    EXPECT_NE(error.find(key.name), std::string::npos) << error;
+  }
+  EXPECT_GE(bounded, 35);
 }
 
 TEST(VislamOptions, NestedKeysEnumsAndMissingKeys) {
@@ -65,10 +69,10 @@ TEST(VislamOptions, NestedKeysEnumsAndMissingKeys) {
   std::string error;
   ASSERT_TRUE(parseVislamOptions(source, &o, &error)) << error;
   EXPECT_EQ(o.mode, EstimatorMode::kMapping);
-  EXPECT_DOUBLE_EQ(o.pixel_sigma, 3.5);
-  EXPECT_EQ(o.gap_policy, GapPolicy::kReset);
-  EXPECT_TRUE(o.keep_all_landmarks_in_state);
-  EXPECT_DOUBLE_EQ(o.max_depth, VislamOptions().max_depth);  // absent: default kept
+  EXPECT_DOUBLE_EQ(o.noise.pixel_sigma, 3.5);
+  EXPECT_EQ(o.limits.gap_policy, GapPolicy::kReset);
+  EXPECT_TRUE(o.landmarks.keep_all_in_state);
+  EXPECT_DOUBLE_EQ(o.landmarks.max_depth, VislamOptions().landmarks.max_depth);  // absent: default kept
 }
 
 TEST(VislamOptions, ErrorsNameTheKey) {

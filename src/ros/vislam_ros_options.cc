@@ -170,39 +170,6 @@ bool parseVislamRosOptions(const ParameterSource& source, VislamRosOptions* opti
   return true;
 }
 
-std::string describeOptions(const VislamOptions& o) {
-  std::ostringstream out;
-  out << "mode: " << modeName(o.mode) << "\n"
-      << "noise: pixel_sigma=" << o.pixel_sigma << " merge_stereo_rows=" << o.merge_stereo_rows
-      << " linear_velocity_noise=" << o.linear_velocity_noise
-      << " angular_velocity_noise=" << o.angular_velocity_noise
-      << " use_message_covariance=" << o.use_message_covariance << "\n"
-      << "prior: position_sigma=" << o.prior_position_sigma
-      << " rotation_sigma=" << o.prior_rotation_sigma << "\n"
-      << "bias: estimate_gyro_bias=" << o.estimate_gyro_bias
-      << " gyro_bias_prior_sigma=" << o.gyro_bias_prior_sigma
-      << " gyro_bias_random_walk=" << o.gyro_bias_random_walk
-      << " estimate_velocity_bias=" << o.estimate_velocity_bias
-      << " velocity_bias_prior_sigma=" << o.velocity_bias_prior_sigma
-      << " velocity_bias_random_walk=" << o.velocity_bias_random_walk << "\n"
-      << "landmarks: min_disparity_px=" << o.min_disparity_px << " min_depth=" << o.min_depth
-      << " max_depth=" << o.max_depth << " gating_probability=" << o.gating_probability
-      << " keep_all_landmarks_in_state=" << o.keep_all_landmarks_in_state
-      << " max_track_gap=" << o.max_track_gap << "\n"
-      << "limits: max_linear_speed=" << o.max_linear_speed
-      << " max_angular_speed=" << o.max_angular_speed << " max_twist_gap=" << o.max_twist_gap
-      << " gap_policy=" << (o.gap_policy == GapPolicy::kPredict ? "predict" : "reset")
-      << " gap_noise_scale=" << o.gap_noise_scale
-      << " max_row_difference_px=" << o.max_row_difference_px
-      << " max_features_per_frame=" << o.max_features_per_frame << "\n"
-      << "health: max_position_sigma=" << o.max_position_sigma
-      << " max_rejected_frames=" << o.max_rejected_frames
-      << " rejected_fraction=" << o.rejected_fraction << " divergence_policy="
-      << (o.divergence_policy == DivergencePolicy::kResetLandmarks ? "reset_landmarks"
-                                                                    : "reset_filter");
-  return out.str();
-}
-
 std::string describeOptions(const VislamRosOptions& o) {
   std::ostringstream out;
   out << "ros: world_frame=" << o.world_frame << " imu_frame=" << o.imu_frame

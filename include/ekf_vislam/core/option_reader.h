@@ -3,6 +3,7 @@
 // by the option parsers of the estimator and the stereo tracker. No ROS.
 #pragma once
 
+#include "ekf_vislam/core/option_table.h"
 #include "ekf_vislam/core/parameter_source.h"
 
 #include <cmath>
@@ -44,6 +45,27 @@ class OptionReader {
         }
       }
     }
+    for (const auto& [name, e] : names) expected += (expected.empty() ? "" : " | ") + std::string(name);
+    fail(key, "one of " + expected);
+  }
+
+  // The key-table visitor interface (option_table.h): the bound is checked by OptionValidator.
+  void number(const char* key, double& value, Bound) { number(std::string(key), &value); }
+  void integer(const char* key, int& value, Bound) { integer(std::string(key), &value); }
+  void flag(const char* key, bool& value) { flag(std::string(key), &value); }
+  template <typename Enum, size_t N>
+  void choice(const char* key, Enum& value, const EnumNames<Enum, N>& names) {
+    if (!ok_ || !source_.has(key)) return;
+    std::string text;
+    if (source_.getString(key, &text)) {
+      for (const auto& [name, e] : names) {
+        if (text == name) {
+          value = e;
+          return;
+        }
+      }
+    }
+    std::string expected;
     for (const auto& [name, e] : names) expected += (expected.empty() ? "" : " | ") + std::string(name);
     fail(key, "one of " + expected);
   }

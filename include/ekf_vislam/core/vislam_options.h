@@ -1,10 +1,13 @@
-// Every tunable of the estimator in one struct, filled by one parser from a ParameterSource.
-// Keys and documentation: config/default.yaml. No ROS.
+// Every tunable of the estimator, nested by YAML group, and its key table: one parser, one
+// validator and one description from a ParameterSource. Keys and documentation:
+// config/default.yaml. No ROS.
 #pragma once
 
+#include "ekf_vislam/core/option_table.h"
 #include "ekf_vislam/core/parameter_source.h"
 
 #include <string>
+#include <vector>
 
 namespace ekf_vislam {
 
@@ -40,10 +43,8 @@ enum class DivergencePolicy {
   kResetFilter,     ///< restart the filter at the current pose estimate with the prior covariance
 };
 
-struct VislamOptions {
-  EstimatorMode mode = EstimatorMode::kSlam;
-
-  // noise/
+/// noise/: measurement and process noise.
+struct NoiseOptions {
   double pixel_sigma = 2.0;               ///< px, std of each image coordinate
   bool merge_stereo_rows = true;          ///< observe [uL, (vL+vR)/2, uR] (3 rows) instead of 4
   double linear_velocity_noise = 0.10;    ///< m/s/sqrt(Hz): W_v = sigma^2 * tau
@@ -51,101 +52,131 @@ struct VislamOptions {
   /// A twist message with a non-zero covariance (TwistWithCovarianceStamped, Odometry) supplies
   /// its own noise; all-zero covariances fall back to the two densities above.
   bool use_message_covariance = true;
+};
 
-  // prior/
-  double prior_position_sigma = 1e-3;  ///< m, initial pose uncertainty
-  double prior_rotation_sigma = 1e-3;  ///< rad
+/// prior/: initial pose uncertainty (the world is the first IMU pose).
+struct PriorOptions {
+  double position_sigma = 1e-3;  ///< m
+  double rotation_sigma = 1e-3;  ///< rad
+};
 
-  // bias/
+/// bias/: twist bias states (random walks).
+struct BiasOptions {
   bool estimate_gyro_bias = true;
-  double gyro_bias_prior_sigma = 0.02;     ///< rad/s
-  double gyro_bias_random_walk = 1e-4;     ///< rad/s/sqrt(s)
+  double gyro_prior_sigma = 0.02;        ///< rad/s
+  double gyro_random_walk = 1e-4;        ///< rad/s/sqrt(s)
   bool estimate_velocity_bias = false;
-  double velocity_bias_prior_sigma = 0.1;  ///< m/s
-  double velocity_bias_random_walk = 1e-3; ///< m/s/sqrt(s)
+  double velocity_prior_sigma = 0.1;     ///< m/s
+  double velocity_random_walk = 1e-3;    ///< m/s/sqrt(s)
+};
 
-  // extrinsic/
-  /// Estimate the rotation R_m between the frame the twist is measured in and the IMU frame that
-  /// cam_T_imu refers to (u_true = R_m (u_measured - b)); the KITTI files carry 1-3 degrees.
+/// extrinsic/: the rotation R_m between the frame the twist is measured in and the IMU frame
+/// that cam_T_imu refers to (u_true = R_m (u_measured - b)); the KITTI files carry 1-3 degrees.
+struct ExtrinsicOptions {
   bool estimate_twist_rotation = true;
-  double twist_rotation_prior_sigma = 0.05;   ///< rad
-  double twist_rotation_random_walk = 0.0;    ///< rad/sqrt(s)
+  double twist_rotation_prior_sigma = 0.05;  ///< rad
+  double twist_rotation_random_walk = 0.0;   ///< rad/sqrt(s)
+};
 
-  // intrinsic/
-  /// Estimate a constant offset of the measured stereo disparity (uL - uR = true + offset), e.g.
-  /// from a right principal point that is off by a fraction of a pixel. It biases every
-  /// triangulated depth and with it the scale of the trajectory; the KITTI tracks carry about
-  /// +0.5 to +1 px.
+/// intrinsic/: stereo calibration states.
+struct IntrinsicOptions {
+  /// A constant offset of the measured stereo disparity (uL - uR = true + offset), e.g. from a
+  /// right principal point that is off by a fraction of a pixel. It biases every triangulated
+  /// depth and with it the scale of the trajectory; the KITTI tracks carry about +0.5 to +1 px.
   bool estimate_disparity_offset = true;
-  double disparity_offset_prior_sigma = 1.0;   ///< px
-  double disparity_offset_random_walk = 0.0;   ///< px/sqrt(s)
-  /// Estimate a scale factor of the stereo baseline (every triangulated depth scales with it);
-  /// made observable by the twist's speed.
+  double disparity_offset_prior_sigma = 1.0;  ///< px
+  double disparity_offset_random_walk = 0.0;  ///< px/sqrt(s)
+  /// A scale factor of the stereo baseline (every triangulated depth scales with it), made
+  /// observable by the twist's speed.
   bool estimate_baseline_scale = false;
   double baseline_scale_prior_sigma = 0.05;  ///< relative (0.05 = 5 %)
   double baseline_scale_random_walk = 0.0;   ///< 1/sqrt(s)
+};
 
-  // vehicle/
-  /// Ground-vehicle (non-holonomic) prior on the IMU-frame velocity (x forward): a wheeled
-  /// vehicle barely moves sideways or vertically, so the measured lateral (y) and vertical (z)
-  /// velocity is fused with a zero-mean prior of this std before it drives the prediction
-  /// (shrinks the noisy component and its process noise). 0 = no prior on that axis.
+/// vehicle/: ground-vehicle (non-holonomic) prior on the IMU-frame velocity (x forward). The
+/// measured lateral (y) and vertical (z) velocity is fused with a zero-mean prior of this std
+/// before it drives the prediction. 0 = no prior on that axis.
+struct VehicleOptions {
   double lateral_velocity_sigma = 0.1;   ///< m/s
   double vertical_velocity_sigma = 0.1;  ///< m/s
+};
 
-  // landmarks/
-  double min_disparity_px = 1.0;      ///< smaller (or negative) disparity: not initialized
-  double min_depth = 1.0;             ///< m
-  double max_depth = 80.0;            ///< m
-  double gating_probability = 0.95;   ///< chi-square gate (per observation)
+/// landmarks/: initialization, gating and the life cycle of landmarks.
+struct LandmarkOptions {
+  double min_disparity_px = 1.0;     ///< smaller (or negative) disparity: not initialized
+  double min_depth = 1.0;            ///< m
+  double max_depth = 80.0;           ///< m
+  double gating_probability = 0.95;  ///< chi-square gate (per observation)
   /// A landmark whose observations disagree grossly (beyond the chi-square 0.9999 quantile) this
-  /// many frames in a row restarts from its current observation (feature tracks that jump);
-  /// 0 = never.
+  /// many frames in a row restarts from its current observation; 0 = never.
   int reinitialize_after_gated = 1;
-  /// A landmark whose track has been seen in this many frames leaves the state (its estimate stays in
-  /// the map) and its track continues as a new landmark (a new map entry with the same id): real
-  /// feature tracks drift away from the physical point over time (doc/experiments.md). 0 = never.
+  /// A landmark tracked in this many frames leaves the state (its estimate stays in the map) and
+  /// its track continues as a new landmark (same id, new map entry). 0 = never.
   int max_track_length = 0;
   /// Track-jump test (track_jump_detector.h): once the pose error common to all landmarks is
   /// removed, a re-observed landmark whose frame-to-frame flow error in uL or v exceeds
   /// jump_threshold_px and jump_threshold_sigmas robust standard deviations has jumped to another
-  /// point: its landmark leaves the state and the track continues as a new landmark.
-  /// jump_threshold_px = 0: off.
+  /// point: it leaves the state and the track continues as a new landmark. 0 px = off.
   double jump_threshold_px = 0.5;
   double jump_threshold_sigmas = 3.0;
-  bool keep_all_landmarks_in_state = false;  ///< never marginalize (exact, O(N^2) memory)
+  bool keep_all_in_state = false;  ///< never marginalize (exact, O(N^2) memory)
   /// A track absent from up to this many consecutive non-empty frames keeps its landmark in the
-  /// state and resumes when its id returns (a tracker that lost an image); after that it ends.
-  /// An empty feature message ends no track.
+  /// state and resumes when its id returns; after that it ends. An empty message ends no track.
   int max_track_gap = 2;
+};
 
-  // limits/ (input sanity)
-  double max_linear_speed = 100.0;      ///< m/s; faster twists are rejected
-  double max_angular_speed = 10.0;      ///< rad/s
-  double max_twist_gap = 1.0;           ///< s; longer gaps follow gap_policy
+/// limits/: input sanity, twist gaps and repeated frames.
+struct LimitsOptions {
+  double max_linear_speed = 100.0;     ///< m/s; faster twists are rejected
+  double max_angular_speed = 10.0;     ///< rad/s
+  double max_twist_gap = 1.0;          ///< s; longer gaps follow gap_policy
   GapPolicy gap_policy = GapPolicy::kPredict;
-  double gap_noise_scale = 10.0;        ///< process noise multiplier across a gap
-  double max_row_difference_px = 5.0;   ///< |vL - vR| beyond: rejected (rectified pair)
+  double gap_noise_scale = 10.0;       ///< process noise multiplier across a gap
+  double max_row_difference_px = 5.0;  ///< |vL - vR| beyond: rejected (rectified pair)
   /// A feature frame in which every track shared with the previous frame has identical
-  /// coordinates (a re-published tracker result; repeated_frame_detector.h) is always counted.
+  /// coordinates (a re-published tracker result) is always counted; this says what follows.
   RepeatedFramePolicy repeated_frames = RepeatedFramePolicy::kShift;
   /// shift: standard deviation added to a moved landmark along the camera ray, relative to its
   /// distance (the move assumes equal motion over the repeated frame and the next one).
   double repeated_frame_depth_sigma = 0.1;
-  int max_features_per_frame = 400;     ///< 0 = unlimited; extra features of a frame dropped
+  int max_features_per_frame = 400;  ///< 0 = unlimited; extra features of a frame dropped
+};
 
-  // health/
-  double max_position_sigma = 1000.0;   ///< m; pose sigma beyond: divergence
-  int max_rejected_frames = 20;         ///< consecutive frames with most observations gated
-  double rejected_fraction = 0.8;       ///< "most" above
+/// health/: divergence detection and recovery.
+struct HealthOptions {
+  double max_position_sigma = 1000.0;  ///< m; pose sigma beyond: divergence
+  int max_rejected_frames = 20;        ///< consecutive frames with most observations gated
+  double rejected_fraction = 0.8;      ///< "most" above
   DivergencePolicy divergence_policy = DivergencePolicy::kResetLandmarks;
+};
 
-  /// Empty when consistent; otherwise one line naming the bad key.
+/// Every tunable of the estimator, one nested struct per YAML group (config/default.yaml). The
+/// key table (vislam_options.cc) names each key once for parsing, validation and description.
+struct VislamOptions {
+  EstimatorMode mode = EstimatorMode::kSlam;
+  NoiseOptions noise;
+  PriorOptions prior;
+  BiasOptions bias;
+  ExtrinsicOptions extrinsic;
+  IntrinsicOptions intrinsic;
+  VehicleOptions vehicle;
+  LandmarkOptions landmarks;
+  LimitsOptions limits;
+  HealthOptions health;
+
+  /// Empty when every key is within its range and the keys agree; otherwise one line naming the
+  /// bad key.
   std::string validate() const;
 };
 
 /// Fills `options` from `source`: absent keys keep their current values; unknown enum names or
 /// values of the wrong type make it return false with a message naming the key.
 bool parseVislamOptions(const ParameterSource& source, VislamOptions* options, std::string* error);
+
+/// The effective options, one "group: key=value ..." line per YAML group (logged at start).
+std::string describeOptions(const VislamOptions& options);
+
+/// Every key of the table ("noise/pixel_sigma", ...), with its kind and range.
+std::vector<OptionKeyList::Key> vislamOptionKeys();
 
 }  // namespace ekf_vislam

@@ -53,8 +53,7 @@ struct VislamRosOptions {
 bool parseVislamRosOptions(const ParameterSource& source, VislamRosOptions* options,
                            std::string* error);
 
-/// One multi-line, human-readable listing of the effective options (logged at start).
-std::string describeOptions(const VislamOptions& options);
+/// One multi-line, human-readable listing of the effective ros/ options (logged at start).
 std::string describeOptions(const VislamRosOptions& options);
 
 }  // namespace ekf_vislam

@@ -11,10 +11,10 @@ namespace testing {
 
 VislamOptions matchedOptions(const ScenarioOptions& scenario) {
   VislamOptions o;
-  o.pixel_sigma = scenario.pixel_sigma;
-  o.linear_velocity_noise = scenario.linear_velocity_noise * std::sqrt(scenario.dt);
-  o.angular_velocity_noise = scenario.angular_velocity_noise * std::sqrt(scenario.dt);
-  o.max_track_length = 0;
+  o.noise.pixel_sigma = scenario.pixel_sigma;
+  o.noise.linear_velocity_noise = scenario.linear_velocity_noise * std::sqrt(scenario.dt);
+  o.noise.angular_velocity_noise = scenario.angular_velocity_noise * std::sqrt(scenario.dt);
+  o.landmarks.max_track_length = 0;
   return o;
 }
 

@@ -1,0 +1,259 @@
+#include "ekf_vislam/core/propagator.h"
+
+#include "ekf_vislam/core/se3.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <random>
+
+namespace ekf_vislam {
+namespace {
+
+constexpr double kDt = 0.1;
+
+Eigen::MatrixXd randomMatrix(int rows, int cols, std::mt19937* rng) {
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  Eigen::MatrixXd M(rows, cols);
+  for (int c = 0; c < cols; ++c) {
+    for (int r = 0; r < rows; ++r) M(r, c) = uniform(*rng);
+  }
+  return M;
+}
+
+// No process noise, no random walk: the covariance moves only through F.
+VislamOptions noiselessOptions(EstimatorMode mode) {
+  VislamOptions options;
+  options.mode = mode;
+  options.linear_velocity_noise = 0.0;
+  options.angular_velocity_noise = 0.0;
+  options.velocity_bias_random_walk = 0.0;
+  options.gyro_bias_random_walk = 0.0;
+  options.twist_rotation_random_walk = 0.0;
+  options.disparity_offset_random_walk = 0.0;
+  options.baseline_scale_random_walk = 0.0;
+  return options;
+}
+
+// Biases of v_y, w_x, w_z, twist rotation, disparity offset, clone, two landmarks (26 rows),
+// random means and covariance.
+FilterState randomState(std::mt19937* rng) {
+  StateLayout layout;
+  layout.bias_components = {1, 3, 5};
+  layout.rotation_dim = 3;
+  layout.disparity_dim = 1;
+  layout.clone_dim = 6;
+  FilterState state(layout);
+  state.reset(StatePrior());
+  for (int k = 0; k < 2; ++k) {
+    state.appendLandmark(20.0 * randomMatrix(3, 1, rng), Eigen::MatrixXd::Zero(3, state.dim()),
+                         Eigen::Matrix3d::Identity());
+  }
+  const Eigen::MatrixXd A = randomMatrix(state.dim(), state.dim(), rng);
+  state.covariance() = 0.01 * A * A.transpose();
+  state.imu_T_world = se3::exp(Vector6d(3.0 * randomMatrix(6, 1, rng)));
+  state.imu_T_world_clone = se3::exp(Vector6d(randomMatrix(6, 1, rng)));
+  state.bias = 0.1 * randomMatrix(3, 1, rng);
+  state.imu_R_twist = se3::expSO3(0.05 * randomMatrix(3, 1, rng));
+  return state;
+}
+
+TwistData drivingTwist() {
+  TwistData twist;
+  twist.v_imu = Eigen::Vector3d(8.0, 0.4, -0.2);
+  twist.w_imu = Eigen::Vector3d(0.05, -0.03, 0.3);
+  return twist;
+}
+
+// The mean `mean` perturbed by the error e (filter_state.h): world_T_imu = exp(eps^) world_T_imu,
+// b + db, R_m = exp(theta^) R_m, additive calibration, the clone like the pose, landmarks
+// p = exp(phi^) p + xi (invariant) or p + xi.
+FilterState perturbed(const FilterState& mean, const Eigen::VectorXd& e, bool invariant) {
+  const StateLayout& L = mean.layout();
+  FilterState x = mean;
+  x.imu_T_world = se3::inverse(se3::exp(Vector6d(e.head<6>())) * se3::inverse(mean.imu_T_world));
+  x.bias += e.segment(L.biasRow(), L.biasDim());
+  x.imu_R_twist = se3::expSO3(e.segment<3>(L.rotationRow())) * mean.imu_R_twist;
+  x.disparity_offset += e(L.disparityRow());
+  x.imu_T_world_clone = se3::inverse(se3::exp(Vector6d(e.segment<6>(L.cloneRow()))) *
+                                     se3::inverse(mean.imu_T_world_clone));
+  const Eigen::Vector3d phi =
+      invariant ? Eigen::Vector3d(e.segment<3>(3)) : Eigen::Vector3d::Zero();
+  for (size_t k = 0; k < mean.landmarkCount(); ++k) {
+    x.setLandmark(k, se3::expSO3(phi) * mean.landmark(k) + e.segment<3>(L.landmarkRow(k)));
+  }
+  return x;
+}
+
+// The error e with perturbed(mean, e) == x.
+Eigen::VectorXd errorOf(const FilterState& x, const FilterState& mean, bool invariant) {
+  const StateLayout& L = mean.layout();
+  Eigen::VectorXd e(mean.dim());
+  e.head<6>() = se3::log(se3::inverse(x.imu_T_world) * mean.imu_T_world);
+  e.segment(L.biasRow(), L.biasDim()) = x.bias - mean.bias;
+  e.segment<3>(L.rotationRow()) = se3::logSO3(x.imu_R_twist * mean.imu_R_twist.transpose());
+  e(L.disparityRow()) = x.disparity_offset - mean.disparity_offset;
+  e.segment<6>(L.cloneRow()) = se3::log(se3::inverse(x.imu_T_world_clone) * mean.imu_T_world_clone);
+  const Eigen::Vector3d phi =
+      invariant ? Eigen::Vector3d(e.segment<3>(3)) : Eigen::Vector3d::Zero();
+  for (size_t k = 0; k < mean.landmarkCount(); ++k) {
+    e.segment<3>(L.landmarkRow(k)) = x.landmark(k) - se3::expSO3(phi) * mean.landmark(k);
+  }
+  return e;
+}
+
+// F = d(predicted error) / d(error) by central differences of the mean prediction.
+Eigen::MatrixXd numericalTransition(const Propagator& propagator, const FilterState& mean,
+                                    const TwistData& twist, bool invariant) {
+  FilterState predicted = mean;
+  propagator.predict(kDt, twist, 1.0, &predicted);
+  const int n = mean.dim();
+  const double h = 1e-6;
+  Eigen::MatrixXd F(n, n);
+  for (int j = 0; j < n; ++j) {
+    const Eigen::VectorXd e = h * Eigen::VectorXd::Unit(n, j);
+    FilterState plus = perturbed(mean, e, invariant);
+    FilterState minus = perturbed(mean, -e, invariant);
+    propagator.predict(kDt, twist, 1.0, &plus);
+    propagator.predict(kDt, twist, 1.0, &minus);
+    F.col(j) =
+        (errorOf(plus, predicted, invariant) - errorOf(minus, predicted, invariant)) / (2 * h);
+  }
+  return F;
+}
+
+void expectCovarianceIsFPFt(const VislamOptions& options, bool invariant) {
+  std::mt19937 rng(1);
+  const Propagator propagator(options);
+  FilterState state = randomState(&rng);
+  const Eigen::MatrixXd F = numericalTransition(propagator, state, drivingTwist(), invariant);
+  const Eigen::MatrixXd P = state.covariance();
+  FilterState noise_only = state;
+  noise_only.covariance().setZero();
+  propagator.predict(kDt, drivingTwist(), 1.0, &noise_only);
+  propagator.predict(kDt, drivingTwist(), 1.0, &state);
+
+  const Eigen::MatrixXd expected = F * P * F.transpose() + noise_only.covariance();
+  EXPECT_LT((state.covariance() - expected).norm(), 1e-7 * expected.norm());
+  // The prediction couples the states (else the test would prove nothing).
+  EXPECT_GT((F - Eigen::MatrixXd::Identity(P.rows(), P.cols())).norm(), 0.1);
+}
+
+TEST(Propagator, CovarianceIsFPFtWithInvariantLandmarksInSlamMode) {
+  const VislamOptions options = noiselessOptions(EstimatorMode::kSlam);
+  expectCovarianceIsFPFt(options, true);
+}
+
+TEST(Propagator, CovarianceIsFPFtWithAdditiveLandmarksInMappingMode) {
+  const VislamOptions options = noiselessOptions(EstimatorMode::kMapping);
+  expectCovarianceIsFPFt(options, false);
+}
+
+TEST(Propagator, CovarianceIsFPFtPlusNoiseWithTheVehiclePrior) {
+  VislamOptions options = noiselessOptions(EstimatorMode::kSlam);
+  options.use_message_covariance = false;
+  options.linear_velocity_noise = 0.2;  // the vehicle prior gains differ from 1
+  options.angular_velocity_noise = 0.01;
+  options.lateral_velocity_sigma = 0.1;
+  options.vertical_velocity_sigma = 0.05;
+  expectCovarianceIsFPFt(options, true);
+}
+
+TEST(Propagator, ProcessNoiseEntersInWorldAxesAndMovesInvariantLandmarks) {
+  VislamOptions options = noiselessOptions(EstimatorMode::kSlam);
+  options.linear_velocity_noise = 0.2;
+  options.angular_velocity_noise = 0.01;
+  options.gyro_bias_random_walk = 0.03;
+  options.twist_rotation_random_walk = 0.02;
+  options.disparity_offset_random_walk = 0.5;
+  const Propagator propagator(options);
+  std::mt19937 rng(2);
+  FilterState state = randomState(&rng);
+  state.covariance().setZero();
+  const double noise_scale = 3.0;
+  propagator.predict(kDt, drivingTwist(), noise_scale, &state);
+
+  // D maps the pose error change into the state: identity on the pose, [0, p^] per landmark.
+  const StateLayout& L = state.layout();
+  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(state.dim(), 6);
+  D.topRows<6>().setIdentity();
+  for (size_t k = 0; k < 2; ++k) D.block<3, 3>(L.landmarkRow(k), 3) = se3::hat(state.landmark(k));
+  const Matrix6d Ad = se3::adjoint(se3::inverse(state.imu_T_world));
+  const Matrix6d Q = propagator.noiseDensity(state, drivingTwist());
+  Eigen::MatrixXd expected = D * (noise_scale * kDt * Ad * Q * Ad.transpose()) * D.transpose();
+  for (int i = 0; i < 3; ++i) {
+    expected(L.biasRow() + i, L.biasRow() + i) += kDt * (i == 0 ? 0.0 : 0.03 * 0.03);
+    expected(L.rotationRow() + i, L.rotationRow() + i) += kDt * 0.02 * 0.02;
+  }
+  expected(L.disparityRow(), L.disparityRow()) += kDt * 0.25;
+  EXPECT_LT((state.covariance() - expected).norm(), 1e-12 * expected.norm());
+}
+
+TEST(Propagator, CorrectedTwistRemovesTheBiasRotatesAndAppliesTheVehiclePrior) {
+  VislamOptions options;
+  options.use_message_covariance = false;
+  options.linear_velocity_noise = 0.2;    // r = 0.2^2 / 0.1 = 0.4 per sample
+  options.lateral_velocity_sigma = 0.5;   // g_y = 0.25 / (0.25 + 0.4) = 5/13
+  options.vertical_velocity_sigma = 0.0;  // no prior: g_z = 1
+  Propagator propagator(options);
+  propagator.setSamplePeriod(0.1);
+  StateLayout layout;
+  layout.bias_components = {0, 4};
+  layout.rotation_dim = 3;
+  FilterState state(layout);
+  state.reset(StatePrior());
+  state.bias << 0.5, 0.01;
+  state.imu_R_twist = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  TwistData twist;
+  twist.v_imu = Eigen::Vector3d(10.0, 1.0, 0.2);  // minus bias (9.5, 1, 0.2), Rz: (-1, 9.5, 0.2)
+  twist.w_imu =
+      Eigen::Vector3d(0.1, 0.03, 0.3);  // minus bias (0.1, 0.02, 0.3), Rz: (-0.02, 0.1, 0.3)
+
+  Vector6d expected;
+  expected << -1.0, 9.5 * 5.0 / 13.0, 0.2, -0.02, 0.1, 0.3;
+  EXPECT_LT((propagator.correctedTwist(state, twist) - expected).norm(), 1e-12);
+}
+
+TEST(Propagator, NoiseDensityUsesTheMessageCovarianceOnlyWhenEnabledAndNonZero) {
+  VislamOptions options;
+  options.use_message_covariance = true;
+  options.linear_velocity_noise = 0.2;
+  options.angular_velocity_noise = 0.01;
+  options.lateral_velocity_sigma = 0.0;  // no vehicle prior: gains 1
+  options.vertical_velocity_sigma = 0.0;
+  Propagator propagator(options);
+  propagator.setSamplePeriod(0.05);
+  StateLayout layout;
+  layout.rotation_dim = 3;
+  FilterState state(layout);
+  state.reset(StatePrior());
+  state.imu_R_twist = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  Vector6d configured;
+  configured << 0.04, 0.04, 0.04, 1e-4, 1e-4, 1e-4;
+  TwistData twist;
+  EXPECT_LT((propagator.noiseDensity(state, twist) - Matrix6d(configured.asDiagonal())).norm(),
+            1e-15);
+
+  Vector6d per_sample;
+  per_sample << 0.01, 0.04, 0.09, 1e-4, 4e-4, 9e-4;
+  twist.covariance = per_sample.asDiagonal();
+  // Rz(90 deg) swaps the x and y variances; density = per-sample covariance x period.
+  Vector6d message;
+  message << 0.04, 0.01, 0.09, 4e-4, 1e-4, 9e-4;
+  message *= 0.05;
+  EXPECT_LT((propagator.noiseDensity(state, twist) - Matrix6d(message.asDiagonal())).norm(), 1e-15);
+
+  options.lateral_velocity_sigma = 0.1;  // s^2 = 0.01 against r = 0.01: g_y = 0.5
+  message(1) *= 0.5;
+  EXPECT_LT((propagator.noiseDensity(state, twist) - Matrix6d(message.asDiagonal())).norm(), 1e-15);
+
+  options.use_message_covariance = false;
+  options.lateral_velocity_sigma = 0.0;
+  EXPECT_LT((propagator.noiseDensity(state, twist) - Matrix6d(configured.asDiagonal())).norm(),
+            1e-15);
+}
+
+}  // namespace
+}  // namespace ekf_vislam

@@ -1,0 +1,256 @@
+#include "ekf_vislam/core/state_helper.h"
+
+#include "ekf_vislam/core/se3.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+
+#include <limits>
+#include <random>
+#include <vector>
+
+namespace ekf_vislam {
+namespace {
+
+Eigen::MatrixXd randomMatrix(int rows, int cols, std::mt19937* rng) {
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  Eigen::MatrixXd M(rows, cols);
+  for (int c = 0; c < cols; ++c) {
+    for (int r = 0; r < rows; ++r) M(r, c) = uniform(*rng);
+  }
+  return M;
+}
+
+Eigen::MatrixXd randomCovariance(int dim, std::mt19937* rng) {
+  const Eigen::MatrixXd A = randomMatrix(dim, dim, rng);
+  return 0.1 * A * A.transpose() + 0.01 * Eigen::MatrixXd::Identity(dim, dim);
+}
+
+// Pose, one gyro bias row, the disparity offset and three landmarks (17 rows), random means and
+// a random SPD covariance.
+FilterState makeState(std::mt19937* rng) {
+  StateLayout layout;
+  layout.bias_components = {5};
+  layout.disparity_dim = 1;
+  FilterState state(layout);
+  state.reset(StatePrior());
+  state.imu_T_world = se3::exp(Vector6d(randomMatrix(6, 1, rng)));
+  state.bias(0) = 0.01;
+  state.disparity_offset = 0.3;
+  for (int k = 0; k < 3; ++k) {
+    const Eigen::Vector3d p_world = 10.0 * randomMatrix(3, 1, rng);
+    state.appendLandmark(p_world, Eigen::MatrixXd::Zero(3, state.dim()),
+                         Eigen::Matrix3d::Identity());
+  }
+  state.covariance() = randomCovariance(state.dim(), rng);
+  return state;
+}
+
+JacobianBlock block(int first_row, int cols, std::mt19937* rng) {
+  JacobianBlock b;
+  b.first_row = first_row;
+  b.H = randomMatrix(3, cols, rng);
+  return b;
+}
+
+// Two 3-row observations: pose + disparity + landmark 0, and pose + landmark 2.
+std::vector<SparseJacobian> twoObservations(const StateLayout& layout, std::mt19937* rng) {
+  const SparseJacobian first = {block(0, 6, rng), block(layout.disparityRow(), 1, rng),
+                                block(layout.landmarkRow(0), 3, rng)};
+  const SparseJacobian second = {block(0, 6, rng), block(layout.landmarkRow(2), 3, rng)};
+  return {first, second};
+}
+
+Eigen::MatrixXd denseJacobian(const std::vector<SparseJacobian>& jacobians, int dim) {
+  int rows = 0;
+  for (const SparseJacobian& jacobian : jacobians) rows += jacobian.front().H.rows();
+  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(rows, dim);
+  int row = 0;
+  for (const SparseJacobian& jacobian : jacobians) {
+    for (const JacobianBlock& b : jacobian) {
+      H.block(row, b.first_row, b.H.rows(), b.H.cols()) += b.H;
+    }
+    row += jacobian.front().H.rows();
+  }
+  return H;
+}
+
+struct DenseUpdate {
+  Eigen::VectorXd dx;
+  Eigen::MatrixXd covariance;
+};
+
+// Textbook EKF: K = P H^T (H P H^T + R)^-1, dx = K r, P' = (I - K H) P.
+DenseUpdate denseEkf(const Eigen::MatrixXd& P, const Eigen::MatrixXd& H, const Eigen::VectorXd& r,
+                     double noise_var) {
+  const Eigen::MatrixXd S =
+      H * P * H.transpose() + noise_var * Eigen::MatrixXd::Identity(H.rows(), H.rows());
+  const Eigen::MatrixXd K = P * H.transpose() * S.inverse();
+  const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(P.rows(), P.cols());
+  return {K * r, (I - K * H) * P};
+}
+
+void expectStateUnchanged(const FilterState& state, const FilterState& before) {
+  EXPECT_EQ(state.dim(), before.dim());
+  EXPECT_TRUE(state.covariance() == before.covariance());
+  EXPECT_TRUE(state.imu_T_world == before.imu_T_world);
+  EXPECT_TRUE(state.bias == before.bias);
+  EXPECT_EQ(state.disparity_offset, before.disparity_offset);
+  for (size_t k = 0; k < before.landmarkCount(); ++k) {
+    EXPECT_TRUE(state.landmark(k) == before.landmark(k)) << "landmark " << k;
+  }
+}
+
+TEST(StateHelper, UpdateMatchesTheDenseTextbookEkf) {
+  std::mt19937 rng(1);
+  FilterState state = makeState(&rng);
+  const FilterState before = state;
+  const StateLayout& layout = state.layout();
+  const std::vector<SparseJacobian> jacobians = twoObservations(layout, &rng);
+  const Eigen::VectorXd residual = randomMatrix(6, 1, &rng);
+  const double noise_var = 0.5;
+
+  const UpdateOutcome outcome = state_helper::update(&state, jacobians, residual, noise_var, false);
+  ASSERT_EQ(outcome.status, UpdateStatus::kApplied);
+  EXPECT_FALSE(outcome.covariance_repaired);
+
+  const DenseUpdate expected =
+      denseEkf(before.covariance(), denseJacobian(jacobians, 17), residual, noise_var);
+  const double scale = expected.covariance.norm();
+  EXPECT_LT((state.covariance() - expected.covariance).norm(), 1e-9 * scale);
+  // correct_pose = false: the pose stays, every other mean moves additively by its rows of dx.
+  const Eigen::VectorXd& dx = expected.dx;
+  const double tolerance = 1e-9 * dx.norm();
+  EXPECT_TRUE(state.imu_T_world == before.imu_T_world);
+  EXPECT_NEAR(state.bias(0) - before.bias(0), dx(layout.biasRow()), tolerance);
+  EXPECT_NEAR(state.disparity_offset - before.disparity_offset, dx(layout.disparityRow()),
+              tolerance);
+  for (size_t k = 0; k < 3; ++k) {
+    const Eigen::Vector3d moved = state.landmark(k) - before.landmark(k);
+    EXPECT_LT((moved - dx.segment<3>(layout.landmarkRow(k))).norm(), tolerance) << "landmark " << k;
+  }
+  // Landmark 1 is observed by nobody but correlated: it moves too.
+  EXPECT_GT((state.landmark(1) - before.landmark(1)).norm(), 1e-6);
+}
+
+TEST(StateHelper, UpdateWithPoseCorrectionMovesWorldTImuByTheExponential) {
+  std::mt19937 rng(2);
+  FilterState state = makeState(&rng);
+  const FilterState before = state;
+  const std::vector<SparseJacobian> jacobians = twoObservations(state.layout(), &rng);
+  const Eigen::VectorXd residual = randomMatrix(6, 1, &rng);
+
+  ASSERT_EQ(state_helper::update(&state, jacobians, residual, 0.5, true).status,
+            UpdateStatus::kApplied);
+  const DenseUpdate expected =
+      denseEkf(before.covariance(), denseJacobian(jacobians, 17), residual, 0.5);
+  EXPECT_LT((state.covariance() - expected.covariance).norm(), 1e-9 * expected.covariance.norm());
+  const Eigen::Matrix4d world_T_imu_expected =
+      se3::exp(Vector6d(expected.dx.head<6>())) * se3::inverse(before.imu_T_world);
+  EXPECT_LT((se3::inverse(state.imu_T_world) - world_T_imu_expected).norm(), 1e-9);
+  EXPECT_GT(expected.dx.head<6>().norm(), 1e-3);
+}
+
+TEST(StateHelper, Mahalanobis2MatchesTheDenseInnovationCovariance) {
+  std::mt19937 rng(3);
+  const FilterState state = makeState(&rng);
+  const SparseJacobian jacobian = twoObservations(state.layout(), &rng).front();
+  const Eigen::VectorXd residual = randomMatrix(3, 1, &rng);
+  const double noise_var = 0.7;
+
+  const Eigen::MatrixXd H = denseJacobian({jacobian}, state.dim());
+  const Eigen::MatrixXd S =
+      H * state.covariance() * H.transpose() + noise_var * Eigen::MatrixXd::Identity(3, 3);
+  const double expected = residual.dot(S.inverse() * residual);
+  EXPECT_NEAR(state_helper::mahalanobis2(state, jacobian, residual, noise_var), expected,
+              1e-10 * expected);
+}
+
+TEST(StateHelper, AugmentAppendsTheLinearizedLandmarkWithItsCrossCovariance) {
+  std::mt19937 rng(4);
+  FilterState state = makeState(&rng);
+  const FilterState before = state;
+  const int n = before.dim();
+  const int head = before.layout().headDim();
+  const Eigen::MatrixXd A = randomMatrix(3, head, &rng);
+  const Eigen::Matrix3d own_covariance = randomCovariance(3, &rng);
+  const Eigen::Vector3d p_world(4.0, -2.0, 7.0);
+
+  state_helper::augment(&state, p_world, A, own_covariance);
+  ASSERT_EQ(state.dim(), n + 3);
+  ASSERT_EQ(state.landmarkCount(), 4u);
+  EXPECT_TRUE(state.landmark(3) == p_world);
+  const Eigen::MatrixXd P = before.covariance();
+  const auto S = state.covariance();
+  EXPECT_TRUE(S.topLeftCorner(n, n) == P);
+  const Eigen::MatrixXd cross = A * P.topRows(head);
+  EXPECT_LT((S.block(n, 0, 3, n) - cross).norm(), 1e-12);
+  EXPECT_LT((S.block(0, n, n, 3) - cross.transpose()).norm(), 1e-12);
+  const Eigen::Matrix3d own = A * P.topLeftCorner(head, head) * A.transpose() + own_covariance;
+  EXPECT_LT((S.block<3, 3>(n, n) - own).norm(), 1e-12);
+}
+
+TEST(StateHelper, MarginalizeLandmarksKeepsTheOthersInOrder) {
+  std::mt19937 rng(5);
+  FilterState state = makeState(&rng);
+  const FilterState before = state;
+  const StateLayout& layout = state.layout();
+
+  state_helper::marginalizeLandmarks(&state, {false, true, false});
+  ASSERT_EQ(state.landmarkCount(), 2u);
+  ASSERT_EQ(state.dim(), before.dim() - 3);
+  std::vector<int> kept;
+  for (int i = 0; i < layout.headDim(); ++i) kept.push_back(i);
+  for (size_t k : {0u, 2u}) {
+    for (int i = 0; i < 3; ++i) kept.push_back(layout.landmarkRow(k) + i);
+  }
+  const auto P = before.covariance();
+  for (int r = 0; r < state.dim(); ++r) {
+    for (int c = 0; c < state.dim(); ++c) {
+      EXPECT_EQ(state.covariance()(r, c), P(kept[r], kept[c])) << r << ", " << c;
+    }
+  }
+  EXPECT_TRUE(state.landmark(0) == before.landmark(0));
+  EXPECT_TRUE(state.landmark(1) == before.landmark(2));
+}
+
+TEST(StateHelper, UpdateRefusesNonFiniteInputAndChangesNothing) {
+  std::mt19937 rng(6);
+  FilterState state = makeState(&rng);
+  const FilterState before = state;
+  const std::vector<SparseJacobian> jacobians = twoObservations(state.layout(), &rng);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+
+  Eigen::VectorXd residual = randomMatrix(6, 1, &rng);
+  residual(4) = nan;
+  EXPECT_EQ(state_helper::update(&state, jacobians, residual, 0.5, true).status,
+            UpdateStatus::kNonFinite);
+  expectStateUnchanged(state, before);
+
+  residual(4) = 0.1;
+  std::vector<SparseJacobian> bad_jacobians = jacobians;
+  bad_jacobians[1][1].H(0, 2) = std::numeric_limits<double>::infinity();
+  EXPECT_NE(state_helper::update(&state, bad_jacobians, residual, 0.5, true).status,
+            UpdateStatus::kApplied);
+  expectStateUnchanged(state, before);
+
+  EXPECT_NE(state_helper::update(&state, jacobians, residual, nan, true).status,
+            UpdateStatus::kApplied);
+  expectStateUnchanged(state, before);
+}
+
+TEST(StateHelper, UpdateRefusesANonPositiveDefiniteInnovationAndChangesNothing) {
+  std::mt19937 rng(7);
+  FilterState state = makeState(&rng);
+  const FilterState before = state;
+  const std::vector<SparseJacobian> jacobians = twoObservations(state.layout(), &rng);
+  const Eigen::VectorXd residual = randomMatrix(6, 1, &rng);
+
+  EXPECT_EQ(state_helper::update(&state, jacobians, residual, -1e3, true).status,
+            UpdateStatus::kNotPositiveDefinite);
+  expectStateUnchanged(state, before);
+}
+
+}  // namespace
+}  // namespace ekf_vislam

@@ -27,13 +27,13 @@ Eigen::MatrixXd randomMatrix(int rows, int cols, std::mt19937* rng) {
 VislamOptions noiselessOptions(EstimatorMode mode) {
   VislamOptions options;
   options.mode = mode;
-  options.linear_velocity_noise = 0.0;
-  options.angular_velocity_noise = 0.0;
-  options.velocity_bias_random_walk = 0.0;
-  options.gyro_bias_random_walk = 0.0;
-  options.twist_rotation_random_walk = 0.0;
-  options.disparity_offset_random_walk = 0.0;
-  options.baseline_scale_random_walk = 0.0;
+  options.noise.linear_velocity_noise = 0.0;
+  options.noise.angular_velocity_noise = 0.0;
+  options.bias.velocity_random_walk = 0.0;
+  options.bias.gyro_random_walk = 0.0;
+  options.extrinsic.twist_rotation_random_walk = 0.0;
+  options.intrinsic.disparity_offset_random_walk = 0.0;
+  options.intrinsic.baseline_scale_random_walk = 0.0;
   return options;
 }
 
@@ -153,21 +153,21 @@ TEST(Propagator, CovarianceIsFPFtWithAdditiveLandmarksInMappingMode) {
 
 TEST(Propagator, CovarianceIsFPFtPlusNoiseWithTheVehiclePrior) {
   VislamOptions options = noiselessOptions(EstimatorMode::kSlam);
-  options.use_message_covariance = false;
-  options.linear_velocity_noise = 0.2;  // the vehicle prior gains differ from 1
-  options.angular_velocity_noise = 0.01;
-  options.lateral_velocity_sigma = 0.1;
-  options.vertical_velocity_sigma = 0.05;
+  options.noise.use_message_covariance = false;
+  options.noise.linear_velocity_noise = 0.2;  // the vehicle prior gains differ from 1
+  options.noise.angular_velocity_noise = 0.01;
+  options.vehicle.lateral_velocity_sigma = 0.1;
+  options.vehicle.vertical_velocity_sigma = 0.05;
   expectCovarianceIsFPFt(options, true);
 }
 
 TEST(Propagator, ProcessNoiseEntersInWorldAxesAndMovesInvariantLandmarks) {
   VislamOptions options = noiselessOptions(EstimatorMode::kSlam);
-  options.linear_velocity_noise = 0.2;
-  options.angular_velocity_noise = 0.01;
-  options.gyro_bias_random_walk = 0.03;
-  options.twist_rotation_random_walk = 0.02;
-  options.disparity_offset_random_walk = 0.5;
+  options.noise.linear_velocity_noise = 0.2;
+  options.noise.angular_velocity_noise = 0.01;
+  options.bias.gyro_random_walk = 0.03;
+  options.extrinsic.twist_rotation_random_walk = 0.02;
+  options.intrinsic.disparity_offset_random_walk = 0.5;
   const Propagator propagator(options);
   std::mt19937 rng(2);
   FilterState state = randomState(&rng);
@@ -193,10 +193,10 @@ TEST(Propagator, ProcessNoiseEntersInWorldAxesAndMovesInvariantLandmarks) {
 
 TEST(Propagator, CorrectedTwistRemovesTheBiasRotatesAndAppliesTheVehiclePrior) {
   VislamOptions options;
-  options.use_message_covariance = false;
-  options.linear_velocity_noise = 0.2;    // r = 0.2^2 / 0.1 = 0.4 per sample
-  options.lateral_velocity_sigma = 0.5;   // g_y = 0.25 / (0.25 + 0.4) = 5/13
-  options.vertical_velocity_sigma = 0.0;  // no prior: g_z = 1
+  options.noise.use_message_covariance = false;
+  options.noise.linear_velocity_noise = 0.2;    // r = 0.2^2 / 0.1 = 0.4 per sample
+  options.vehicle.lateral_velocity_sigma = 0.5;   // g_y = 0.25 / (0.25 + 0.4) = 5/13
+  options.vehicle.vertical_velocity_sigma = 0.0;  // no prior: g_z = 1
   Propagator propagator(options);
   propagator.setSamplePeriod(0.1);
   StateLayout layout;
@@ -218,11 +218,11 @@ TEST(Propagator, CorrectedTwistRemovesTheBiasRotatesAndAppliesTheVehiclePrior) {
 
 TEST(Propagator, NoiseDensityUsesTheMessageCovarianceOnlyWhenEnabledAndNonZero) {
   VislamOptions options;
-  options.use_message_covariance = true;
-  options.linear_velocity_noise = 0.2;
-  options.angular_velocity_noise = 0.01;
-  options.lateral_velocity_sigma = 0.0;  // no vehicle prior: gains 1
-  options.vertical_velocity_sigma = 0.0;
+  options.noise.use_message_covariance = true;
+  options.noise.linear_velocity_noise = 0.2;
+  options.noise.angular_velocity_noise = 0.01;
+  options.vehicle.lateral_velocity_sigma = 0.0;  // no vehicle prior: gains 1
+  options.vehicle.vertical_velocity_sigma = 0.0;
   Propagator propagator(options);
   propagator.setSamplePeriod(0.05);
   StateLayout layout;
@@ -245,12 +245,12 @@ TEST(Propagator, NoiseDensityUsesTheMessageCovarianceOnlyWhenEnabledAndNonZero) 
   message *= 0.05;
   EXPECT_LT((propagator.noiseDensity(state, twist) - Matrix6d(message.asDiagonal())).norm(), 1e-15);
 
-  options.lateral_velocity_sigma = 0.1;  // s^2 = 0.01 against r = 0.01: g_y = 0.5
+  options.vehicle.lateral_velocity_sigma = 0.1;  // s^2 = 0.01 against r = 0.01: g_y = 0.5
   message(1) *= 0.5;
   EXPECT_LT((propagator.noiseDensity(state, twist) - Matrix6d(message.asDiagonal())).norm(), 1e-15);
 
-  options.use_message_covariance = false;
-  options.lateral_velocity_sigma = 0.0;
+  options.noise.use_message_covariance = false;
+  options.vehicle.lateral_velocity_sigma = 0.0;
   EXPECT_LT((propagator.noiseDensity(state, twist) - Matrix6d(configured.asDiagonal())).norm(),
             1e-15);
 }

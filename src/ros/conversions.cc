@@ -24,16 +24,19 @@ bool allZero(const boost::array<double, 12>& p) {
   return true;
 }
 
-struct Intrinsics {
-  double fx, fy, cx, cy, tx;  // tx = P[0,3]
-};
-
-Intrinsics intrinsicsOf(const sensor_msgs::CameraInfo& info) {
-  if (!allZero(info.P)) return {info.P[0], info.P[5], info.P[2], info.P[6], info.P[3]};
-  return {info.K[0], info.K[4], info.K[2], info.K[5], 0.0};
-}
-
 }  // namespace
+
+PinholeProjection projectionOf(const sensor_msgs::CameraInfo& info) {
+  PinholeProjection projection;
+  if (!allZero(info.P)) {
+    projection = {info.P[0], info.P[5], info.P[2], info.P[6], info.P[3]};
+  } else {
+    projection = {info.K[0], info.K[4], info.K[2], info.K[5], 0.0};
+  }
+  projection.width = static_cast<int>(info.width);
+  projection.height = static_cast<int>(info.height);
+  return projection;
+}
 
 TwistData toTwistData(const geometry_msgs::TwistStamped& msg) {
   TwistData twist;
@@ -135,38 +138,8 @@ bool calibrationFromCameraInfo(const sensor_msgs::CameraInfo& left,
                                const sensor_msgs::CameraInfo& right,
                                StereoCalibration* calibration, std::string* error,
                                double tolerance_px) {
-  const Intrinsics l = intrinsicsOf(left);
-  const Intrinsics r = intrinsicsOf(right);
-  std::ostringstream why;
-  auto finitePositive = [](double v) { return std::isfinite(v) && v > 0.0; };
-  if (!finitePositive(l.fx) || !finitePositive(l.fy) || !finitePositive(r.fx) ||
-      !finitePositive(r.fy)) {
-    why << "camera_info focal lengths must be finite and positive (left fx=" << l.fx
-        << " fy=" << l.fy << ", right fx=" << r.fx << " fy=" << r.fy << ")";
-  } else if (!std::isfinite(l.cx) || !std::isfinite(l.cy) || !std::isfinite(r.cx) ||
-             !std::isfinite(r.cy) || !std::isfinite(r.tx)) {
-    why << "camera_info principal point or P[0,3] is not finite";
-  } else if (std::abs(l.fx - r.fx) > tolerance_px || std::abs(l.fy - r.fy) > tolerance_px ||
-             std::abs(l.cx - r.cx) > tolerance_px || std::abs(l.cy - r.cy) > tolerance_px) {
-    why << "left and right camera_info intrinsics disagree (left fx fy cx cy = " << l.fx << " "
-        << l.fy << " " << l.cx << " " << l.cy << ", right = " << r.fx << " " << r.fy << " "
-        << r.cx << " " << r.cy << "): the stereo pair must be rectified";
-  } else if (!(-r.tx / r.fx > 0.0)) {
-    why << "stereo baseline -P_right[0,3]/fx_right must be positive (P_right[0,3]=" << r.tx
-        << ")";
-  }
-  if (!why.str().empty()) {
-    if (error) *error = why.str();
-    return false;
-  }
-  calibration->fx = l.fx;
-  calibration->fy = l.fy;
-  calibration->cx = l.cx;
-  calibration->cy = l.cy;
-  calibration->baseline = -r.tx / r.fx;
-  calibration->image_width = static_cast<int>(left.width);
-  calibration->image_height = static_cast<int>(left.height);
-  return true;
+  return stereoIntrinsicsFromProjections(projectionOf(left), projectionOf(right), calibration,
+                                         error, tolerance_px);
 }
 
 void cameraInfoFromCalibration(const StereoCalibration& calibration,

@@ -190,42 +190,33 @@ int run(int argc, char** argv) {
   BagCalibrationData data;
   if (!bag.readCalibrationData(&data, &error)) return fail(error);
   bag.setTwistFrames(ros_options.imu_frame, data.static_transforms);
-  StereoCalibration calibration;
+  CalibrationBuilder calibration_builder(ros_options.calibration);
   std::string calibration_error;
-  const CalibrationOverride& override_ = ros_options.calibration;
-  bool calibrated = true;
-  if (!override_.has_intrinsics) {
-    if (!data.has_left_info || !data.has_right_info) {
-      calibration_error = "bag has no messages on " +
-                          (data.has_left_info ? topics.right_info : topics.left_info);
-      calibrated = false;
-    } else if (!ros_conversions::calibrationFromCameraInfo(data.left_info, data.right_info,
-                                                           &calibration, &calibration_error)) {
-      calibrated = false;
-    }
+  if (calibration_builder.needsProjections() && data.has_left_info && data.has_right_info) {
+    calibration_builder.setProjections(ros_conversions::projectionOf(data.left_info),
+                                       ros_conversions::projectionOf(data.right_info),
+                                       &calibration_error);
   }
-  if (calibrated && !override_.has_extrinsic) {
+  if (calibration_builder.needsImuTCam() && !data.camera_frame.empty()) {
     Eigen::Isometry3d imu_T_cam;
-    if (data.camera_frame.empty()) {
-      calibration_error = "no camera frame id (features or camera_info header.frame_id)";
-      calibrated = false;
-    } else if (!lookupStaticTransform(data.static_transforms, ros_options.imu_frame,
-                                      data.camera_frame, &imu_T_cam, &calibration_error)) {
-      calibration_error += " (from " + topics.tf_static + ")";
-      calibrated = false;
+    if (lookupStaticTransform(data.static_transforms, ros_options.imu_frame, data.camera_frame,
+                              &imu_T_cam, &calibration_error)) {
+      calibration_builder.setImuTCam(imu_T_cam);
     } else {
-      calibration.cam_T_imu = imu_T_cam.inverse();
+      std::cerr << "vislam_offline: " << calibration_error << " (from " << topics.tf_static
+                << ")\n";
     }
   }
   EstimatorRunner runner(options, {ros_options.sequencer_max_delay,
                                    static_cast<size_t>(ros_options.sequencer_max_buffered)});
-  if (calibrated) {
-    override_.applyTo(&calibration);
+  StereoCalibration calibration;
+  if (calibration_builder.build(&calibration, &calibration_error)) {
     if (!runner.estimator().setCalibration(calibration, &calibration_error)) {
       return fail("invalid calibration: " + calibration_error);
     }
   } else if (needs_features) {
-    return fail("no calibration: " + calibration_error);
+    return fail("no calibration: " + calibration_error + " (bag topics " + topics.left_info +
+                ", " + topics.right_info + ", " + topics.tf_static + ")");
   }
 
   // Run.

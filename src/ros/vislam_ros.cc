@@ -273,53 +273,23 @@ bool VislamRos::holdForCalibration() {
 void VislamRos::tryCalibrate() {
   VislamEstimator& estimator = runner_->estimator();
   if (estimator.hasCalibration()) return;
-  const CalibrationOverride& override_ = ros_options_.calibration;
-  StereoCalibration calibration;
+  CalibrationBuilder builder(ros_options_.calibration);
   std::string error;
-  if (!override_.has_intrinsics) {
+  if (builder.needsProjections()) {
     if (!left_info_ || !right_info_) {
       calibration_status_ = "waiting for camera_info (left and right)";
       return;
     }
-    if (!ros_conversions::calibrationFromCameraInfo(*left_info_, *right_info_, &calibration,
-                                                    &error)) {
-      calibration_status_ = "camera_info refused: " + error;
-      if (error != rejected_calibration_) {
-        ROS_ERROR("%s: camera_info refused: %s", name_.c_str(), error.c_str());
-        rejected_calibration_ = error;
-      }
+    if (!builder.setProjections(ros_conversions::projectionOf(*left_info_),
+                                ros_conversions::projectionOf(*right_info_), &error)) {
+      reportRefusedCalibration("camera_info refused: " + error);
       return;
     }
   }
-  if (!override_.has_extrinsic) {
-    std::string camera_frame = camera_frame_;
-    if (camera_frame.empty() && left_info_) camera_frame = left_info_->header.frame_id;
-    if (camera_frame.empty()) {
-      calibration_status_ = "waiting for the camera frame id (stereo/features header.frame_id)";
-      return;
-    }
-    std::string tf_error;
-    if (!tf_buffer_.canTransform(ros_options_.imu_frame, camera_frame, ros::Time(0),
-                                 &tf_error)) {
-      calibration_status_ = "waiting for tf " + ros_options_.imu_frame + " -> " + camera_frame;
-      return;
-    }
-    try {
-      const geometry_msgs::TransformStamped imu_T_cam =
-          tf_buffer_.lookupTransform(ros_options_.imu_frame, camera_frame, ros::Time(0));
-      calibration.cam_T_imu = ros_conversions::toIsometry(imu_T_cam.transform).inverse();
-    } catch (const tf2::TransformException& e) {
-      calibration_status_ = std::string("tf lookup failed: ") + e.what();
-      return;
-    }
-  }
-  override_.applyTo(&calibration);
-  if (!estimator.setCalibration(calibration, &error)) {
-    calibration_status_ = "calibration refused: " + error;
-    if (error != rejected_calibration_) {
-      ROS_ERROR("%s: calibration refused: %s", name_.c_str(), error.c_str());
-      rejected_calibration_ = error;
-    }
+  if (builder.needsImuTCam() && !lookUpImuTCam(&builder)) return;
+  StereoCalibration calibration;
+  if (!builder.build(&calibration, &error) || !estimator.setCalibration(calibration, &error)) {
+    reportRefusedCalibration(error);
     return;
   }
   calibration_status_ = "ok";
@@ -329,6 +299,37 @@ void VislamRos::tryCalibrate() {
            name_.c_str(), calibration.fx, calibration.fy, calibration.cx, calibration.cy,
            calibration.baseline, calibration.image_width, calibration.image_height, t.x(), t.y(),
            t.z());
+}
+
+bool VislamRos::lookUpImuTCam(CalibrationBuilder* builder) {
+  std::string camera_frame = camera_frame_;
+  if (camera_frame.empty() && left_info_) camera_frame = left_info_->header.frame_id;
+  if (camera_frame.empty()) {
+    calibration_status_ = "waiting for the camera frame id (stereo/features header.frame_id)";
+    return false;
+  }
+  std::string tf_error;
+  if (!tf_buffer_.canTransform(ros_options_.imu_frame, camera_frame, ros::Time(0), &tf_error)) {
+    calibration_status_ = "waiting for tf " + ros_options_.imu_frame + " -> " + camera_frame;
+    return false;
+  }
+  try {
+    const geometry_msgs::TransformStamped imu_T_cam =
+        tf_buffer_.lookupTransform(ros_options_.imu_frame, camera_frame, ros::Time(0));
+    builder->setImuTCam(ros_conversions::toIsometry(imu_T_cam.transform));
+  } catch (const tf2::TransformException& e) {
+    calibration_status_ = std::string("tf lookup failed: ") + e.what();
+    return false;
+  }
+  return true;
+}
+
+void VislamRos::reportRefusedCalibration(const std::string& why) {
+  calibration_status_ = why;
+  if (why != rejected_calibration_) {
+    ROS_ERROR("%s: %s", name_.c_str(), why.c_str());
+    rejected_calibration_ = why;
+  }
 }
 
 void VislamRos::onProcessed(const EstimatorRunner::Processed& processed) {

@@ -60,19 +60,6 @@ bool parseNumbers(const std::string& text, std::vector<double>* numbers) {
 
 }  // namespace
 
-void CalibrationOverride::applyTo(StereoCalibration* target) const {
-  if (has_intrinsics) {
-    target->fx = calibration.fx;
-    target->fy = calibration.fy;
-    target->cx = calibration.cx;
-    target->cy = calibration.cy;
-    target->baseline = calibration.baseline;
-    if (calibration.image_width > 0) target->image_width = calibration.image_width;
-    if (calibration.image_height > 0) target->image_height = calibration.image_height;
-  }
-  if (has_extrinsic) target->cam_T_imu = calibration.cam_T_imu;
-}
-
 std::string VislamRosOptions::validate() const {
   std::ostringstream why;
   if (world_frame.empty() || imu_frame.empty()) {

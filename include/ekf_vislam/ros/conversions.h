@@ -2,6 +2,7 @@
 // Pure functions (no node handle, no clock), unit-tested in src/ros/conversions_test.cc.
 #pragma once
 
+#include "ekf_vislam/core/calibration_builder.h"
 #include "ekf_vislam/core/types.h"
 #include <ekf_vislam/StereoFeature.h>
 #include <ekf_vislam/StereoFeatureArray.h>
@@ -45,11 +46,11 @@ FeatureFrame toFeatureFrame(const ekf_vislam::StereoFeatureArray& msg);
 ekf_vislam::StereoFeatureArray toFeatureArrayMsg(const FeatureFrame& frame,
                                                  const std::string& frame_id);
 
-/// Rectified stereo intrinsics from the left/right camera_info pair: fx, fy, cx, cy from the left
-/// projection matrix P (K when P is all zero), image size from the left message, baseline
-/// b = -P_right[0,3] / fx_right. Refuses (false, *error says why) non-finite or non-positive focal
-/// lengths, left/right intrinsics that disagree (more than tolerance_px) and b <= 0. Leaves
-/// calibration->cam_T_imu unchanged (it comes from tf).
+/// A camera_info's rectified projection: P (K when P is all zero) and the image size.
+PinholeProjection projectionOf(const sensor_msgs::CameraInfo& info);
+/// Rectified stereo intrinsics from the left/right camera_info pair
+/// (stereoIntrinsicsFromProjections of their projections). Leaves calibration->cam_T_imu
+/// unchanged (it comes from tf).
 bool calibrationFromCameraInfo(const sensor_msgs::CameraInfo& left,
                                const sensor_msgs::CameraInfo& right,
                                StereoCalibration* calibration, std::string* error,

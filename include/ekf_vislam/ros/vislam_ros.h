@@ -63,7 +63,11 @@ class VislamRos {
   void push(Measurement measurement);  // locked
   void process(bool flush);            // locked
   void onProcessed(const EstimatorRunner::Processed& processed);
-  void tryCalibrate();  // locked
+  void tryCalibrate();
+  /// tf imu_frame -> camera frame into the builder; false (status set) while it is not there.
+  bool lookUpImuTCam(CalibrationBuilder* builder);
+  /// Status and one error log per distinct reason.
+  void reportRefusedCalibration(const std::string& why);  // locked
   bool holdForCalibration();  // locked
 
   // Outputs.

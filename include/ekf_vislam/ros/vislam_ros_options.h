@@ -3,6 +3,7 @@
 // "ros:"). No ROS include: parsed from a YAML file or from the parameter server alike.
 #pragma once
 
+#include "ekf_vislam/core/calibration_builder.h"
 #include "ekf_vislam/core/parameter_source.h"
 #include "ekf_vislam/core/types.h"
 #include "ekf_vislam/core/vislam_options.h"
@@ -10,18 +11,6 @@
 #include <string>
 
 namespace ekf_vislam {
-
-/// Optional calibration given as parameters instead of camera_info / tf.
-struct CalibrationOverride {
-  /// ros/calibration/{fx, fy, cx, cy, baseline} (all five or none; image_width/height optional).
-  bool has_intrinsics = false;
-  /// ros/calibration/cam_T_imu: 16 numbers, row-major (list or space-separated string).
-  bool has_extrinsic = false;
-  StereoCalibration calibration;  ///< the values given (intrinsics and/or cam_T_imu)
-
-  /// Applies the override to a calibration built from the messages.
-  void applyTo(StereoCalibration* calibration) const;
-};
 
 struct VislamRosOptions {
   std::string world_frame = "world";   ///< ros/world_frame

@@ -1,6 +1,7 @@
 #include "ekf_vislam/core/filter_state.h"
 
 #include "ekf_vislam/core/se3.h"
+#include "testing/random_matrices.h"
 
 #include <gtest/gtest.h>
 
@@ -10,14 +11,7 @@
 namespace ekf_vislam {
 namespace {
 
-Eigen::MatrixXd randomMatrix(int rows, int cols, std::mt19937* rng) {
-  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
-  Eigen::MatrixXd M(rows, cols);
-  for (int c = 0; c < cols; ++c) {
-    for (int r = 0; r < rows; ++r) M(r, c) = uniform(*rng);
-  }
-  return M;
-}
+using testing::randomMatrix;
 
 // Gyro bias on all three axes, twist rotation, disparity offset, baseline scale and the clone.
 StateLayout fullLayout() {

@@ -1,6 +1,7 @@
 #include "ekf_vislam/core/propagator.h"
 
 #include "ekf_vislam/core/se3.h"
+#include "testing/random_matrices.h"
 
 #include <gtest/gtest.h>
 
@@ -12,16 +13,9 @@
 namespace ekf_vislam {
 namespace {
 
-constexpr double kDt = 0.1;
+using testing::randomMatrix;
 
-Eigen::MatrixXd randomMatrix(int rows, int cols, std::mt19937* rng) {
-  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
-  Eigen::MatrixXd M(rows, cols);
-  for (int c = 0; c < cols; ++c) {
-    for (int r = 0; r < rows; ++r) M(r, c) = uniform(*rng);
-  }
-  return M;
-}
+constexpr double kDt = 0.1;
 
 // No process noise, no random walk: the covariance moves only through F.
 VislamOptions noiselessOptions(EstimatorMode mode) {

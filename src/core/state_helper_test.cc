@@ -1,6 +1,7 @@
 #include "ekf_vislam/core/state_helper.h"
 
 #include "ekf_vislam/core/se3.h"
+#include "testing/random_matrices.h"
 
 #include <gtest/gtest.h>
 
@@ -13,19 +14,8 @@
 namespace ekf_vislam {
 namespace {
 
-Eigen::MatrixXd randomMatrix(int rows, int cols, std::mt19937* rng) {
-  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
-  Eigen::MatrixXd M(rows, cols);
-  for (int c = 0; c < cols; ++c) {
-    for (int r = 0; r < rows; ++r) M(r, c) = uniform(*rng);
-  }
-  return M;
-}
-
-Eigen::MatrixXd randomCovariance(int dim, std::mt19937* rng) {
-  const Eigen::MatrixXd A = randomMatrix(dim, dim, rng);
-  return 0.1 * A * A.transpose() + 0.01 * Eigen::MatrixXd::Identity(dim, dim);
-}
+using testing::randomCovariance;
+using testing::randomMatrix;
 
 // Pose, one gyro bias row, the disparity offset and three landmarks (17 rows), random means and
 // a random SPD covariance.

@@ -23,6 +23,8 @@
 #include <exception>
 #include <iostream>
 #include <map>
+#include <optional>
+#include <set>
 #include <string>
 #include <utility>
 #include <sys/stat.h>
@@ -91,13 +93,15 @@ class Progress {
   int last_ = -1;
 };
 
-int run(int argc, char** argv) {
-  std::map<std::string, std::string> args;
-  const std::map<std::string, std::string> known = {
-      {"--bag", ""},         {"--out", ""},           {"--mode", ""},
-      {"--config", ""},      {"--imu-frame", ""},     {"--twist-topic", ""},
-      {"--features-topic", ""}, {"--left-info-topic", ""}, {"--right-info-topic", ""},
-      {"--tf-static-topic", ""}};
+using Arguments = std::map<std::string, std::string>;
+
+/// Parses the command line into *args; an exit code when the program must stop (help: 0,
+/// usage errors: 2).
+std::optional<int> parseArguments(int argc, char** argv, Arguments* args) {
+  static const std::set<std::string> known = {
+      "--bag",      "--out",           "--mode",           "--config",
+      "--imu-frame", "--twist-topic",  "--features-topic", "--left-info-topic",
+      "--right-info-topic", "--tf-static-topic"};
   for (int i = 1; i < argc; ++i) {
     std::string flag = argv[i];
     if (flag == "-h" || flag == "--help") {
@@ -122,57 +126,71 @@ int run(int argc, char** argv) {
       }
       value = argv[++i];
     }
-    args[flag] = value;
+    (*args)[flag] = value;
   }
-  if (args["--bag"].empty() || args["--out"].empty()) {
+  if ((*args)["--bag"].empty() || (*args)["--out"].empty()) {
     std::cerr << "vislam_offline: --bag and --out are required\n" << kUsage;
     return 2;
   }
+  return std::nullopt;
+}
 
-  // Options: the same keys as the nodelet reads from the parameter server.
+/// The same keys as the nodelet reads from the parameter server, then the command-line
+/// overrides. False with *error.
+bool loadOptions(Arguments& args, VislamOptions* options, VislamRosOptions* ros_options,
+                 std::string* error) {
   std::string config = args["--config"];
+  if (config.empty()) config = defaultConfigPath();
   if (config.empty()) {
-    config = defaultConfigPath();
-    if (config.empty()) return fail("no --config given and config/default.yaml of ekf_vislam not found");
+    *error = "no --config given and config/default.yaml of ekf_vislam not found";
+    return false;
   }
   YamlParameterSource source(config);
-  if (!source.ok()) return fail("cannot read config " + source.error());
-  VislamOptions options;
-  VislamRosOptions ros_options;
-  std::string error;
-  if (!parseVislamOptions(source, &options, &error)) return fail(error);
-  if (!parseVislamRosOptions(source, &ros_options, &error)) return fail(error);
-  if (!args["--mode"].empty() && !parseMode(args["--mode"], &options.mode)) {
-    return fail("unknown --mode " + args["--mode"] + " (slam, mapping or deadreckoning)");
+  if (!source.ok()) {
+    *error = "cannot read config " + source.error();
+    return false;
   }
-  const std::string why = options.validate();
-  if (!why.empty()) return fail(config + ": " + why);
-  if (!args["--imu-frame"].empty()) ros_options.imu_frame = args["--imu-frame"];
+  if (!parseVislamOptions(source, options, error)) return false;
+  if (!parseVislamRosOptions(source, ros_options, error)) return false;
+  if (!args["--mode"].empty() && !parseMode(args["--mode"], &options->mode)) {
+    *error = "unknown --mode " + args["--mode"] + " (slam, mapping or deadreckoning)";
+    return false;
+  }
+  if (!args["--imu-frame"].empty()) ros_options->imu_frame = args["--imu-frame"];
+  return true;
+}
 
+BagTopics topicsFrom(Arguments& args) {
   BagTopics topics;
   if (!args["--twist-topic"].empty()) topics.twist = args["--twist-topic"];
   if (!args["--features-topic"].empty()) topics.features = args["--features-topic"];
   if (!args["--left-info-topic"].empty()) topics.left_info = args["--left-info-topic"];
   if (!args["--right-info-topic"].empty()) topics.right_info = args["--right-info-topic"];
   if (!args["--tf-static-topic"].empty()) topics.tf_static = args["--tf-static-topic"];
+  return topics;
+}
 
-  BagReader bag;
-  if (!bag.open(args["--bag"], topics, &error)) return fail(error);
-  const bool needs_features = options.mode != EstimatorMode::kDeadReckoning;
-  if (topics.twist == topics.features) return fail("the twist and feature topics must differ");
-  if (bag.messageCount(topics.twist) == 0) {
-    return fail("bag " + args["--bag"] + " has no messages on " + topics.twist);
+/// Every topic present and of its type (the twist: any of the three of ros/twist_type).
+bool checkBagTopics(const BagReader& bag, const BagTopics& topics, bool needs_features,
+                    std::string* error) {
+  if (topics.twist == topics.features) {
+    *error = "the twist and feature topics must differ";
+    return false;
   }
-  if (needs_features && bag.messageCount(topics.features) == 0) {
-    return fail("bag " + args["--bag"] + " has no messages on " + topics.features);
+  for (const std::string& topic : {topics.twist, topics.features}) {
+    if (bag.messageCount(topic) == 0 && (topic == topics.twist || needs_features)) {
+      *error = "no messages on " + topic;
+      return false;
+    }
   }
-  // The twist may be any of the three types of ros/twist_type: the bag says which.
   const std::string twist_type = bag.dataType(topics.twist);
   if (twist_type != "geometry_msgs/TwistStamped" &&
       twist_type != "geometry_msgs/TwistWithCovarianceStamped" &&
       twist_type != "nav_msgs/Odometry") {
-    return fail(topics.twist + " holds " + twist_type + ", expected geometry_msgs/TwistStamped, "
-                "geometry_msgs/TwistWithCovarianceStamped or nav_msgs/Odometry");
+    *error = topics.twist + " holds " + twist_type +
+             ", expected geometry_msgs/TwistStamped, geometry_msgs/TwistWithCovarianceStamped "
+             "or nav_msgs/Odometry";
+    return false;
   }
   const std::pair<std::string, std::string> expected_types[] = {
       {topics.features, "ekf_vislam/StereoFeatureArray"},
@@ -182,47 +200,86 @@ int run(int argc, char** argv) {
   for (const auto& [topic, type] : expected_types) {
     const std::string actual = bag.dataType(topic);
     if (!actual.empty() && actual != type) {
-      return fail(topic + " holds " + actual + ", expected " + type);
+      *error = topic + " holds " + actual + ", expected " + type;
+      return false;
     }
   }
+  return true;
+}
 
-  // Calibration: camera_info pair + /tf_static, or the ros/calibration override.
+/// Calibration from the bag's camera_info pair and /tf_static, or the ros/calibration override.
+bool calibrationFromBag(const BagCalibrationData& data, const BagTopics& topics,
+                        const VislamRosOptions& ros_options, StereoCalibration* calibration,
+                        std::string* error) {
+  CalibrationBuilder builder(ros_options.calibration);
+  if (builder.needsProjections() && data.has_left_info && data.has_right_info) {
+    builder.setProjections(ros_conversions::projectionOf(data.left_info),
+                           ros_conversions::projectionOf(data.right_info), error);
+  }
+  if (builder.needsImuTCam() && !data.camera_frame.empty()) {
+    Eigen::Isometry3d imu_T_cam;
+    if (lookupStaticTransform(data.static_transforms, ros_options.imu_frame, data.camera_frame,
+                              &imu_T_cam, error)) {
+      builder.setImuTCam(imu_T_cam);
+    } else {
+      std::cerr << "vislam_offline: " << *error << " (from " << topics.tf_static << ")\n";
+    }
+  }
+  if (builder.build(calibration, error)) return true;
+  *error += " (bag topics " + topics.left_info + ", " + topics.right_info + ", " +
+            topics.tf_static + ")";
+  return false;
+}
+
+void printSummary(const EstimatorRunner& runner, const std::string& out_dir) {
+  const RunSummary summary = runner.summary();
+  const ProcessingTimes& times = runner.times();
+  const EstimatorStats& stats = runner.estimator().stats();
+  const Eigen::Vector3d p = runner.estimator().worldTImu().translation();
+  std::fprintf(stderr,
+               "vislam_offline: %s, %lu frames, %lu twists, %zu landmarks, %lu observations "
+               "used, %lu rejected, %.2f ms/frame (p99 %.2f), %.1f s wall, final position "
+               "(%.2f, %.2f, %.2f) m -> %s\n",
+               summary.mode.c_str(), static_cast<unsigned long>(summary.frames),
+               static_cast<unsigned long>(summary.twists), summary.landmarks_total,
+               static_cast<unsigned long>(stats.get(Counter::kObservationUpdate) +
+                                          stats.get(Counter::kObservationInitialized)),
+               static_cast<unsigned long>(stats.observationsRejected()), times.mean(),
+               times.percentile(0.99), summary.wall_s, p.x(), p.y(), p.z(), out_dir.c_str());
+}
+
+int run(int argc, char** argv) {
+  Arguments args;
+  if (const std::optional<int> exit_code = parseArguments(argc, argv, &args)) return *exit_code;
+  VislamOptions options;
+  VislamRosOptions ros_options;
+  std::string error;
+  if (!loadOptions(args, &options, &ros_options, &error)) return fail(error);
+
+  const BagTopics topics = topicsFrom(args);
+  BagReader bag;
+  if (!bag.open(args["--bag"], topics, &error)) return fail(error);
+  const bool needs_features = options.mode != EstimatorMode::kDeadReckoning;
+  if (!checkBagTopics(bag, topics, needs_features, &error)) {
+    return fail("bag " + args["--bag"] + ": " + error);
+  }
   BagCalibrationData data;
   if (!bag.readCalibrationData(&data, &error)) return fail(error);
   bag.setTwistFrames(ros_options.imu_frame, data.static_transforms);
-  CalibrationBuilder calibration_builder(ros_options.calibration);
-  std::string calibration_error;
-  if (calibration_builder.needsProjections() && data.has_left_info && data.has_right_info) {
-    calibration_builder.setProjections(ros_conversions::projectionOf(data.left_info),
-                                       ros_conversions::projectionOf(data.right_info),
-                                       &calibration_error);
-  }
-  if (calibration_builder.needsImuTCam() && !data.camera_frame.empty()) {
-    Eigen::Isometry3d imu_T_cam;
-    if (lookupStaticTransform(data.static_transforms, ros_options.imu_frame, data.camera_frame,
-                              &imu_T_cam, &calibration_error)) {
-      calibration_builder.setImuTCam(imu_T_cam);
-    } else {
-      std::cerr << "vislam_offline: " << calibration_error << " (from " << topics.tf_static
-                << ")\n";
-    }
-  }
   EstimatorRunner runner(options, {ros_options.sequencer_max_delay,
                                    static_cast<size_t>(ros_options.sequencer_max_buffered)});
   StereoCalibration calibration;
-  if (calibration_builder.build(&calibration, &calibration_error)) {
-    if (!runner.estimator().setCalibration(calibration, &calibration_error)) {
-      return fail("invalid calibration: " + calibration_error);
+  if (calibrationFromBag(data, topics, ros_options, &calibration, &error)) {
+    if (!runner.estimator().setCalibration(calibration, &error)) {
+      return fail("invalid calibration: " + error);
     }
   } else if (needs_features) {
-    return fail("no calibration: " + calibration_error + " (bag topics " + topics.left_info +
-                ", " + topics.right_info + ", " + topics.tf_static + ")");
+    return fail("no calibration: " + error);
   }
 
-  // Run.
   runner.startClock();
   Progress progress;
-  bool ok = bag.forEachMeasurement(
+  const bool ok = bag.forEachMeasurement(
       [&](Measurement&& measurement, double fraction) {
         runner.push(std::move(measurement));
         runner.processReady();
@@ -232,23 +289,8 @@ int run(int argc, char** argv) {
   progress.done();
   if (!ok) return fail(error);
   runner.flush();
-
   if (!runner.save(args["--out"], &error)) return fail(error);
-  const RunSummary summary = runner.summary();
-  const ProcessingTimes& times = runner.times();
-  const Eigen::Vector3d p = runner.estimator().worldTImu().translation();
-  std::fprintf(stderr,
-               "vislam_offline: %s, %lu frames, %lu twists, %zu landmarks, %lu observations "
-               "used, %lu rejected, %.2f ms/frame (p99 %.2f), %.1f s wall, final position "
-               "(%.2f, %.2f, %.2f) m -> %s\n",
-               summary.mode.c_str(), static_cast<unsigned long>(summary.frames),
-               static_cast<unsigned long>(summary.twists), summary.landmarks_total,
-               static_cast<unsigned long>(
-                   runner.estimator().stats().get(Counter::kObservationUpdate) +
-                   runner.estimator().stats().get(Counter::kObservationInitialized)),
-               static_cast<unsigned long>(runner.estimator().stats().observationsRejected()),
-               times.mean(), times.percentile(0.99), summary.wall_s, p.x(), p.y(), p.z(),
-               args["--out"].c_str());
+  printSummary(runner, args["--out"]);
   return 0;
 }
 

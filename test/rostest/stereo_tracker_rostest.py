@@ -64,7 +64,8 @@ class StereoTrackerPipelineTest(unittest.TestCase):
                    cls.subscribed('/stereo/left/image_rect'), 30.0, 0.2)
         wait_until(lambda: cls.subscribed('/stereo/right/image_rect'), 30.0, 0.2)
         time.sleep(2.0)
-        run(['rosbag', 'play', '--clock', '--quiet', '--rate', str(PLAY_RATE), cls.bag],
+        run(['rosbag', 'play', '--clock', '--quiet', '--queue', '100000', '--rate', str(PLAY_RATE),
+             cls.bag],
             timeout=120)
         # On a loaded machine the tracker and the estimator lag behind the bag: wait until the
         # estimator has reached the last image.

@@ -84,7 +84,8 @@ class LoadTest(unittest.TestCase):
         stop = threading.Event()
         pauser = threading.Thread(target=pause_repeatedly, args=(stop,))
         name = '/vislam_load_player'
-        cmd = ['rosbag', 'play', '--clock', '--quiet', '--pause', '--rate', str(RATE), cls.bag,
+        cmd = ['rosbag', 'play', '--clock', '--quiet', '--queue', '100000', '--pause', '--rate',
+               str(RATE), cls.bag,
                '__name:=' + name[1:]]
         player = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                                   stderr=subprocess.DEVNULL)

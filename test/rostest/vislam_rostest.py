@@ -192,7 +192,9 @@ class VislamPipelineTest(unittest.TestCase):
         estimators are connected to each input topic of the player (no message is lost at the
         start, however slow the machine), then waits for its end."""
         name = '/vislam_rostest_player'
-        cmd = ['rosbag', 'play', '--clock', '--quiet', '--pause', '--rate', str(PLAY_RATE)] + \
+        # --queue: the player's outgoing queue holds the whole bag, so a stalled estimator loses nothing.
+        cmd = ['rosbag', 'play', '--clock', '--quiet', '--queue', '100000', '--pause', '--rate',
+               str(PLAY_RATE)] + \
             extra_args + [cls.bag, '__name:=' + name[1:]]
         player = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
                                   stderr=subprocess.STDOUT, universal_newlines=True)

@@ -572,8 +572,8 @@ TEST(VislamEstimator, LandmarkLifeCycleAugmentMarginalizeKeepInMap) {
   estimator.feedFeatures(s.frames[0]);
   const size_t initial = estimator.activeLandmarkCount();
   ASSERT_GT(initial, 20u);
-  // Pose, gyro bias, R_m, disparity offset, pose clone (repeated frames), landmarks.
-  EXPECT_EQ(estimator.stateDimension(), 6 + 3 + 3 + 1 + 6 + 3 * static_cast<int>(initial));
+  // Pose, gyro bias, R_m, pose clone (repeated frames), landmarks (no disparity offset).
+  EXPECT_EQ(estimator.stateDimension(), 6 + 3 + 3 + 6 + 3 * static_cast<int>(initial));
   // Next frame without the first feature: its landmark leaves the state, stays in the map, and
   // marginalization changes neither its estimate nor the pose covariance.
   estimator.feedTwist(s.twists[1]);

@@ -41,6 +41,16 @@ def accuracy(estimate, groundtruth_path):
     return metrics.evaluate_trajectory(t, T, tg, Tg)
 
 
+def consistency(run_dir, groundtruth_path):
+    """Position and pose NEES of a vislam_offline run (trajectory_covariance.txt) against ground
+    truth, in the estimator's gauge."""
+    t, T = trajectory.read_tum(os.path.join(run_dir, 'trajectory.tum'))
+    t_cov, covariances = metrics.read_trajectory_covariance(
+        os.path.join(run_dir, 'trajectory_covariance.txt'))
+    tg, Tg = trajectory.read_tum(groundtruth_path)
+    return metrics.consistency(t, T, t_cov, covariances, tg, Tg)
+
+
 class SyntheticDriveTest(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
@@ -82,11 +92,11 @@ class SyntheticDriveTest(unittest.TestCase):
 
 @unittest.skipUnless(paths.data_dir(), 'course datasets not found (../shared/data or EKF_VISLAM_DATA)')
 class KittiRegressionTest(unittest.TestCase):
-    # Measured with config/default.yaml (scripts/benchmark.sh): 0027 2.951 m / 1.654 %, 0034
-    # 7.595 m / 3.384 % (README). These bounds were the targets of an earlier stage; both ATE
-    # figures are close to them (ATE moves by +-1 m with small option changes, doc/experiments.md),
-    # and the run is deterministic.
-    BOUNDS = {'0027': (3.0, 3.0), '0034': (8.0, 5.0)}  # (ATE m, RPE %)
+    # Measured with config/default.yaml (scripts/benchmark.sh): 0027 2.413 m / 1.41 %, mean
+    # position NEES 35.8; 0034 6.416 m / 2.80 %, NEES 35.9 (README). The run is deterministic; the
+    # bounds guard these figures with a margin. The issue's targets (ATE <= 2.5 / 6.0 m, NEES
+    # 1.5-6) are not all met yet.
+    BOUNDS = {'0027': (2.6, 2.0, 45.0), '0034': (7.0, 3.5, 45.0)}  # (ATE m, RPE %, NEES pos)
 
     def check(self, name):
         data = paths.data_dir()
@@ -94,11 +104,14 @@ class KittiRegressionTest(unittest.TestCase):
         bag = os.path.join(tmp, name + '.bag')
         run([PY, os.path.join(SCRIPTS, 'dataset_to_bag.py'), os.path.join(data, name + '.npz'), bag])
         gt = os.path.join(data, 'groundtruth', name + '_imu_gt.tum')
-        slam = accuracy(offline(bag, 'slam', os.path.join(tmp, 'slam'))[0], gt)
+        slam_dir = os.path.join(tmp, 'slam')
+        slam = accuracy(offline(bag, 'slam', slam_dir)[0], gt)
+        nees = consistency(slam_dir, gt)['nees_position']['mean']
         dead = accuracy(offline(bag, 'deadreckoning', os.path.join(tmp, 'dr'))[0], gt)
-        print('%s: SLAM ATE %.3f m RPE %.2f %%, dead reckoning ATE %.3f m' % (
-            name, slam['ate_rmse_m'], slam['rpe_percent'], dead['ate_rmse_m']))
-        ate_bound, rpe_bound = self.BOUNDS[name]
+        print('%s: SLAM ATE %.3f m RPE %.2f %% position NEES %.2f, dead reckoning ATE %.3f m' % (
+            name, slam['ate_rmse_m'], slam['rpe_percent'], nees, dead['ate_rmse_m']))
+        ate_bound, rpe_bound, nees_bound = self.BOUNDS[name]
+        self.assertLess(nees, nees_bound)
         self.assertLess(slam['ate_rmse_m'], ate_bound)
         self.assertLess(slam['rpe_percent'], rpe_bound)
         self.assertLess(slam['ate_rmse_m'], 0.35 * dead['ate_rmse_m'])
@@ -108,6 +121,24 @@ class KittiRegressionTest(unittest.TestCase):
 
     def test_0034(self):
         self.check('0034')
+
+    def test_accurate_twist_0027_does_no_harm(self):
+        # A twist as good as a decent wheel odometry (make_variant.py --twist accurate, seed 1):
+        # SLAM 2.280 m against dead reckoning 3.709 m (0.61x); the issue's bound is 0.9x.
+        # (0034 with the same twist: 5.980 against 4.477 m, 1.34x: not met yet, not asserted.)
+        data = paths.data_dir()
+        tmp = paths.make_temp_dir(self)
+        gt = os.path.join(data, 'groundtruth', '0027_imu_gt.tum')
+        variant = os.path.join(tmp, 'accurate.npz')
+        run([PY, os.path.join(SCRIPTS, 'make_variant.py'), os.path.join(data, '0027.npz'),
+             '--groundtruth', gt, '--twist', 'accurate', '--seed', '1', '--out', variant])
+        bag = os.path.join(tmp, 'accurate.bag')
+        run([PY, os.path.join(SCRIPTS, 'dataset_to_bag.py'), variant, bag])
+        slam = accuracy(offline(bag, 'slam', os.path.join(tmp, 'slam'))[0], gt)
+        dead = accuracy(offline(bag, 'deadreckoning', os.path.join(tmp, 'dr'))[0], gt)
+        print('0027 accurate twist: SLAM ATE %.3f m, dead reckoning %.3f m' % (
+            slam['ate_rmse_m'], dead['ate_rmse_m']))
+        self.assertLess(slam['ate_rmse_m'], 0.9 * dead['ate_rmse_m'])
 
 
 if __name__ == '__main__':

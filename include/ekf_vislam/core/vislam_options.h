@@ -82,8 +82,10 @@ struct ExtrinsicOptions {
 struct IntrinsicOptions {
   /// A constant offset of the measured stereo disparity (uL - uR = true + offset), e.g. from a
   /// right principal point that is off by a fraction of a pixel. It biases every triangulated
-  /// depth and with it the scale of the trajectory; the KITTI tracks carry about +0.5 to +1 px.
-  bool estimate_disparity_offset = true;
+  /// depth and with it the scale of the trajectory. Off by default: it is seen only through
+  /// depth-against-motion agreement, so it absorbs the tracks' correlated errors instead
+  /// (doc/experiments.md, 2026-11-24).
+  bool estimate_disparity_offset = false;
   double disparity_offset_prior_sigma = 1.0;  ///< px
   double disparity_offset_random_walk = 0.0;  ///< px/sqrt(s)
   /// A scale factor of the stereo baseline (every triangulated depth scales with it), made

@@ -26,7 +26,7 @@ Vector6d Propagator::velocityPriorGain(const FilterState& state, const TwistData
   const bool own = usesMessageCovariance(twist);
   const Matrix6d own_density = own ? messageDensity(state, twist) : Matrix6d::Zero();
   const double dt = period();
-  const double r_configured = options_->noise.linear_velocity_noise * options_->noise.linear_velocity_noise / dt;
+  const double r_configured = linearNoiseDensity() * linearNoiseDensity() / dt;
   const double sigmas[2] = {options_->vehicle.lateral_velocity_sigma, options_->vehicle.vertical_velocity_sigma};
   for (int axis = 1; axis <= 2; ++axis) {
     const double r = own ? own_density(axis, axis) / dt : r_configured;
@@ -34,6 +34,21 @@ Vector6d Propagator::velocityPriorGain(const FilterState& state, const TwistData
     if (s2 > 0.0 && r > 0.0) gain(axis) = s2 / (s2 + r);
   }
   return gain;
+}
+
+bool Propagator::usesEstimatedNoise() const {
+  return options_->noise.estimate_twist_noise && noise_estimator_.ready();
+}
+
+// Per-sample std sigma of a sample covering `period`: density = sigma sqrt(period).
+double Propagator::linearNoiseDensity() const {
+  if (!usesEstimatedNoise()) return options_->noise.linear_velocity_noise;
+  return noise_estimator_.linearSigma() * std::sqrt(period());
+}
+
+double Propagator::angularNoiseDensity() const {
+  if (!usesEstimatedNoise()) return options_->noise.angular_velocity_noise;
+  return noise_estimator_.angularSigma() * std::sqrt(period());
 }
 
 bool Propagator::usesMessageCovariance(const TwistData& twist) const {
@@ -53,8 +68,8 @@ Matrix6d Propagator::noiseDensity(const FilterState& state, const TwistData& twi
     const Vector6d root = gain.cwiseSqrt();
     return root.asDiagonal() * messageDensity(state, twist) * root.asDiagonal();
   }
-  const double qv = options_->noise.linear_velocity_noise * options_->noise.linear_velocity_noise;
-  const double qw = options_->noise.angular_velocity_noise * options_->noise.angular_velocity_noise;
+  const double qv = linearNoiseDensity() * linearNoiseDensity();
+  const double qw = angularNoiseDensity() * angularNoiseDensity();
   Vector6d q = gain;
   q.head<3>() *= qv;
   q.tail<3>() *= qw;

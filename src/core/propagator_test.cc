@@ -188,7 +188,7 @@ TEST(Propagator, ProcessNoiseEntersInWorldAxesAndMovesInvariantLandmarks) {
 TEST(Propagator, CorrectedTwistRemovesTheBiasRotatesAndAppliesTheVehiclePrior) {
   VislamOptions options;
   options.noise.use_message_covariance = false;
-  options.noise.linear_velocity_noise = 0.2;    // r = 0.2^2 / 0.1 = 0.4 per sample
+  options.noise.linear_velocity_noise = 0.2;      // r = 0.2^2 / 0.1 = 0.4 per sample
   options.vehicle.lateral_velocity_sigma = 0.5;   // g_y = 0.25 / (0.25 + 0.4) = 5/13
   options.vehicle.vertical_velocity_sigma = 0.0;  // no prior: g_z = 1
   Propagator propagator(options);
@@ -247,6 +247,35 @@ TEST(Propagator, NoiseDensityUsesTheMessageCovarianceOnlyWhenEnabledAndNonZero) 
   options.vehicle.lateral_velocity_sigma = 0.0;
   EXPECT_LT((propagator.noiseDensity(state, twist) - Matrix6d(configured.asDiagonal())).norm(),
             1e-15);
+}
+
+TEST(Propagator, OnlineTwistNoiseReplacesTheConfiguredDensitiesOnceReady) {
+  VislamOptions options;
+  options.vehicle.lateral_velocity_sigma = options.vehicle.vertical_velocity_sigma = 0.0;
+  options.noise.twist_noise_min_samples = 20;
+  Propagator propagator(options);
+  propagator.setSamplePeriod(0.1);
+  EXPECT_DOUBLE_EQ(propagator.linearNoiseDensity(), options.noise.linear_velocity_noise);
+  std::mt19937 rng(11);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (int k = 0; k < 400; ++k) {
+    TwistData twist;
+    twist.stamp = 0.1 * k;
+    twist.v_imu = Eigen::Vector3d(8.0, 0.0, 0.0) +
+                  0.3 * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+    twist.w_imu = 0.02 * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+    propagator.observeTwist(twist);
+  }
+  // Per-sample std 0.3 m/s and 0.02 rad/s at 10 Hz: densities 0.3 sqrt(0.1), 0.02 sqrt(0.1).
+  EXPECT_NEAR(propagator.linearNoiseDensity(), 0.3 * std::sqrt(0.1), 0.1 * 0.3 * std::sqrt(0.1));
+  EXPECT_NEAR(propagator.angularNoiseDensity(), 0.02 * std::sqrt(0.1), 0.1 * 0.02 * std::sqrt(0.1));
+  FilterState state(StateLayout{});
+  state.reset(StatePrior());
+  const Matrix6d density = propagator.noiseDensity(state, TwistData());
+  EXPECT_NEAR(density(0, 0), propagator.linearNoiseDensity() * propagator.linearNoiseDensity(),
+              1e-15);
+  options.noise.estimate_twist_noise = false;
+  EXPECT_DOUBLE_EQ(propagator.linearNoiseDensity(), options.noise.linear_velocity_noise);
 }
 
 }  // namespace

@@ -124,6 +124,7 @@ FeedResult VislamEstimator::feedTwist(const TwistData& twist) {
   }
   const double previous_twist_stamp = last_twist_stamp_;
   propagator_.setSamplePeriod(twist.stamp - last_twist_stamp_);
+  propagator_.observeTwist(twist);
   last_twist_stamp_ = twist.stamp;
   if (twist.stamp < time_) {
     // A feature frame after this stamp was already processed: keep it for the next interval.

@@ -31,6 +31,9 @@ void visitVislamOptions(Options& o, Visitor& v) {
   v.number("noise/linear_velocity_noise", noise.linear_velocity_noise, Bound::kNonNegative);
   v.number("noise/angular_velocity_noise", noise.angular_velocity_noise, Bound::kNonNegative);
   v.flag("noise/use_message_covariance", noise.use_message_covariance);
+  v.flag("noise/estimate_twist_noise", noise.estimate_twist_noise);
+  v.integer("noise/twist_noise_window", noise.twist_noise_window, Bound::kAtLeastOne);
+  v.integer("noise/twist_noise_min_samples", noise.twist_noise_min_samples, Bound::kAtLeastOne);
 
   v.number("prior/position_sigma", o.prior.position_sigma, Bound::kPositive);
   v.number("prior/rotation_sigma", o.prior.rotation_sigma, Bound::kPositive);

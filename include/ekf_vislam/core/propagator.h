@@ -3,6 +3,7 @@
 #pragma once
 
 #include "ekf_vislam/core/filter_state.h"
+#include "ekf_vislam/core/twist_noise_estimator.h"
 #include "ekf_vislam/core/types.h"
 #include "ekf_vislam/core/vislam_options.h"
 
@@ -10,7 +11,16 @@ namespace ekf_vislam {
 
 class Propagator {
  public:
-  explicit Propagator(const VislamOptions& options) : options_(&options) {}
+  explicit Propagator(const VislamOptions& options)
+      : options_(&options),
+        noise_estimator_(options.noise.twist_noise_window, options.noise.twist_noise_min_samples) {}
+
+  /// Every accepted twist, in stamp order: feeds the online noise estimate.
+  void observeTwist(const TwistData& twist) { noise_estimator_.add(twist); }
+  /// Noise densities of a twist without its own covariance (m/s/sqrt(Hz), rad/s/sqrt(Hz)): the
+  /// online estimate once it is ready (noise/estimate_twist_noise), else the configured ones.
+  double linearNoiseDensity() const;
+  double angularNoiseDensity() const;
 
   /// Period of the twist samples (time since the previous twist): the message covariance is per
   /// sample, the configured noise a density.
@@ -43,7 +53,10 @@ class Propagator {
   void addRandomWalks(double dt, FilterState* state) const;
   double period() const { return std::max(1e-3, sample_period_); }
 
+  bool usesEstimatedNoise() const;
+
   const VislamOptions* options_;  ///< not owned (the estimator keeps it alive)
+  TwistNoiseEstimator noise_estimator_;
   double sample_period_ = 0.1;
 };
 

@@ -52,6 +52,12 @@ struct NoiseOptions {
   /// A twist message with a non-zero covariance (TwistWithCovarianceStamped, Odometry) supplies
   /// its own noise; all-zero covariances fall back to the two densities above.
   bool use_message_covariance = true;
+  /// Estimate the twist's white noise online from the samples themselves (their second
+  /// differences, twist_noise_estimator.h) over the last twist_noise_window samples; the two
+  /// densities above are used until twist_noise_min_samples have arrived.
+  bool estimate_twist_noise = true;
+  int twist_noise_window = 300;      ///< samples
+  int twist_noise_min_samples = 20;  ///< samples
 };
 
 /// prior/: initial pose uncertainty (the world is the first IMU pose).

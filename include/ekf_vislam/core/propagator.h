@@ -17,6 +17,11 @@ class Propagator {
 
   /// Every accepted twist, in stamp order: feeds the online noise estimate.
   void observeTwist(const TwistData& twist) { noise_estimator_.add(twist); }
+  /// Forgets the online noise estimate (a full filter reset starts it again).
+  void resetNoiseEstimate() {
+    noise_estimator_ = TwistNoiseEstimator(options_->noise.twist_noise_window,
+                                           options_->noise.twist_noise_min_samples);
+  }
   /// Noise densities of a twist without its own covariance (m/s/sqrt(Hz), rad/s/sqrt(Hz)): the
   /// online estimate once it is ready (noise/estimate_twist_noise), else the configured ones.
   double linearNoiseDensity() const;

@@ -10,6 +10,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <sstream>
 #include <sys/stat.h>
 #include <unistd.h>
 #include <limits>
@@ -398,6 +399,28 @@ TEST(RosOptions, StringFormOfCamTImu) {
   o.calibration.applyTo(&target);
   EXPECT_EQ(target.fx, kittiLike().fx);
   EXPECT_EQ(target.validate(), "");
+}
+
+TEST(RosOptions, ShippedConfigHasEveryKeyAndEveryBoundedKeyIsChecked) {
+  const YamlParameterSource shipped(std::string(EKF_VISLAM_SOURCE_DIR) + "/config/default.yaml");
+  ASSERT_TRUE(shipped.ok()) << shipped.error();
+  VislamRosOptions parsed;
+  std::string error;
+  ASSERT_TRUE(parseVislamRosOptions(shipped, &parsed, &error)) << error;
+  EXPECT_EQ(describeOptions(parsed), describeOptions(VislamRosOptions()));
+  int bounded = 0;
+  for (const OptionKeyList::Key& key : vislamRosOptionKeys()) {
+    EXPECT_TRUE(shipped.has(key.name)) << key.name << " is not documented in config/default.yaml";
+    if (key.bound == Bound::kAny) continue;
+    ++bounded;
+    std::ostringstream yaml;
+    yaml << "ros:\n  " << key.name.substr(4) << ": " << valueOutside(key.bound) << "\n";
+    VislamRosOptions o;
+    EXPECT_FALSE(parseVislamRosOptions(YamlParameterSource::fromString(yaml.str()), &o, &error))
+        << yaml.str();
+    EXPECT_NE(error.find(key.name), std::string::npos) << error;
+  }
+  EXPECT_GE(bounded, 12);
 }
 
 TEST(RosOptions, ErrorsNameTheKey) {

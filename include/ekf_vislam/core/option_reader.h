@@ -53,6 +53,11 @@ class OptionReader {
   void number(const char* key, double& value, Bound) { number(std::string(key), &value); }
   void integer(const char* key, int& value, Bound) { integer(std::string(key), &value); }
   void flag(const char* key, bool& value) { flag(std::string(key), &value); }
+  void text(const char* key, std::string& value) {
+    if (!ok_ || !source_.has(key)) return;
+    if (!source_.getString(key, &value)) fail(key, "a string");
+  }
+  bool has(const std::string& key) const { return source_.has(key); }
   template <typename Enum, size_t N>
   void choice(const char* key, Enum& value, const EnumNames<Enum, N>& names) {
     if (!ok_ || !source_.has(key)) return;
@@ -70,11 +75,14 @@ class OptionReader {
     fail(key, "one of " + expected);
   }
 
- private:
+  /// Records "'key' must be <expected>" as the error unless one is already there.
   void fail(const std::string& key, const std::string& expected) {
+    if (!ok_) return;
     ok_ = false;
     if (error_ != nullptr) *error_ = source_.describe() + ": '" + key + "' must be " + expected;
   }
+
+ private:
   const ParameterSource& source_;
   std::string* error_;
   bool ok_ = true;

@@ -58,6 +58,7 @@ class OptionValidator {
   void number(const char* key, double value, Bound bound) { check(key, value, bound); }
   void integer(const char* key, int value, Bound bound) { check(key, value, bound); }
   void flag(const char*, bool) {}
+  void text(const char*, const std::string&) {}
   template <typename Enum, size_t N>
   void choice(const char*, Enum, const EnumNames<Enum, N>&) {}
 
@@ -79,6 +80,7 @@ class OptionDescriber {
   void number(const char* key, double value, Bound) { add(key, toText(value)); }
   void integer(const char* key, int value, Bound) { add(key, std::to_string(value)); }
   void flag(const char* key, bool value) { add(key, value ? "true" : "false"); }
+  void text(const char* key, const std::string& value) { add(key, value.empty() ? "(none)" : value); }
   template <typename Enum, size_t N>
   void choice(const char* key, Enum value, const EnumNames<Enum, N>& names) {
     add(key, enumName(names, value));
@@ -97,7 +99,7 @@ class OptionDescriber {
 /// Every key of a table, with its kind and bound.
 class OptionKeyList {
  public:
-  enum class Kind { kNumber, kInteger, kFlag, kChoice };
+  enum class Kind { kNumber, kInteger, kFlag, kChoice, kText };
   struct Key {
     std::string name;
     Kind kind;
@@ -106,6 +108,9 @@ class OptionKeyList {
   void number(const char* key, double, Bound bound) { keys_.push_back({key, Kind::kNumber, bound}); }
   void integer(const char* key, int, Bound bound) { keys_.push_back({key, Kind::kInteger, bound}); }
   void flag(const char* key, bool) { keys_.push_back({key, Kind::kFlag, Bound::kAny}); }
+  void text(const char* key, const std::string&) {
+    keys_.push_back({key, Kind::kText, Bound::kAny});
+  }
   template <typename Enum, size_t N>
   void choice(const char* key, Enum, const EnumNames<Enum, N>&) {
     keys_.push_back({key, Kind::kChoice, Bound::kAny});

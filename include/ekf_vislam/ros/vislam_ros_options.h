@@ -9,6 +9,7 @@
 #include "ekf_vislam/core/vislam_options.h"
 
 #include <string>
+#include <vector>
 
 namespace ekf_vislam {
 
@@ -44,5 +45,8 @@ bool parseVislamRosOptions(const ParameterSource& source, VislamRosOptions* opti
 
 /// One multi-line, human-readable listing of the effective ros/ options (logged at start).
 std::string describeOptions(const VislamRosOptions& options);
+
+/// Every key of the ros/ key table (the ros/calibration/ group aside).
+std::vector<OptionKeyList::Key> vislamRosOptionKeys();
 
 }  // namespace ekf_vislam

@@ -34,19 +34,7 @@ class OptionReader {
   template <typename Enum>
   void choice(const std::string& key, Enum* value,
               std::initializer_list<std::pair<const char*, Enum>> names) {
-    if (!ok_ || !source_.has(key)) return;
-    std::string text;
-    std::string expected;
-    if (source_.getString(key, &text)) {
-      for (const auto& [name, e] : names) {
-        if (text == name) {
-          *value = e;
-          return;
-        }
-      }
-    }
-    for (const auto& [name, e] : names) expected += (expected.empty() ? "" : " | ") + std::string(name);
-    fail(key, "one of " + expected);
+    readChoice(key, value, names);
   }
 
   // The key-table visitor interface (option_table.h): the bound is checked by OptionValidator.
@@ -60,19 +48,7 @@ class OptionReader {
   bool has(const std::string& key) const { return source_.has(key); }
   template <typename Enum, size_t N>
   void choice(const char* key, Enum& value, const EnumNames<Enum, N>& names) {
-    if (!ok_ || !source_.has(key)) return;
-    std::string text;
-    if (source_.getString(key, &text)) {
-      for (const auto& [name, e] : names) {
-        if (text == name) {
-          value = e;
-          return;
-        }
-      }
-    }
-    std::string expected;
-    for (const auto& [name, e] : names) expected += (expected.empty() ? "" : " | ") + std::string(name);
-    fail(key, "one of " + expected);
+    readChoice(key, &value, names);
   }
 
   /// Records "'key' must be <expected>" as the error unless one is already there.
@@ -83,6 +59,24 @@ class OptionReader {
   }
 
  private:
+  /// names: (name, value) pairs; an unknown name fails listing them all.
+  template <typename Enum, typename Names>
+  void readChoice(const std::string& key, Enum* value, const Names& names) {
+    if (!ok_ || !source_.has(key)) return;
+    std::string text;
+    if (source_.getString(key, &text)) {
+      for (const auto& [name, e] : names) {
+        if (text == name) {
+          *value = e;
+          return;
+        }
+      }
+    }
+    std::string expected;
+    for (const auto& [name, e] : names) expected += (expected.empty() ? "" : " | ") + std::string(name);
+    fail(key, "one of " + expected);
+  }
+
   const ParameterSource& source_;
   std::string* error_;
   bool ok_ = true;

@@ -26,7 +26,8 @@ Vector6d Propagator::velocityPriorGain(const FilterState& state, const TwistData
   const bool own = usesMessageCovariance(twist);
   const Matrix6d own_density = own ? messageDensity(state, twist) : Matrix6d::Zero();
   const double dt = period();
-  const double r_configured = linearNoiseDensity() * linearNoiseDensity() / dt;
+  const double linear_density = linearNoiseDensity();
+  const double r_configured = linear_density * linear_density / dt;
   const double sigmas[2] = {options_->vehicle.lateral_velocity_sigma, options_->vehicle.vertical_velocity_sigma};
   for (int axis = 1; axis <= 2; ++axis) {
     const double r = own ? own_density(axis, axis) / dt : r_configured;
@@ -68,8 +69,10 @@ Matrix6d Propagator::noiseDensity(const FilterState& state, const TwistData& twi
     const Vector6d root = gain.cwiseSqrt();
     return root.asDiagonal() * messageDensity(state, twist) * root.asDiagonal();
   }
-  const double qv = linearNoiseDensity() * linearNoiseDensity();
-  const double qw = angularNoiseDensity() * angularNoiseDensity();
+  const double linear_density = linearNoiseDensity();
+  const double angular_density = angularNoiseDensity();
+  const double qv = linear_density * linear_density;
+  const double qw = angular_density * angular_density;
   Vector6d q = gain;
   q.head<3>() *= qv;
   q.tail<3>() *= qw;

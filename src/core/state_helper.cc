@@ -4,6 +4,20 @@
 
 namespace ekf_vislam {
 namespace state_helper {
+namespace {
+
+/// Calls visit(first residual row, rows, block) for every block of every stacked observation.
+template <typename Visit>
+void forEachBlock(const std::vector<SparseJacobian>& jacobians, Visit visit) {
+  int row = 0;
+  for (const SparseJacobian& jacobian : jacobians) {
+    const int rows = static_cast<int>(jacobian.front().H.rows());
+    for (const JacobianBlock& block : jacobian) visit(row, rows, block);
+    row += rows;
+  }
+}
+
+}  // namespace
 
 double mahalanobis2(const FilterState& state, const SparseJacobian& jacobian,
                     const Eigen::VectorXd& residual, double noise_var) {
@@ -35,39 +49,18 @@ UpdateOutcome update(FilterState* state, const std::vector<SparseJacobian>& jaco
   auto S = state->covariance();
   const int dim = state->dim();
   const int m = static_cast<int>(residual.size());
-  // P H^T (dim x m) from the touched columns only, then H P H^T + R (m x m).
-  Eigen::MatrixXd PHt(dim, m);
-  int row = 0;
-  for (const SparseJacobian& jacobian : jacobians) {
-    const int r = static_cast<int>(jacobian.front().H.rows());
-    bool first = true;
-    for (const JacobianBlock& block : jacobian) {
-      const auto columns = S.middleCols(block.first_row, block.H.cols());
-      if (first) {
-        PHt.middleCols(row, r).noalias() = columns * block.H.transpose();
-      } else {
-        PHt.middleCols(row, r).noalias() += columns * block.H.transpose();
-      }
-      first = false;
-    }
-    row += r;
-  }
-  Eigen::MatrixXd innovation_cov(m, m);
-  row = 0;
-  for (const SparseJacobian& jacobian : jacobians) {
-    const int r = static_cast<int>(jacobian.front().H.rows());
-    bool first = true;
-    for (const JacobianBlock& block : jacobian) {
-      const auto rows = PHt.middleRows(block.first_row, block.H.cols());
-      if (first) {
-        innovation_cov.middleRows(row, r).noalias() = block.H * rows;
-      } else {
-        innovation_cov.middleRows(row, r).noalias() += block.H * rows;
-      }
-      first = false;
-    }
-    row += r;
-  }
+  // P H^T (dim x m) from the touched columns only, then H P H^T + R (m x m), block by block
+  // in the order the blocks are listed (adding to zero first is exact).
+  Eigen::MatrixXd PHt = Eigen::MatrixXd::Zero(dim, m);
+  forEachBlock(jacobians, [&](int row, int rows, const JacobianBlock& block) {
+    PHt.middleCols(row, rows).noalias() +=
+        S.middleCols(block.first_row, block.H.cols()) * block.H.transpose();
+  });
+  Eigen::MatrixXd innovation_cov = Eigen::MatrixXd::Zero(m, m);
+  forEachBlock(jacobians, [&](int row, int rows, const JacobianBlock& block) {
+    innovation_cov.middleRows(row, rows).noalias() +=
+        block.H * PHt.middleRows(block.first_row, block.H.cols());
+  });
   innovation_cov.diagonal().array() += noise_var;
   Eigen::LLT<Eigen::MatrixXd> llt(innovation_cov);
   if (llt.info() != Eigen::Success) {

@@ -27,6 +27,7 @@
 #include <set>
 #include <string>
 #include <utility>
+#include <vector>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -177,8 +178,10 @@ bool checkBagTopics(const BagReader& bag, const BagTopics& topics, bool needs_fe
     *error = "the twist and feature topics must differ";
     return false;
   }
-  for (const std::string& topic : {topics.twist, topics.features}) {
-    if (bag.messageCount(topic) == 0 && (topic == topics.twist || needs_features)) {
+  std::vector<std::string> required = {topics.twist};
+  if (needs_features) required.push_back(topics.features);
+  for (const std::string& topic : required) {
+    if (bag.messageCount(topic) == 0) {
       *error = "no messages on " + topic;
       return false;
     }

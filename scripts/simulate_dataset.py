@@ -32,6 +32,9 @@ def parse_args(argv):
     noise = parser.add_argument_group('noise')
     noise.add_argument('--pixel-noise', type=float, default=d['pixel_noise'], metavar='PX',
                        help='std of each pixel coordinate (default %(default)s px)')
+    noise.add_argument('--pixel-correlation', type=float, default=d['pixel_correlation'],
+                       metavar='RHO', help='drifting tracks: correlation of a track\'s pixel '
+                       'error from one frame to the next, AR(1) (default %(default)s: white)')
     noise.add_argument('--outlier-rate', type=float, default=d['outlier_rate'], metavar='R',
                        help='fraction of gross outlier observations (default %(default)s)')
     noise.add_argument('--velocity-noise', type=float, default=d['velocity_noise'], metavar='V',
@@ -72,9 +75,9 @@ def parse_args(argv):
 def main(argv=None):
     args = parse_args(sys.argv[1:] if argv is None else argv)
     options = {name: getattr(args, name) for name in (
-        'frames', 'length_m', 'pixel_noise', 'outlier_rate', 'velocity_noise', 'gyro_noise',
-        'gyro_bias', 'rate_hz', 'start_time', 'speed_min', 'speed_max', 'max_yaw_rate',
-        'target_obs', 'track_loss', 'landmark_density', 'max_depth')}
+        'frames', 'length_m', 'pixel_noise', 'pixel_correlation', 'outlier_rate',
+        'velocity_noise', 'gyro_noise', 'gyro_bias', 'rate_hz', 'start_time', 'speed_min',
+        'speed_max', 'max_yaw_rate', 'target_obs', 'track_loss', 'landmark_density', 'max_depth')}
     try:
         result = simulator.simulate(args.seed, **options)
     except ValueError as exc:

@@ -81,10 +81,16 @@ bool LandmarkManager::initialize(const StereoObservation& f, double stamp, size_
   tracks_.push_back(track);
   tracking_[f.id] = k;
   setFlowReference(k, f, camera, *state);
+  recordUsed(k, f);
   stats->increment(Counter::kLandmarkInitialized);
   stats->increment(Counter::kObservationInitialized);
   ++result->landmarks_initialized;
   return true;
+}
+
+void LandmarkManager::recordUsed(size_t k, const StereoObservation& f) {
+  tracks_[k].previous_z = Eigen::Vector4d(f.u_left, f.v_left, f.u_right, f.v_right);
+  tracks_[k].previous_frame = frame_;
 }
 
 void LandmarkManager::setFlowReference(size_t k, const StereoObservation& f,

@@ -11,6 +11,7 @@ const char* boundDescription(Bound bound) {
     case Bound::kNonNegative: return "must be >= 0";
     case Bound::kOpenUnit: return "must be in (0, 1)";
     case Bound::kUnitFraction: return "must be in (0, 1]";
+    case Bound::kCorrelation: return "must be in [0, 1)";
     case Bound::kAtLeastOne: return "must be >= 1";
   }
   return "";
@@ -24,6 +25,7 @@ bool withinBound(double value, Bound bound) {
     case Bound::kNonNegative: return value >= 0.0;
     case Bound::kOpenUnit: return value > 0.0 && value < 1.0;
     case Bound::kUnitFraction: return value > 0.0 && value <= 1.0;
+    case Bound::kCorrelation: return value >= 0.0 && value < 1.0;
     case Bound::kAtLeastOne: return value >= 1.0;
   }
   return false;
@@ -36,6 +38,7 @@ double valueOutside(Bound bound) {
     case Bound::kNonNegative: return -1.0;
     case Bound::kOpenUnit: return 1.0;
     case Bound::kUnitFraction: return 0.0;
+    case Bound::kCorrelation: return 1.0;
     case Bound::kAtLeastOne: return 0.0;
   }
   return std::numeric_limits<double>::quiet_NaN();

@@ -4,6 +4,8 @@
 #include "ekf_vislam/core/se3.h"
 #include "ekf_vislam/core/track_jump_detector.h"
 
+#include <cmath>
+
 namespace ekf_vislam {
 
 StereoUpdater::StereoUpdater(const VislamOptions& options)
@@ -13,51 +15,112 @@ StereoUpdater::StereoUpdater(const VislamOptions& options)
       gate_threshold_(chiSquareQuantile(options.landmarks.gating_probability, rows_per_observation_)),
       restart_threshold_(chiSquareQuantile(0.9999, rows_per_observation_)) {}
 
-bool StereoUpdater::linearize(const StereoCamera& camera, const FilterState& state,
-                              StereoCandidate* c) const {
+bool StereoUpdater::predict(const StereoCamera& camera, const FilterState& state,
+                            const Eigen::Matrix4d& imu_T_world, const Eigen::Vector3d& p_world,
+                            const Eigen::Vector4d& z, Eigen::VectorXd* residual,
+                            Eigen::MatrixXd* H_landmark, Eigen::MatrixXd* H_calibration) const {
   const StateLayout& layout = state.layout();
   const Eigen::MatrixXd& M = observation_selector_;
-  const Eigen::Vector3d p_world = state.landmark(c->landmark);
   Eigen::Vector4d z_pred;
-  Matrix43d H_landmark;
-  const Eigen::Matrix4d& imu_T_world = c->via_clone ? state.imu_T_world_clone : state.imu_T_world;
-  if (!camera.project(imu_T_world, p_world, &z_pred, nullptr, &H_landmark,
+  Matrix43d H;
+  if (!camera.project(imu_T_world, p_world, &z_pred, nullptr, &H,
                       options_->landmarks.min_depth * 0.5)) {
     return false;
   }
-  const Eigen::Vector4d z(c->feature.u_left, c->feature.v_left, c->feature.u_right,
-                          c->feature.v_right);
   // d z / d calibration: the uR row only. Offset: measured uR = true uR - offset. Baseline
   // scale: uR = fx (x - b0 (1 + beta)) / z + cx, d uR / d beta = -fx b0 / z.
-  Eigen::Matrix<double, 4, 2> H_calibration = Eigen::Matrix<double, 4, 2>::Zero();
-  if (layout.disparity_dim > 0) H_calibration(2, 0) = -1.0;
+  Eigen::Matrix<double, 4, 2> H_cal = Eigen::Matrix<double, 4, 2>::Zero();
+  if (layout.disparity_dim > 0) H_cal(2, 0) = -1.0;
   if (layout.scale_dim > 0) {
-    H_calibration(2, layout.disparity_dim) =
-        -(z_pred(0) - z_pred(2)) / (1.0 + state.baseline_scale_error);
+    H_cal(2, layout.disparity_dim) = -(z_pred(0) - z_pred(2)) / (1.0 + state.baseline_scale_error);
   }
-  c->H_calibration = M * H_calibration.leftCols(layout.calibrationDim());
+  *H_calibration = M * H_cal.leftCols(layout.calibrationDim());
   z_pred(2) -= state.disparity_offset;
-  c->residual = M * (z - z_pred);
+  *residual = M * (z - z_pred);
+  *H_landmark = M * H;
+  return true;
+}
+
+void StereoUpdater::setCloneView(const Eigen::Vector3d& p_world, double weight,
+                                 StereoCandidate* c, const Eigen::MatrixXd& H_landmark_clone) {
+  // Seen from the clone (error [rho_c; phi_c]): p_imu = R_c^T (p_mean + xi - rho_c +
+  // p^ (phi_c - phi) - t_c) to first order, so the current pose enters through phi only.
+  // `weight` scales this view's part (1: seen from the clone; -rho: the previous observation's
+  // prediction subtracted from the current one).
+  const Eigen::MatrixXd H_p = H_landmark_clone * se3::hat(p_world);
+  c->H_pose.rightCols<3>() -= weight * H_p;
+  c->H_clone = Eigen::MatrixXd::Zero(H_p.rows(), StateLayout::kPoseDim);
+  c->H_clone.leftCols<3>() = -weight * H_landmark_clone;
+  c->H_clone.rightCols<3>() = weight * H_p;
+  c->clone_columns = true;
+}
+
+bool StereoUpdater::linearize(const StereoCamera& camera, const FilterState& state,
+                              StereoCandidate* c) const {
+  const StateLayout& layout = state.layout();
+  const Eigen::Vector3d p_world = state.landmark(c->landmark);
+  const Eigen::Vector4d z(c->feature.u_left, c->feature.v_left, c->feature.u_right,
+                          c->feature.v_right);
+  const Eigen::Matrix4d& imu_T_world = c->via_clone ? state.imu_T_world_clone : state.imu_T_world;
+  if (!predict(camera, state, imu_T_world, p_world, z, &c->residual, &c->H_landmark,
+               &c->H_calibration)) {
+    return false;
+  }
   // Invariant error: p_imu = R^T (p_mean + xi - rho - p) to first order, so the observation
   // depends on rho through -H_landmark and not at all on phi.
-  c->H_landmark = M * H_landmark;
   c->H_pose = Eigen::MatrixXd::Zero(rows_per_observation_, StateLayout::kPoseDim);
-  c->clone_columns = c->via_clone && layout.clone_dim > 0;
-  if (c->clone_columns) {
-    // Seen from the clone (error [rho_c; phi_c]): p_imu = R_c^T (p_mean + xi - rho_c +
-    // p^ (phi_c - phi) - t_c) to first order, so the current pose enters through phi only.
-    const Eigen::MatrixXd H_p = c->H_landmark * se3::hat(p_world);
-    c->H_pose.rightCols<3>() = -H_p;
-    c->H_clone = Eigen::MatrixXd::Zero(rows_per_observation_, StateLayout::kPoseDim);
-    c->H_clone.leftCols<3>() = -c->H_landmark;
-    c->H_clone.rightCols<3>() = H_p;
+  c->clone_columns = false;
+  if (c->via_clone && layout.clone_dim > 0) {
+    setCloneView(p_world, 1.0, c, c->H_landmark);
   } else if (options_->mode == EstimatorMode::kSlam) {
     c->H_pose.leftCols<3>() = -c->H_landmark;
   }
+  return true;
+}
+
+bool StereoUpdater::linearizeCandidate(const StereoCamera& camera, const FilterState& state,
+                                       const LandmarkManager& landmarks,
+                                       StereoCandidate* c) const {
+  if (!linearize(camera, state, c)) return false;
+  // The track-jump test compares the observation itself with the last frame's.
+  c->flow_residual = c->residual.head<2>();
+  c->flow_H_landmark = c->H_landmark.topRows<2>();
+  difference(camera, state, landmarks, c);
   const double pixel_var = options_->noise.pixel_sigma * options_->noise.pixel_sigma;
   c->mahalanobis2 =
       state_helper::mahalanobis2(state, gateJacobian(state, *c), c->residual, pixel_var);
   return true;
+}
+
+void StereoUpdater::difference(const StereoCamera& camera, const FilterState& state,
+                               const LandmarkManager& landmarks, StereoCandidate* c) const {
+  // The pixel error e_k of a track follows e_k = rho e_(k-1) + w_k (AR(1), stationary std
+  // pixel_sigma). The differenced observation z_k - rho z_(k-1) = h(pose_k, p) -
+  // rho h(pose_(k-1), p) + w_k has white noise of variance pixel_sigma^2 (1 - rho^2)
+  // (Bryson and Henrikson); pose_(k-1) is the clone, taken at the end of every frame. The
+  // residual and Jacobians are whitened by 1 / sqrt(1 - rho^2) so the update keeps one
+  // variance, pixel_sigma^2.
+  const double rho = options_->noise.pixel_correlation;
+  const LandmarkTrack& track = landmarks.track(c->landmark);
+  c->differenced = false;
+  if (rho <= 0.0 || c->via_clone || track.previous_frame != landmarks.frame() - 1) return;
+  const Eigen::Vector3d p_world = state.landmark(c->landmark);
+  Eigen::VectorXd residual_prev;
+  Eigen::MatrixXd H_landmark_prev, H_calibration_prev;
+  if (!predict(camera, state, state.imu_T_world_clone, p_world, track.previous_z, &residual_prev,
+               &H_landmark_prev, &H_calibration_prev)) {
+    return;
+  }
+  const double whiten = 1.0 / std::sqrt(1.0 - rho * rho);
+  c->residual = whiten * (c->residual - rho * residual_prev);
+  c->H_calibration = whiten * (c->H_calibration - rho * H_calibration_prev);
+  if (options_->mode == EstimatorMode::kSlam && state.layout().clone_dim > 0) {
+    setCloneView(p_world, -rho, c, H_landmark_prev);
+    c->H_pose *= whiten;
+    c->H_clone *= whiten;
+  }
+  c->H_landmark = whiten * (c->H_landmark - rho * H_landmark_prev);
+  c->differenced = true;
 }
 
 SparseJacobian StereoUpdater::gateJacobian(const FilterState& state,
@@ -87,7 +150,7 @@ StereoUpdateOutcome StereoUpdater::update(std::vector<StereoCandidate>* candidat
                                           FeedResult* result) const {
   StereoUpdateOutcome outcome;
   for (StereoCandidate& c : *candidates) {
-    c.predicted = linearize(*camera, *state, &c);
+    c.predicted = linearizeCandidate(*camera, *state, *landmarks, &c);
     if (!c.predicted) {
       stats->increment(Counter::kObsBehindCamera);
       ++result->observations_rejected;
@@ -106,6 +169,7 @@ StereoUpdateOutcome StereoUpdater::update(std::vector<StereoCandidate>* candidat
   }
   for (const StereoCandidate* c : accepted) {
     landmarks->setFlowReference(c->landmark, c->feature, *camera, *state);
+    landmarks->recordUsed(c->landmark, c->feature);
   }
   return outcome;
 }
@@ -201,9 +265,9 @@ void StereoUpdater::detectJumps(const FilterState& state, const LandmarkManager&
     if (!c.predicted || !track.has_flow_reference) continue;
     const int row = state.layout().landmarkRow(c.landmark);
     FlowCheck check;
-    check.residual_change = c.residual.head<2>() - track.flow_residual;
+    check.residual_change = c.flow_residual - track.flow_residual;
     // Pose error exp(eps^) world_T_imu with the landmark fixed: d p_world = -rho - phi x p.
-    const Eigen::Matrix<double, 2, 3> H = c.H_landmark.topRows<2>();
+    const Eigen::Matrix<double, 2, 3>& H = c.flow_H_landmark;
     check.H_pose.leftCols<3>() = -H;
     check.H_pose.rightCols<3>() = H * se3::hat(state.landmark(c.landmark));
     // The landmark's own error moves both predictions: (H_now - H_before) Sigma_l (...)^T.

@@ -22,10 +22,11 @@ StateLayout layoutFor(const VislamOptions& options) {
   layout.rotation_dim = options.extrinsic.estimate_twist_rotation ? 3 : 0;
   layout.disparity_dim = options.intrinsic.estimate_disparity_offset ? 1 : 0;
   layout.scale_dim = options.intrinsic.estimate_baseline_scale ? 1 : 0;
-  layout.clone_dim = options.limits.repeated_frames == RepeatedFramePolicy::kShift &&
-                             options.mode == EstimatorMode::kSlam
-                         ? StateLayout::kPoseDim
-                         : 0;
+  // The clone: the pose at the last repeated frame, and with a correlated pixel error the pose
+  // at the previous frame.
+  const bool clone = options.limits.repeated_frames == RepeatedFramePolicy::kShift ||
+                     options.noise.pixel_correlation > 0.0;
+  layout.clone_dim = clone && options.mode == EstimatorMode::kSlam ? StateLayout::kPoseDim : 0;
   return layout;
 }
 
@@ -223,6 +224,7 @@ FeedResult VislamEstimator::feedFeatures(const FeatureFrame& frame) {
   stats_.increment(Counter::kFrameUsed);
   if (frame.features.empty()) stats_.increment(Counter::kFrameEmpty);
   const RepeatedFramePolicy policy = options_->limits.repeated_frames;
+  landmarks_.beginFrame();
   std::vector<size_t> new_tracks;
   if (repeated_frames_.isRepeat(frame, &new_tracks)) {
     stats_.increment(Counter::kFrameRepeated);
@@ -336,6 +338,8 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result
     }
   }
   landmarks_.syncMap(state_, time_);
+  // The previous frame's pose for the next frame's differenced observations.
+  if (options_->noise.pixel_correlation > 0.0) state_.clonePose();
   checkHealth(static_cast<int>(updates.size()), outcome.disagreeing, result);
 }
 

@@ -27,6 +27,7 @@ void visitVislamOptions(Options& o, Visitor& v) {
 
   auto& noise = o.noise;
   v.number("noise/pixel_sigma", noise.pixel_sigma, Bound::kPositive);
+  v.number("noise/pixel_correlation", noise.pixel_correlation, Bound::kCorrelation);
   v.flag("noise/merge_stereo_rows", noise.merge_stereo_rows);
   v.number("noise/linear_velocity_noise", noise.linear_velocity_noise, Bound::kNonNegative);
   v.number("noise/angular_velocity_noise", noise.angular_velocity_noise, Bound::kNonNegative);

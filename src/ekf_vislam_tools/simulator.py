@@ -61,6 +61,8 @@ DEFAULT_OPTIONS = {
     'min_disparity': 0.5,      # px
     # Noise
     'pixel_noise': 1.0,        # std of each pixel coordinate, px
+    'pixel_correlation': 0.0,  # drifting tracks: a track's pixel error is AR(1) with this
+                               # correlation from one frame to the next (std pixel_noise); 0: white
     'outlier_rate': 0.03,      # fraction of observations replaced by gross outliers
     'velocity_noise': 0.5,     # std of each linear velocity component, m/s
     'gyro_noise': 0.05,        # std of each angular velocity component, rad/s
@@ -99,7 +101,7 @@ def simulate(seed, **options):
     point_of_id[obs_id] = obs_point
     features_true = np.full((4, num_ids, len(t)), UNOBSERVED)
     features_true[:, obs_id, obs_frame] = z_true.T
-    z_meas, is_outlier = _measure_pixels(rngs['noise'], z_true, opts)
+    z_meas, is_outlier = _measure_pixels(rngs['noise'], z_true, obs_frame, obs_id, opts)
     features = np.full_like(features_true, UNOBSERVED)
     features[:, obs_id, obs_frame] = z_meas.T
     outlier_mask = np.zeros((num_ids, len(t)), dtype=bool)
@@ -133,7 +135,7 @@ def _check_options(opts):
     for name in ('pixel_noise', 'velocity_noise', 'gyro_noise', 'time_jitter', 'min_disparity'):
         if not opts[name] >= 0:
             raise ValueError('%s must not be negative, got %r' % (name, opts[name]))
-    for name in ('outlier_rate', 'track_loss'):
+    for name in ('outlier_rate', 'track_loss', 'pixel_correlation'):
         if not 0 <= opts[name] < 1:
             raise ValueError('%s must be in [0, 1), got %r' % (name, opts[name]))
     if opts['speed_max'] - opts['speed_min'] < 1.0:
@@ -384,7 +386,28 @@ def _track(rng, points, world_T_imu, opts):
 # ---------------------------------------------------------------------------------------------
 # Measurements
 # ---------------------------------------------------------------------------------------------
-def _measure_pixels(rng, z_true, opts):
+def _pixel_errors(rng, obs_frame, obs_id, opts):
+    """Pixel error of every observation (n,4): white, or AR(1) along each track (a track: an id
+    seen in consecutive frames), e_k = rho e_(k-1) + sqrt(1 - rho^2) sigma n_k, e_0 = sigma n_0."""
+    errors = rng.normal(0.0, opts['pixel_noise'], (obs_id.size, 4))
+    rho = opts['pixel_correlation']
+    if rho == 0.0 or obs_id.size == 0:
+        return errors
+    scale = np.sqrt(1.0 - rho * rho)
+    last_frame = np.full(int(obs_id.max()) + 1, -2, dtype=np.int64)
+    last_error = np.zeros((last_frame.size, 4))
+    for k in np.unique(obs_frame):  # observations are in frame order
+        idx = np.flatnonzero(obs_frame == k)
+        ids = obs_id[idx]
+        going_on = last_frame[ids] == k - 1
+        errors[idx[going_on]] = (rho * last_error[ids[going_on]] +
+                                 scale * errors[idx[going_on]])
+        last_error[ids] = errors[idx]
+        last_frame[ids] = k
+    return errors
+
+
+def _measure_pixels(rng, z_true, obs_frame, obs_id, opts):
     """Pixel noise on every coordinate, and gross outliers -> (z (n,4), is_outlier (n,)).
 
     An outlier (probability outlier_rate) is a wrong match: a third get a negative disparity
@@ -394,7 +417,7 @@ def _measure_pixels(rng, z_true, opts):
     width, height = KITTI_IMAGE_SIZE
     limits = np.array([width - 1, height - 1, width - 1, height - 1], float)
     n = z_true.shape[0]
-    z = z_true + rng.normal(0.0, opts['pixel_noise'], z_true.shape)
+    z = z_true + _pixel_errors(rng, obs_frame, obs_id, opts)
     is_outlier = rng.random(n) < opts['outlier_rate']
     idx = np.flatnonzero(is_outlier)
     negative = rng.random(idx.size) < 1.0 / 3.0

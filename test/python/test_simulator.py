@@ -30,6 +30,14 @@ def gross_errors(result, threshold_px=10.0):
     return observed & (error > threshold_px)
 
 
+def lag_one_correlation(result):
+    """Correlation of the u_left error of a track between consecutive frames (inliers only)."""
+    error = result['features'][0] - result['features_true'][0]
+    good = observed_mask(result['features']) & ~result['outlier_mask']
+    both = good[:, :-1] & good[:, 1:]
+    return float(np.corrcoef(error[:, :-1][both], error[:, 1:][both])[0, 1])
+
+
 class SimulatorTest(unittest.TestCase):
     """The default 800-frame drive: statistics, geometry, noise."""
 
@@ -81,6 +89,16 @@ class SimulatorTest(unittest.TestCase):
         residual = (r['features'] - r['features_true'])[:, inlier]
         self.assertAlmostEqual(residual.std(), 1.0, delta=0.05)
         self.assertAlmostEqual(residual.mean(), 0.0, delta=0.05)
+
+    def test_pixel_noise_is_white_by_default(self):
+        self.assertAlmostEqual(lag_one_correlation(self.result), 0.0, delta=0.03)
+
+    def test_drifting_tracks(self):
+        r = simulator.simulate(7, frames=300, pixel_correlation=0.85, outlier_rate=0.0)
+        inlier = observed_mask(r['features'])
+        residual = (r['features'] - r['features_true'])[:, inlier]
+        self.assertAlmostEqual(residual.std(), 1.0, delta=0.1)
+        self.assertAlmostEqual(lag_one_correlation(r), 0.85, delta=0.03)
 
     def test_noiseless_observations_are_observable(self):
         z = self.result['features_true'][:, self.observed]

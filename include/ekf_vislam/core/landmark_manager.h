@@ -32,6 +32,11 @@ struct LandmarkTrack {
   Eigen::Vector2d flow_residual = Eigen::Vector2d::Zero();
   Eigen::Matrix<double, 2, 3> flow_H_landmark = Eigen::Matrix<double, 2, 3>::Zero();
   bool has_flow_reference = false;
+  /// The last observation the filter used (initialization or update), [uL, vL, uR, vR], and the
+  /// frame it came in (LandmarkManager::frame()): the reference of the next observation when
+  /// the pixel error is correlated along the track (noise/pixel_correlation).
+  Eigen::Vector4d previous_z = Eigen::Vector4d::Zero();
+  int previous_frame = -1;
 };
 
 /// Landmarks that leave the state after an update, decided by the updater, applied at once.
@@ -64,6 +69,11 @@ class LandmarkManager {
   bool initialize(const StereoObservation& f, double stamp, size_t reuse_map_index,
                   const StereoCamera& camera, FilterState* state, EstimatorStats* stats,
                   FeedResult* result);
+  /// Counts a feature frame (repeated frames included): frame() numbers the frames.
+  void beginFrame() { ++frame_; }
+  int frame() const { return frame_; }
+  /// Observation f of landmark k was used in the current frame.
+  void recordUsed(size_t k, const StereoObservation& f);
   /// Flow reference of landmark k from observation f at the current state (track-jump test).
   void setFlowReference(size_t k, const StereoObservation& f, const StereoCamera& camera,
                         const FilterState& state);
@@ -96,6 +106,7 @@ class LandmarkManager {
   std::vector<LandmarkTrack> tracks_;
   std::unordered_map<uint32_t, size_t> tracking_;  ///< tracked id -> state index
   std::vector<LandmarkEstimate> map_;
+  int frame_ = 0;
 };
 
 }  // namespace ekf_vislam

@@ -30,6 +30,7 @@ enum class Bound {
   kNonNegative,  ///< >= 0
   kOpenUnit,     ///< in (0, 1)
   kUnitFraction, ///< in (0, 1]
+  kCorrelation,  ///< in [0, 1)
   kAtLeastOne,   ///< >= 1
 };
 

@@ -33,6 +33,13 @@ struct StereoCandidate {
   Eigen::MatrixXd H_calibration;  ///< rows x calibration dim
   Eigen::MatrixXd H_clone;        ///< rows x 6, when seen from the clone in SLAM mode
   bool clone_columns = false;     ///< H_clone is used
+  /// Differenced with the track's previous observation (noise/pixel_correlation): residual and
+  /// Jacobians are those of the whitened z_k - rho z_(k-1).
+  bool differenced = false;
+  /// Rows [uL, v] of the observation's own residual and landmark Jacobian (before any
+  /// differencing): the track-jump test's input.
+  Eigen::Vector2d flow_residual = Eigen::Vector2d::Zero();
+  Eigen::Matrix<double, 2, 3> flow_H_landmark = Eigen::Matrix<double, 2, 3>::Zero();
   double mahalanobis2 = 0.0;  ///< of the residual against its own innovation covariance
   bool predicted = false;     ///< false: the landmark is not in front of the camera
   bool jumped = false;        ///< the track-jump test flagged it
@@ -53,6 +60,12 @@ class StereoUpdater {
 
   int rowsPerObservation() const { return rows_per_observation_; }
 
+  /// Residual, Jacobian blocks (differenced with the track's previous observation when
+  /// noise/pixel_correlation applies) and Mahalanobis distance of one candidate; false when the
+  /// landmark is not in front of the camera.
+  bool linearizeCandidate(const StereoCamera& camera, const FilterState& state,
+                          const LandmarkManager& landmarks, StereoCandidate* c) const;
+
   /// Linearizes every candidate, runs the track-jump test (when jump_test), decides each one and
   /// updates the state with the accepted observations. Landmark bookkeeping (gating counts,
   /// flow references, observation counts) follows; removals are returned, not applied. With
@@ -63,10 +76,23 @@ class StereoUpdater {
                              EstimatorStats* stats, FeedResult* result) const;
 
  private:
-  /// Predicted observation, residual, Jacobians and Mahalanobis distance of one candidate;
-  /// false when the landmark is not in front of the camera.
+  /// Residual and Jacobians (landmark, calibration) of observation z of p_world from a pose;
+  /// false when the point is not in front of the camera.
+  bool predict(const StereoCamera& camera, const FilterState& state,
+               const Eigen::Matrix4d& imu_T_world, const Eigen::Vector3d& p_world,
+               const Eigen::Vector4d& z, Eigen::VectorXd* residual, Eigen::MatrixXd* H_landmark,
+               Eigen::MatrixXd* H_calibration) const;
+  /// Adds `weight` times the pose and clone Jacobians of a view from the clone.
+  static void setCloneView(const Eigen::Vector3d& p_world, double weight, StereoCandidate* c,
+                           const Eigen::MatrixXd& H_landmark_clone);
+  /// Predicted observation, residual and Jacobians of one candidate; false when the landmark is
+  /// not in front of the camera.
   bool linearize(const StereoCamera& camera, const FilterState& state,
                  StereoCandidate* c) const;
+  /// With noise/pixel_correlation, turns a candidate whose previous observation came in the
+  /// last frame into the whitened difference with it (see the .cc).
+  void difference(const StereoCamera& camera, const FilterState& state,
+                  const LandmarkManager& landmarks, StereoCandidate* c) const;
   /// Jacobian blocks over the touched variables: for the gate, and for the stacked update.
   SparseJacobian gateJacobian(const FilterState& state, const StereoCandidate& c) const;
   SparseJacobian updateJacobian(const FilterState& state, const StereoCandidate& c) const;

@@ -46,6 +46,10 @@ enum class DivergencePolicy {
 /// noise/: measurement and process noise.
 struct NoiseOptions {
   double pixel_sigma = 2.0;               ///< px, std of each image coordinate
+  /// Correlation of a track's pixel error from one observation to the next (AR(1) along the
+  /// track, stationary std pixel_sigma); 0: white. Consecutive observations are differenced
+  /// (stereo_updater.h).
+  double pixel_correlation = 0.0;
   bool merge_stereo_rows = true;          ///< observe [uL, (vL+vR)/2, uR] (3 rows) instead of 4
   double linear_velocity_noise = 0.10;    ///< m/s/sqrt(Hz): W_v = sigma^2 * tau
   double angular_velocity_noise = 0.015;  ///< rad/s/sqrt(Hz): W_w = sigma^2 * tau

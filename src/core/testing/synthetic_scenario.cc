@@ -12,6 +12,7 @@ namespace testing {
 VislamOptions matchedOptions(const ScenarioOptions& scenario) {
   VislamOptions o;
   o.noise.pixel_sigma = scenario.pixel_sigma;
+  o.noise.pixel_correlation = scenario.pixel_correlation;
   o.noise.linear_velocity_noise = scenario.linear_velocity_noise * std::sqrt(scenario.dt);
   o.noise.angular_velocity_noise = scenario.angular_velocity_noise * std::sqrt(scenario.dt);
   o.landmarks.max_track_length = 0;
@@ -83,13 +84,20 @@ Scenario makeScenario(const ScenarioOptions& o) {
   std::vector<int> state(points.size(), 0);  // 0 unused, 1 tracking, 2 done
   std::vector<uint32_t> id_of(points.size(), 0);
   uint32_t next_id = 0;
+  // Pixel error of each track: e_k = rho e_(k-1) + sqrt(1 - rho^2) sigma n_k, e_0 = sigma n_0.
+  std::map<uint32_t, Eigen::Vector4d> pixel_error;
+  const double innovation = std::sqrt(1.0 - o.pixel_correlation * o.pixel_correlation);
   auto observe = [&](uint32_t id, const Eigen::Vector4d& z) {
+    auto [it, first] = pixel_error.try_emplace(id, Eigen::Vector4d::Zero());
+    Eigen::Vector4d& e = it->second;
+    const double scale = first ? 1.0 : innovation;
+    for (int i = 0; i < 4; ++i) e(i) = o.pixel_correlation * e(i) + scale * o.pixel_sigma * normal(rng);
     StereoObservation f;
     f.id = id;
-    f.u_left = z(0) + o.pixel_sigma * normal(rng);
-    f.v_left = z(1) + o.pixel_sigma * normal(rng);
-    f.u_right = z(2) - o.disparity_offset_px + o.pixel_sigma * normal(rng);
-    f.v_right = z(3) + o.pixel_sigma * normal(rng);
+    f.u_left = z(0) + e(0);
+    f.v_left = z(1) + e(1);
+    f.u_right = z(2) - o.disparity_offset_px + e(2);
+    f.v_right = z(3) + e(3);
     return f;
   };
   for (size_t k = 0; k < s.world_T_imu.size(); ++k) {

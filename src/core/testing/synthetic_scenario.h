@@ -18,6 +18,9 @@ struct ScenarioOptions {
   int frames = 300;
   double dt = 0.1;
   double pixel_sigma = 1.0;
+  /// Drifting tracks: each track's pixel error is AR(1) with this correlation from one frame to
+  /// the next (stationary std pixel_sigma); 0: white.
+  double pixel_correlation = 0.0;
   double linear_velocity_noise = 0.5;   ///< per sample, m/s
   double angular_velocity_noise = 0.05;  ///< per sample, rad/s
   Eigen::Vector3d gyro_bias = Eigen::Vector3d(0.006, -0.008, 0.007);
@@ -41,7 +44,7 @@ struct Scenario {
 /// [t_k, t_k+1] (the estimator's convention). Deterministic from the seed.
 Scenario makeScenario(const ScenarioOptions& options);
 
-/// The shipped defaults with the noise matched to the scenario's (pixel sigma; per-sample twist
+/// The shipped defaults with the noise matched to the scenario's (pixel sigma and correlation; per-sample twist
 /// noise turned into densities with the frame period): a correctly specified filter. Its tracks
 /// do not drift, so landmarks are not split (landmarks/max_track_length = 0).
 VislamOptions matchedOptions(const ScenarioOptions& scenario);

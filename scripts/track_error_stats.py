@@ -1,0 +1,85 @@
+#!/usr/bin/python3
+"""Error statistics of a dataset's feature tracks against ground-truth poses.
+
+    track_error_stats.py DATA.npz --groundtruth GT.tum [--json OUT.json]
+
+GT.tum holds world_T_imu (frames matched to the dataset by time stamp). Each track gets the
+landmark that best fits all its stereo observations from the ground-truth poses; its residuals
+are its pixel errors. Prints their std, their correlation from one frame to the next (the
+value of noise/pixel_correlation that describes them), the part shared by the tracks of a frame,
+and the mean drift per frame by image region (ekf_vislam_tools/track_errors.py). The residuals
+also carry the ground truth's own pose error.
+
+Exit status: 0 on success, 2 on unusable input (one-line message on stderr).
+"""
+import argparse
+import json
+import sys
+
+import numpy as np
+
+from ekf_vislam_tools import dataset, metrics, track_errors, trajectory
+
+
+def camera_poses(data, groundtruth_path):
+    """(T,4,4) cam_T_world per dataset frame, NaN where the ground truth has no pose."""
+    t_gt, world_T_imu = trajectory.read_tum(groundtruth_path)
+    index_data, index_gt = metrics.associate(data.t, t_gt, 0.02)
+    if index_data.size < 2:
+        raise ValueError('%s: fewer than 2 poses match the dataset\'s time stamps'
+                         % groundtruth_path)
+    cam_T_world = np.full((data.num_frames, 4, 4), np.nan)
+    cam_T_world[index_data] = np.einsum('ij,njk->nik', data.cam_T_imu,
+                                        np.linalg.inv(world_T_imu[index_gt]))
+    return cam_T_world
+
+
+def report(stats):
+    names = 'uL vL uR vR'
+    fmt = lambda values: ' '.join('%.3f' % v for v in values)  # noqa: E731
+    lines = ['%d tracks, %d observations (%.1f %% inliers within %.0f px)' % (
+        stats['tracks'], stats['observations'], 100 * stats['inlier_fraction'],
+        track_errors.INLIER_PX),
+        'std (%s): %s px' % (names, fmt(stats['std'])),
+        'shared by the tracks of a frame, std: %s px' % fmt(stats['frame_common_std'])]
+    for lag, values in stats['correlation'].items():
+        lines.append('correlation at lag %d: %s (without the frame-shared part: %s)' % (
+            lag, fmt(values), fmt(stats['correlation_without_frame_common'][lag])))
+    lines.append('frame-to-frame correlation rho = %.3f; std of e_k - rho e_(k-1): %s px' % (
+        stats['rho'], fmt(stats['differenced_std'])))
+    lines.append('disparity error correlation at lag 1: %.3f' % stats['disparity_correlation'])
+    drift = stats['drift_per_frame']
+    lines.append('mean drift per frame: %s px (standard error %s)' % (
+        fmt(drift['all']), fmt(drift['standard_error'])))
+    for key, label in (('by_row', 'image rows'), ('by_column', 'image columns')):
+        for b in drift[key]:
+            lines.append('  %s %4.0f-%4.0f (%6d): %s' % (label, b['range_px'][0],
+                                                         b['range_px'][1], b['count'],
+                                                         fmt(b['mean'])))
+    return '\n'.join(lines)
+
+
+def main(argv):
+    parser = argparse.ArgumentParser(prog='track_error_stats.py', description=__doc__.split(
+        '\n')[0])
+    parser.add_argument('dataset')
+    parser.add_argument('--groundtruth', required=True, metavar='GT.tum')
+    parser.add_argument('--json', metavar='OUT.json', help='also write the figures as JSON')
+    args = parser.parse_args(argv)
+    try:
+        data = dataset.load_dataset(args.dataset)
+        residual, frame, track, z = track_errors.track_residuals(
+            data.features, camera_poses(data, args.groundtruth), data.K, data.b)
+        stats = track_errors.statistics(residual, frame, track, z)
+    except (OSError, ValueError) as error:
+        print('track_error_stats.py: %s' % ' '.join(str(error).split()), file=sys.stderr)
+        return 2
+    print(report(stats))
+    if args.json:
+        with open(args.json, 'w') as f:
+            json.dump(stats, f, indent=1)
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main(sys.argv[1:]))

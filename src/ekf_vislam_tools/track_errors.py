@@ -1,0 +1,132 @@
+"""Error statistics of feature tracks against ground-truth poses (scripts/track_error_stats.py).
+
+Each track (an id seen in consecutive frames) gets the landmark that best explains all of its
+stereo observations from the ground-truth camera poses (Gauss-Newton, Huber weights); its
+residuals are then the track's pixel errors (plus the ground truth's own pose error). From them:
+the stationary std, the correlation from one frame to the next (lag 1, 2, 5, 10), the part
+shared by all tracks of a frame, the std of the differenced error e_k - rho e_(k-1), and the
+mean drift per frame by image region (a systematic error no noise model averages away).
+"""
+import numpy as np
+
+INLIER_PX = 6.0       # residuals beyond this are outliers for the statistics
+TRACK_MAX_PX = 20.0   # a track with a larger residual is dropped (wrong association)
+MIN_TRACK = 4         # observations
+LAGS = (1, 2, 5, 10)
+
+
+def _project(cam_T_world, p_world, fx, fy, cx, cy, b):
+    """(n,4) predicted [uL, vL, uR, vR] and (n,4,3) Jacobians w.r.t. p_world."""
+    R, t = cam_T_world[:, :3, :3], cam_T_world[:, :3, 3]
+    xc = np.einsum('nij,j->ni', R, p_world) + t
+    x, y, z = xc[:, 0], xc[:, 1], xc[:, 2]
+    z_pred = np.stack([fx * x / z + cx, fy * y / z + cy, fx * (x - b) / z + cx, fy * y / z + cy], 1)
+    d = np.zeros((xc.shape[0], 4, 3))
+    d[:, 0, 0] = d[:, 2, 0] = fx / z
+    d[:, 1, 1] = d[:, 3, 1] = fy / z
+    d[:, 0, 2] = -fx * x / z ** 2
+    d[:, 2, 2] = -fx * (x - b) / z ** 2
+    d[:, 1, 2] = d[:, 3, 2] = -fy * y / z ** 2
+    return z_pred, np.einsum('nij,njk->nik', d, R), z
+
+
+def fit_track(z, cam_T_world, K, b, iterations=8):
+    """Landmark fitted to one track's observations z (n,4) -> residuals (n,4), or None when the
+    track cannot be fitted (non-positive disparity, behind a camera, gross residuals)."""
+    fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
+    disparity = z[0, 0] - z[0, 2]
+    if disparity <= 0.5:
+        return None
+    depth = fx * b / disparity
+    p_cam = np.array([(z[0, 0] - cx) * depth / fx, (z[0, 1] - cy) * depth / fy, depth])
+    world_T_cam0 = np.linalg.inv(cam_T_world[0])
+    p = world_T_cam0[:3, :3] @ p_cam + world_T_cam0[:3, 3]
+    for _ in range(iterations):
+        z_pred, H, depth = _project(cam_T_world, p, fx, fy, cx, cy, b)
+        if np.any(depth < 0.5):
+            return None
+        r = (z - z_pred).ravel()
+        J = H.reshape(-1, 3)
+        w = 1.0 / np.maximum(1.0, np.abs(r) / 3.0)  # Huber
+        step = np.linalg.lstsq(J * w[:, None], r * w, rcond=None)[0]
+        p = p + step
+        if np.linalg.norm(step) < 1e-6:
+            break
+    z_pred, _, depth = _project(cam_T_world, p, fx, fy, cx, cy, b)
+    residual = z - z_pred
+    if np.any(depth < 0.5) or np.max(np.abs(residual)) > TRACK_MAX_PX:
+        return None
+    return residual
+
+
+def track_residuals(features, cam_T_world, K, b):
+    """Residuals of every fitted track -> (residual (n,4), frame (n,), track (n,), z (n,4)).
+
+    features: (4, M, T), -1 where unobserved; cam_T_world: (T, 4, 4), NaN where unknown."""
+    observed = features[0] >= 0
+    known = np.isfinite(cam_T_world[:, 0, 0])
+    out = ([], [], [], [])
+    for j in range(features.shape[1]):
+        frames = np.flatnonzero(observed[j] & known)
+        # Split the id into runs of consecutive frames (an id may come back).
+        for run in np.split(frames, np.flatnonzero(np.diff(frames) != 1) + 1):
+            if run.size < MIN_TRACK:
+                continue
+            z = features[:, j, run].T
+            residual = fit_track(z, cam_T_world[run], K, b)
+            if residual is None:
+                continue
+            track = len(out[0])
+            for part, value in zip(out, (residual, run, np.full(run.size, track), z)):
+                part.append(value)
+    if not out[0]:
+        raise ValueError('no track could be fitted')
+    return tuple(np.concatenate(part) for part in out)
+
+
+def _consecutive_pairs(values, frame, track, lag):
+    """(n,2,...) pairs of values of one track `lag` frames apart."""
+    same = (track[lag:] == track[:-lag]) & (frame[lag:] - frame[:-lag] == lag)
+    return np.stack([values[:-lag][same], values[lag:][same]], 1)
+
+
+def statistics(residual, frame, track, z):
+    """Dictionary of the statistics described in the module docstring."""
+    inlier = np.all(np.abs(residual) < INLIER_PX, 1)
+    r, f, k, zz = residual[inlier], frame[inlier], track[inlier], z[inlier]
+    common = np.zeros((int(f.max()) + 1, 4))
+    for frame_index in np.unique(f):
+        common[frame_index] = np.median(r[f == frame_index], 0)
+    result = dict(tracks=int(np.unique(k).size), observations=int(r.shape[0]),
+                  inlier_fraction=float(inlier.mean()), std=r.std(0).tolist(),
+                  frame_common_std=common[np.unique(f)].std(0).tolist())
+    for name, values in (('', r), ('_without_frame_common', r - common[f])):
+        result['correlation' + name] = {
+            lag: [float(np.corrcoef(p[:, 0, i], p[:, 1, i])[0, 1]) for i in range(4)]
+            for lag in LAGS for p in [_consecutive_pairs(values, f, k, lag)]}
+    rho = float(np.mean(result['correlation'][1]))
+    pairs = _consecutive_pairs(r, f, k, 1)
+    result['rho'] = rho
+    result['differenced_std'] = (pairs[:, 1] - rho * pairs[:, 0]).std(0).tolist()
+    disparity = pairs[:, :, 0] - pairs[:, :, 2]
+    result['disparity_correlation'] = float(np.corrcoef(disparity[:, 0], disparity[:, 1])[0, 1])
+    # Mean drift per frame (residual increments) by where the feature is in the image.
+    increment = pairs[:, 1] - pairs[:, 0]
+    where = _consecutive_pairs(zz, f, k, 1)[:, 1]
+    result['drift_per_frame'] = dict(all=increment.mean(0).tolist(),
+                                     standard_error=(increment.std(0) /
+                                                     np.sqrt(increment.shape[0])).tolist())
+    rows = np.quantile(where[:, 1], [0.0, 0.25, 0.5, 0.75, 1.0])
+    columns = np.quantile(where[:, 0], [0.0, 1.0 / 3.0, 2.0 / 3.0, 1.0])
+    result['drift_per_frame']['by_row'] = _binned(increment, where[:, 1], rows)
+    result['drift_per_frame']['by_column'] = _binned(increment, where[:, 0], columns)
+    return result
+
+
+def _binned(values, key, edges):
+    bins = []
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        m = (key >= lo) & (key <= hi)
+        bins.append(dict(range_px=[float(lo), float(hi)], count=int(m.sum()),
+                         mean=values[m].mean(0).tolist()))
+    return bins

@@ -1,0 +1,65 @@
+"""scripts/track_error_stats.py: on simulated drives with known pixel errors it recovers their std
+and their frame-to-frame correlation (white and drifting tracks)."""
+import json
+import os
+import sys
+import unittest
+
+import ekf_test_paths
+
+sys.path.insert(0, ekf_test_paths.SOURCE_DIR)
+
+
+class TrackErrorStatsTest(unittest.TestCase):
+
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = ekf_test_paths.make_temp_dir()
+        cls.addClassCleanup(ekf_test_paths.remove_dir, cls.tmp)
+
+    def stats(self, name, *simulator_args):
+        prefix = os.path.join(self.tmp, name)
+        proc = ekf_test_paths.run_script('simulate_dataset.py', '--seed', 5, '--frames', 300,
+                                         '--outlier-rate', 0, '--out', prefix, *simulator_args)
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        out = prefix + '_stats.json'
+        proc = ekf_test_paths.run_script('track_error_stats.py', prefix + '.npz', '--groundtruth',
+                                         prefix + '_groundtruth.tum', '--json', out)
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        self.assertIn('frame-to-frame correlation rho', proc.stdout)
+        with open(out) as f:
+            return json.load(f)
+
+    def test_white_errors(self):
+        s = self.stats('white')
+        for std in s['std']:
+            self.assertAlmostEqual(std, 1.0, delta=0.12)
+        # The fitted landmark takes a little of each track's error: slightly negative.
+        self.assertGreater(s['rho'], -0.15)
+        self.assertLess(s['rho'], 0.05)
+
+    def test_drifting_tracks(self):
+        s = self.stats('drift', '--pixel-correlation', 0.85)
+        self.assertGreater(s['rho'], 0.75)
+        self.assertLess(s['rho'], 0.9)
+        for std in s['differenced_std']:
+            self.assertLess(std, 0.7)  # sqrt(1 - 0.85^2) = 0.53 for the true rho
+
+    def test_groundtruth_without_matching_stamps_is_refused(self):
+        prefix = os.path.join(self.tmp, 'refused')
+        proc = ekf_test_paths.run_script('simulate_dataset.py', '--seed', 5, '--frames', 40,
+                                         '--out', prefix)
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        gt = os.path.join(self.tmp, 'shifted.tum')
+        with open(prefix + '_groundtruth.tum') as f, open(gt, 'w') as g:
+            for line in f:
+                values = line.split()
+                g.write(' '.join([str(float(values[0]) + 100.0)] + values[1:]) + '\n')
+        proc = ekf_test_paths.run_script('track_error_stats.py', prefix + '.npz',
+                                         '--groundtruth', gt)
+        self.assertEqual(proc.returncode, 2)
+        self.assertEqual(len(proc.stderr.strip().splitlines()), 1)
+
+
+if __name__ == '__main__':
+    unittest.main()

@@ -27,6 +27,7 @@ const char* counterName(Counter counter) {
     case Counter::kObsRowMismatch: return "observation_row_mismatch";
     case Counter::kObsDuplicateId: return "observation_duplicate_id";
     case Counter::kObsGated: return "observation_gated";
+    case Counter::kObsJumpHeld: return "observation_jump_held";
     case Counter::kObsBehindCamera: return "observation_behind_camera";
     case Counter::kObsIgnoredDeadReckoning: return "observation_ignored_deadreckoning";
     case Counter::kLandmarkInitialized: return "landmark_initialized";

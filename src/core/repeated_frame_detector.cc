@@ -4,8 +4,7 @@ namespace ekf_vislam {
 
 bool RepeatedFrameDetector::isRepeat(const FeatureFrame& frame, std::vector<size_t>* new_tracks) {
   if (new_tracks != nullptr) new_tracks->clear();
-  int shared = 0;
-  bool identical = true;
+  int shared = 0, identical = 0;
   std::unordered_map<uint32_t, Eigen::Vector4d> current;
   current.reserve(frame.features.size());
   for (size_t i = 0; i < frame.features.size(); ++i) {
@@ -20,10 +19,11 @@ bool RepeatedFrameDetector::isRepeat(const FeatureFrame& frame, std::vector<size
     ++shared;
     // Bit-identical (NaN never is): a fresh measurement of a real tracker differs at least in
     // its sub-pixel digits.
-    if (!(it->second.array() == z.array()).all()) identical = false;
+    if ((it->second.array() == z.array()).all()) ++identical;
   }
   previous_.swap(current);
-  return identical && shared >= min_shared_;
+  // Most, not all: a few corrupted features (gross outliers, NaN) must not hide a re-sent frame.
+  return shared >= min_shared_ && 2 * identical > shared;
 }
 
 }  // namespace ekf_vislam

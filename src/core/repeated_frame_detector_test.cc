@@ -35,22 +35,43 @@ TEST(RepeatedFrameDetector, IdenticalSharedTracksAreARepeat) {
   EXPECT_TRUE(new_tracks.empty());  // ids 0-9 were all in the previous frame
 }
 
-TEST(RepeatedFrameDetector, OneMovedTrackOrTooFewSharedIsNotARepeat) {
+TEST(RepeatedFrameDetector, HalfMovedOrTooFewSharedIsNotARepeat) {
   RepeatedFrameDetector detector(5);
   detector.isRepeat(frameOf(0, 10, 0.0));
-  FeatureFrame almost = frameOf(0, 10, 0.0);
-  almost.features[4].v_right += 1e-9;
-  EXPECT_FALSE(detector.isRepeat(almost));
+  FeatureFrame half = frameOf(0, 10, 0.0);
+  for (int i = 0; i < 5; ++i) half.features[2 * i].v_right += 1e-9;  // 5 of 10 moved
+  EXPECT_FALSE(detector.isRepeat(half));
   detector.isRepeat(frameOf(0, 10, 0.0));
   EXPECT_FALSE(detector.isRepeat(frameOf(6, 10, 0.0 + 7.0 * 6)));  // 4 shared, all moved...
   detector.isRepeat(frameOf(0, 10, 0.0));
   EXPECT_FALSE(detector.isRepeat(frameOf(0, 4, 0.0)));  // 4 identical shared: below 5
   detector.isRepeat(frameOf(0, 10, 0.0));
   FeatureFrame nan = frameOf(0, 10, 0.0);
-  nan.features[0].u_left = std::nan("");
+  for (int i = 0; i < 6; ++i) nan.features[i].u_left = std::nan("");
   detector.isRepeat(nan);
-  EXPECT_FALSE(detector.isRepeat(nan));  // NaN never compares equal
+  EXPECT_FALSE(detector.isRepeat(nan));  // NaN never compares equal: 4 of 10 identical
   EXPECT_FALSE(detector.isRepeat(FeatureFrame{}));
+}
+
+TEST(RepeatedFrameDetector, AFewCorruptedFeaturesDoNotHideARepeat) {
+  // A re-sent frame in which gross outliers replaced some features (or one is NaN): still a
+  // repeat, as long as most shared tracks are bit-identical.
+  RepeatedFrameDetector detector(5);
+  detector.isRepeat(frameOf(0, 20, 0.0));
+  FeatureFrame resent = frameOf(0, 20, 0.0);
+  resent.features[3].u_left = 900.0;
+  resent.features[3].u_right = 870.0;
+  resent.features[11].v_left = std::nan("");
+  EXPECT_TRUE(detector.isRepeat(resent));
+  // 11 of 20 identical: a repeat; 10 of 20: not.
+  detector.isRepeat(frameOf(0, 20, 0.0));
+  FeatureFrame eleven = frameOf(0, 20, 0.0);
+  for (int i = 0; i < 9; ++i) eleven.features[i].u_left += 0.25;
+  EXPECT_TRUE(detector.isRepeat(eleven));
+  detector.isRepeat(frameOf(0, 20, 0.0));
+  FeatureFrame ten = frameOf(0, 20, 0.0);
+  for (int i = 0; i < 10; ++i) ten.features[i].u_left += 0.25;
+  EXPECT_FALSE(detector.isRepeat(ten));
 }
 
 }  // namespace

@@ -179,13 +179,23 @@ bool StereoUpdater::decide(StereoCandidate* c, LandmarkManager* landmarks,
                            FeedResult* result) const {
   LandmarkTrack& track = landmarks->track(c->landmark);
   if (c->jumped) {
-    // The track slid onto another point, or this observation is a gross outlier: the landmark
-    // leaves the state (its estimate stays in the map) and the track goes on as a new landmark
-    // from its next observation (starting from this one would plant an outlier in the map).
-    outcome->leaving.jumped.push_back(c->landmark);
     ++outcome->disagreeing;
+    if (!track.jump_suspected) {
+      // A gross outlier in one frame, or the track slid onto another point: the observation is
+      // not used and the landmark waits for the next one, tested against the same flow
+      // reference (the last one used).
+      track.jump_suspected = true;
+      stats->increment(Counter::kObsJumpHeld);
+      ++result->observations_rejected;
+      return false;
+    }
+    // Twice in a row: the track slid onto another point. The landmark leaves the state (its
+    // estimate stays in the map) and the track goes on as a new landmark from its next
+    // observation.
+    outcome->leaving.jumped.push_back(c->landmark);
     return false;
   }
+  track.jump_suspected = false;
   const double d2 = c->mahalanobis2;
   if (!(d2 <= gate_threshold_)) {
     stats->increment(Counter::kObsGated);

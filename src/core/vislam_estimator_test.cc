@@ -781,6 +781,61 @@ TEST(VislamEstimator, DriftingTracksModelledAsCorrelatedAreConsistentAndNoWorse)
   EXPECT_LE(ate_correlated, ate_white);
 }
 
+TEST(VislamEstimator, AOneFrameFlowOutlierKeepsItsLandmarkAndASlidTrackEndsIt) {
+  // One track's observation moved by 15 px at frame 60 only (a gross outlier): the jump test
+  // holds it and the landmark goes on. Moved from frame 60 on (the track slid onto another
+  // point): held once, then the landmark ends and the track goes on as a new one.
+  ScenarioOptions so;
+  so.frames = 90;
+  const Scenario clean = makeScenario(so);
+  const size_t k_fault = 60;
+  uint32_t id = 0;
+  bool found = false;
+  for (const StereoObservation& f : clean.frames[k_fault].features) {
+    int seen = 0;
+    for (size_t k = k_fault - 5; k <= k_fault + 5; ++k) {
+      for (const StereoObservation& g : clean.frames[k].features) seen += g.id == f.id ? 1 : 0;
+    }
+    if (seen == 11) {
+      id = f.id;
+      found = true;
+      break;
+    }
+  }
+  ASSERT_TRUE(found) << "no track through frames 55-65";
+  // The map entries of the track's id after frame 65 (their observation counts).
+  auto entries_after = [&](size_t last_shifted) {
+    Scenario s = clean;
+    for (size_t k = k_fault; k <= last_shifted; ++k) {
+      for (StereoObservation& f : s.frames[k].features) {
+        if (f.id != id) continue;
+        f.u_left += 15.0;
+        f.u_right += 15.0;
+      }
+    }
+    VislamEstimator estimator(defaultOptions());
+    EXPECT_TRUE(estimator.setCalibration(s.calibration));
+    for (size_t k = 0; k <= k_fault + 5; ++k) {
+      estimator.feedTwist(s.twists[k]);
+      estimator.feedFeatures(s.frames[k]);
+    }
+    std::vector<uint32_t> observations;
+    for (const LandmarkEstimate& l : estimator.landmarks()) {
+      if (l.id == id) observations.push_back(l.observations);
+    }
+    return observations;
+  };
+  const std::vector<uint32_t> unshifted = entries_after(k_fault - 1);
+  ASSERT_EQ(unshifted.size(), 1u);
+  // One landmark, used in every frame but the held one.
+  EXPECT_EQ(entries_after(k_fault), std::vector<uint32_t>{unshifted[0] - 1});
+  // Held at frame 60, ended at 61; the track goes on from 62: frames 62-65.
+  const std::vector<uint32_t> slid = entries_after(so.frames - 1);
+  ASSERT_EQ(slid.size(), 2u);
+  EXPECT_EQ(slid[0], unshifted[0] - 6);
+  EXPECT_EQ(slid[1], 4u);
+}
+
 TEST(VislamEstimator, GatingRejectsGrossOutliers) {
   ScenarioOptions so;
   so.frames = 200;

@@ -36,6 +36,7 @@ enum class Counter : int {
   kObsRowMismatch,           ///< |v_left - v_right| beyond limits/max_row_difference_px
   kObsDuplicateId,           ///< id repeated within one frame: all but the first dropped
   kObsGated,                 ///< Mahalanobis distance beyond the chi-square gate
+  kObsJumpHeld,              ///< flagged by the flow test once: not used, the landmark stays
   kObsBehindCamera,          ///< predicted point not in front of the camera
   kObsIgnoredDeadReckoning,  ///< dead reckoning mode: observations not used
   // Landmark life cycle

@@ -32,6 +32,9 @@ struct LandmarkTrack {
   Eigen::Vector2d flow_residual = Eigen::Vector2d::Zero();
   Eigen::Matrix<double, 2, 3> flow_H_landmark = Eigen::Matrix<double, 2, 3>::Zero();
   bool has_flow_reference = false;
+  /// The last observation failed the track-jump test and was not used: a second failure in a
+  /// row ends the landmark (the track jumped); a pass clears it (it was a one-frame outlier).
+  bool jump_suspected = false;
   /// The last observation the filter used (initialization or update), [uL, vL, uR, vR], and the
   /// frame it came in (LandmarkManager::frame()): the reference of the next observation when
   /// the pixel error is correlated along the track (noise/pixel_correlation).

@@ -10,11 +10,13 @@
 
 namespace ekf_vislam {
 
-/// Recognizes a feature frame that repeats the previous one: every track the two frames share has
-/// exactly the same four coordinates. A tracker that re-publishes its last result (a dropped or
-/// re-sent image) produces such frames; the KITTI-derived course files contain 8-13 % of them,
-/// each followed by tracks that are one image period off their time stamps. Using one would
-/// assert that the vehicle did not move over a frame period.
+/// Recognizes a feature frame that repeats the previous one: more than half of the tracks the two
+/// frames share have exactly the same four coordinates (a fresh measurement of a real tracker
+/// differs at least in its sub-pixel digits; "more than half" rather than "all" so that a few
+/// corrupted features, gross outliers or NaN, do not hide a repeat). A tracker that re-publishes
+/// its last result (a dropped or re-sent image) produces such frames; the KITTI-derived course
+/// files contain 8-13 % of them, each followed by tracks that are one image period off their
+/// time stamps. Using one would assert that the vehicle did not move over a frame period.
 class RepeatedFrameDetector {
  public:
   /// A repeat must share at least `min_shared` tracks with the previous frame.

@@ -32,11 +32,17 @@ SEQUENCES = ('0027', '0034')
 TWISTS = ('course', 'accurate')
 
 
+def run_folder(out, job):
+    """OUT/runs/<sequence>_<twist>_f<percent>_s<seed>: one variant, both modes."""
+    sequence, twist, fraction, seed = job[:4]
+    return os.path.join(out, 'runs', '%s_%s_f%03d_s%d' % (sequence, twist, round(fraction * 100),
+                                                          seed))
+
+
 def one_run(job, data, out, binary, config):
     """job = (sequence, twist, fraction, seed, mode) -> result dict."""
     sequence, twist, fraction, seed, mode = job
-    name = '%s_%s_f%03d_s%d' % (sequence, twist, round(fraction * 100), seed)
-    folder = os.path.join(out, 'runs', name)
+    folder = run_folder(out, job)
     os.makedirs(folder, exist_ok=True)
     gt = os.path.join(data, 'groundtruth', sequence + '_imu_gt.tum')
     npz, bag = os.path.join(folder, 'data.npz'), os.path.join(folder, 'data.bag')
@@ -46,6 +52,7 @@ def one_run(job, data, out, binary, config):
         variant, _ = variants.make_variant(arrays, gt, twist, keep_fraction=fraction, seed=seed)
         np.savez(npz, **variant)
         run([PY, os.path.join(HERE, 'dataset_to_bag.py'), npz, bag])
+        os.remove(npz)  # the bag has everything (about 70 MB each)
     run_dir = os.path.join(folder, mode)
     cmd = [binary, '--bag', bag, '--mode', mode, '--out', run_dir]
     run(cmd + (['--config', config] if config else []))
@@ -123,6 +130,8 @@ def main(argv):
     parser.add_argument('--seeds', type=int, nargs='+', default=[1, 2, 3])
     parser.add_argument('--config', default=None, help='options YAML (default: the shipped one)')
     parser.add_argument('--jobs', type=int, default=2)
+    parser.add_argument('--keep-bags', action='store_true',
+                        help='keep each variant\'s bag under OUT/runs (about 70 MB each)')
     args = parser.parse_args(argv)
     for sequence in SEQUENCES:
         if not os.path.exists(os.path.join(args.data, sequence + '.npz')):
@@ -142,6 +151,11 @@ def main(argv):
                                  slam_jobs))
         results += list(pool.map(lambda j: one_run(j, args.data, out, binary, args.config),
                                  [j for j in jobs if j[4] != 'slam']))
+    if not args.keep_bags:
+        for job in slam_jobs:
+            bag = os.path.join(run_folder(out, job), 'data.bag')
+            if os.path.exists(bag):
+                os.remove(bag)
     rows, text = summarize(results, args.fractions)
     wall = time.monotonic() - start
     plot(rows, os.path.join(out, 'landmark_study.png'))

@@ -134,6 +134,7 @@ TEST(VislamEstimator, TwistRotationIsEstimatedFromVision) {
     t.w_imu = twist_R_imu * t.w_imu;
   }
   VislamOptions with = defaultOptions(), without = defaultOptions();
+  with.extrinsic.estimate_twist_rotation = true;
   without.extrinsic.estimate_twist_rotation = false;
   VislamEstimator estimator(with);
   ASSERT_TRUE(estimator.setCalibration(s.calibration));
@@ -572,8 +573,9 @@ TEST(VislamEstimator, LandmarkLifeCycleAugmentMarginalizeKeepInMap) {
   estimator.feedFeatures(s.frames[0]);
   const size_t initial = estimator.activeLandmarkCount();
   ASSERT_GT(initial, 20u);
-  // Pose, gyro bias, R_m, pose clone (repeated frames), landmarks (no disparity offset).
-  EXPECT_EQ(estimator.stateDimension(), 6 + 3 + 3 + 6 + 3 * static_cast<int>(initial));
+  // Pose, gyro bias, pose clone (repeated frames), landmarks (no twist rotation, no disparity
+  // offset).
+  EXPECT_EQ(estimator.stateDimension(), 6 + 3 + 6 + 3 * static_cast<int>(initial));
   // Next frame without the first feature: its landmark leaves the state, stays in the map, and
   // marginalization changes neither its estimate nor the pose covariance.
   estimator.feedTwist(s.twists[1]);

@@ -81,9 +81,10 @@ struct BiasOptions {
 };
 
 /// extrinsic/: the rotation R_m between the frame the twist is measured in and the IMU frame
-/// that cam_T_imu refers to (u_true = R_m (u_measured - b)); the KITTI files carry 1-3 degrees.
+/// that cam_T_imu refers to (u_true = R_m (u_measured - b)). Off by default: seen only through
+/// the agreement of the tracks with the twist, it takes up the tracks' systematic drift.
 struct ExtrinsicOptions {
-  bool estimate_twist_rotation = true;
+  bool estimate_twist_rotation = false;
   double twist_rotation_prior_sigma = 0.05;  ///< rad
   double twist_rotation_random_walk = 0.0;   ///< rad/sqrt(s)
 };

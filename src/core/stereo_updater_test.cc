@@ -108,7 +108,8 @@ TEST_F(DifferencedObservation, ResidualIsTheWhitenedDifferenceWithThePreviousObs
   before.feature = StereoObservation{7, z0(0), z0(1), z0(2), z0(3)};
   ASSERT_TRUE(plain.linearizeCandidate(camera_, at_clone, landmarks_, &before));
   const double rho = 0.8;
-  const Eigen::VectorXd expected = (now.residual - rho * before.residual) / std::sqrt(1 - rho * rho);
+  const Eigen::VectorXd expected =
+      (now.residual - rho * before.residual) / std::sqrt(1 - rho * rho);
   EXPECT_LT((c.residual - expected).norm(), 1e-9);
   // The track-jump test keeps the observation's own residual.
   EXPECT_LT((c.flow_residual - now.residual.head<2>()).norm(), 1e-12);

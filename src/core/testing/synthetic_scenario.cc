@@ -91,7 +91,9 @@ Scenario makeScenario(const ScenarioOptions& o) {
     auto [it, first] = pixel_error.try_emplace(id, Eigen::Vector4d::Zero());
     Eigen::Vector4d& e = it->second;
     const double scale = first ? 1.0 : innovation;
-    for (int i = 0; i < 4; ++i) e(i) = o.pixel_correlation * e(i) + scale * o.pixel_sigma * normal(rng);
+    for (int i = 0; i < 4; ++i) {
+      e(i) = o.pixel_correlation * e(i) + scale * o.pixel_sigma * normal(rng);
+    }
     StereoObservation f;
     f.id = id;
     f.u_left = z(0) + e(0);

@@ -44,9 +44,10 @@ struct Scenario {
 /// [t_k, t_k+1] (the estimator's convention). Deterministic from the seed.
 Scenario makeScenario(const ScenarioOptions& options);
 
-/// The shipped defaults with the noise matched to the scenario's (pixel sigma and correlation; per-sample twist
-/// noise turned into densities with the frame period): a correctly specified filter. Its tracks
-/// do not drift, so landmarks are not split (landmarks/max_track_length = 0).
+/// The shipped defaults with the noise matched to the scenario's (pixel sigma and correlation;
+/// per-sample twist noise turned into densities with the frame period): a correctly specified
+/// filter. Its tracks stay on their points, so landmarks are not split
+/// (landmarks/max_track_length = 0).
 VislamOptions matchedOptions(const ScenarioOptions& scenario);
 
 /// KITTI-like calibration (fx 707, baseline 0.537 m, image 1241x376).

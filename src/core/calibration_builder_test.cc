@@ -27,9 +27,11 @@ TEST(CalibrationBuilder, ProjectionsAndTransformGiveTheCalibration) {
   std::string why;
   ASSERT_TRUE(builder.setProjections(leftProjection(), rightProjection(0.54), &why)) << why;
   StereoCalibration calibration;
+  EXPECT_FALSE(builder.complete());
   EXPECT_FALSE(builder.build(&calibration, &why));
   EXPECT_NE(why.find("transform"), std::string::npos) << why;
   builder.setImuTCam(someImuTCam());
+  EXPECT_TRUE(builder.complete());
   ASSERT_TRUE(builder.build(&calibration, &why)) << why;
   EXPECT_DOUBLE_EQ(calibration.fx, 707.0);
   EXPECT_DOUBLE_EQ(calibration.fy, 706.0);

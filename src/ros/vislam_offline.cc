@@ -210,10 +210,13 @@ bool checkBagTopics(const BagReader& bag, const BagTopics& topics, bool needs_fe
   return true;
 }
 
-/// Calibration from the bag's camera_info pair and /tf_static, or the ros/calibration override.
-bool calibrationFromBag(const BagCalibrationData& data, const BagTopics& topics,
-                        const VislamRosOptions& ros_options, StereoCalibration* calibration,
-                        std::string* error) {
+enum class CalibrationStatus { kBuilt, kMissing, kInvalid };
+
+/// Calibration from the bag's camera_info pair and /tf_static, or the ros/calibration override:
+/// built, missing a piece, or refused for its values.
+CalibrationStatus calibrationFromBag(const BagCalibrationData& data, const BagTopics& topics,
+                                     const VislamRosOptions& ros_options,
+                                     StereoCalibration* calibration, std::string* error) {
   CalibrationBuilder builder(ros_options.calibration);
   if (builder.needsProjections() && data.has_left_info && data.has_right_info) {
     builder.setProjections(ros_conversions::projectionOf(data.left_info),
@@ -228,10 +231,10 @@ bool calibrationFromBag(const BagCalibrationData& data, const BagTopics& topics,
       std::cerr << "vislam_offline: " << *error << " (from " << topics.tf_static << ")\n";
     }
   }
-  if (builder.build(calibration, error)) return true;
+  if (builder.build(calibration, error)) return CalibrationStatus::kBuilt;
   *error += " (bag topics " + topics.left_info + ", " + topics.right_info + ", " +
             topics.tf_static + ")";
-  return false;
+  return builder.complete() ? CalibrationStatus::kInvalid : CalibrationStatus::kMissing;
 }
 
 void printSummary(const EstimatorRunner& runner, const std::string& out_dir) {
@@ -272,12 +275,18 @@ int run(int argc, char** argv) {
   EstimatorRunner runner(options, {ros_options.sequencer_max_delay,
                                    static_cast<size_t>(ros_options.sequencer_max_buffered)});
   StereoCalibration calibration;
-  if (calibrationFromBag(data, topics, ros_options, &calibration, &error)) {
-    if (!runner.estimator().setCalibration(calibration, &error)) {
+  switch (calibrationFromBag(data, topics, ros_options, &calibration, &error)) {
+    case CalibrationStatus::kBuilt:
+      if (!runner.estimator().setCalibration(calibration, &error)) {
+        return fail("invalid calibration: " + error);
+      }
+      break;
+    case CalibrationStatus::kInvalid:  // wrong values fail in every mode
       return fail("invalid calibration: " + error);
-    }
-  } else if (needs_features) {
-    return fail("no calibration: " + error);
+    case CalibrationStatus::kMissing:  // dead reckoning does without one
+      if (needs_features) return fail("no calibration: " + error);
+      std::cerr << "vislam_offline: dead reckoning without a calibration: " << error << "\n";
+      break;
   }
 
   runner.startClock();

@@ -89,6 +89,21 @@ class SyntheticDriveTest(unittest.TestCase):
         self.assertGreater(stats['counters']['observation_gated'], 0)  # the simulator's outliers
         self.assertLessEqual(stats['peak_active_landmarks'], 300)  # bounded state
 
+    def test_an_invalid_calibration_override_stops_every_mode(self):
+        # A cam_T_imu whose rotation is not a rotation: refused even where no calibration is
+        # needed (dead reckoning), instead of being ignored.
+        config = os.path.join(self.tmp, 'bad_calibration.yaml')
+        with open(config, 'w') as f:
+            f.write('ros:\n  calibration:\n    cam_T_imu: "2 0 0 0  0 2 0 0  0 0 2 0  0 0 0 1"\n')
+        for mode in ('slam', 'deadreckoning'):
+            proc = subprocess.run(['rosrun', 'ekf_vislam', 'vislam_offline', '--bag',
+                                   os.path.join(self.tmp, 'sim11.bag'), '--mode', mode, '--config',
+                                   config, '--out', os.path.join(self.tmp, 'bad_' + mode)],
+                                  capture_output=True, text=True)
+            self.assertNotEqual(proc.returncode, 0, mode)
+            self.assertIn('invalid calibration', proc.stderr, mode)
+            self.assertIn('not a rotation', proc.stderr, mode)
+
 
 @unittest.skipUnless(paths.data_dir(), 'course datasets not found (../shared/data or EKF_VISLAM_DATA)')
 class KittiRegressionTest(unittest.TestCase):

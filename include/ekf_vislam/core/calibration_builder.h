@@ -58,6 +58,10 @@ class CalibrationBuilder {
                       std::string* error);
   /// The camera frame's pose in the IMU frame (tf imu_frame -> camera frame).
   void setImuTCam(const Eigen::Isometry3d& imu_T_cam) { imu_T_cam_ = imu_T_cam; }
+  /// Every needed piece is there (build() can then only fail on invalid values).
+  bool complete() const {
+    return (!needsProjections() || intrinsics_) && (!needsImuTCam() || imu_T_cam_);
+  }
 
   /// The calibration, once every needed piece is there and it validates; otherwise false and
   /// *why says what is missing or wrong.

@@ -127,13 +127,15 @@ std::string VislamOptions::validate() const {
 
 bool parseVislamOptions(const ParameterSource& source, VislamOptions* options, std::string* error) {
   OptionReader reader(source, error);
-  visitVislamOptions(*options, reader);
+  VislamOptions o = *options;
+  visitVislamOptions(o, reader);
   if (!reader.ok()) return false;
-  const std::string why = options->validate();
+  const std::string why = o.validate();
   if (!why.empty()) {
     if (error != nullptr) *error = source.describe() + ": " + why;
     return false;
   }
+  *options = o;
   return true;
 }
 

@@ -92,7 +92,15 @@ TEST(VislamOptions, ErrorsNameTheKey) {
     std::string error;
     EXPECT_FALSE(parseVislamOptions(source, &o, &error)) << c.yaml;
     EXPECT_NE(error.find(c.key), std::string::npos) << error;
+    // A refused file changes nothing, not even the keys before the bad one.
+    EXPECT_EQ(describeOptions(o), describeOptions(VislamOptions())) << c.yaml;
   }
+  const YamlParameterSource partly_good =
+      YamlParameterSource::fromString("noise:\n  pixel_sigma: 3.0\nhealth:\n  divergence_policy: panic\n");
+  VislamOptions o;
+  std::string error;
+  EXPECT_FALSE(parseVislamOptions(partly_good, &o, &error));
+  EXPECT_DOUBLE_EQ(o.noise.pixel_sigma, VislamOptions().noise.pixel_sigma);
 }
 
 TEST(VislamOptions, ModeNamesRoundTrip) {

@@ -183,7 +183,8 @@ struct VislamOptions {
 };
 
 /// Fills `options` from `source`: absent keys keep their current values; unknown enum names or
-/// values of the wrong type make it return false with a message naming the key.
+/// values of the wrong type or out of range make it return false with a message naming the key,
+/// and leave `options` unchanged.
 bool parseVislamOptions(const ParameterSource& source, VislamOptions* options, std::string* error);
 
 /// The effective options, one "group: key=value ..." line per YAML group (logged at start).

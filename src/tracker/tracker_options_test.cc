@@ -9,6 +9,11 @@ namespace {
 TEST(TrackerOptions, ShippedFileEqualsTheDefaults) {
   YamlParameterSource source(std::string(EKF_VISLAM_SOURCE_DIR) + "/config/tracker.yaml");
   ASSERT_TRUE(source.ok()) << source.error();
+  const std::vector<OptionKeyList::Key> keys = trackerOptionKeys();
+  EXPECT_EQ(keys.size(), 29u);
+  for (const OptionKeyList::Key& key : keys) {
+    EXPECT_TRUE(source.has(key.name)) << key.name << " is not documented in config/tracker.yaml";
+  }
   TrackerOptions options;
   std::string error;
   ASSERT_TRUE(parseTrackerOptions(source, &options, &error)) << error;
@@ -34,12 +39,31 @@ TEST(TrackerOptions, ParsesAndRejects) {
   EXPECT_FALSE(parseTrackerOptions(YamlParameterSource::fromString("klt: {window_size: big}\n"),
                                    &options, &error));
 
-  TrackerOptions bad;
-  bad.window_size = 20;
-  bad.min_disparity_px = 0;
-  const std::string why = bad.validate();
-  EXPECT_NE(why.find("klt/window_size"), std::string::npos);
-  EXPECT_NE(why.find("stereo/min_disparity_px"), std::string::npos);
+  // Each unusable value is refused with its key; one test per check a bound cannot express.
+  struct Case {
+    void (*spoil)(TrackerOptions*);
+    const char* key;
+  };
+  for (const Case& c : {Case{[](TrackerOptions* o) { o->window_size = 20; }, "klt/window_size"},
+                        Case{[](TrackerOptions* o) { o->min_disparity_px = 0; },
+                             "stereo/min_disparity_px"},
+                        Case{[](TrackerOptions* o) { o->max_disparity_px = 0.4; },
+                             "stereo/max_disparity_px"},
+                        Case{[](TrackerOptions* o) { o->fast_threshold = 300; },
+                             "detector/fast_threshold"},
+                        Case{[](TrackerOptions* o) { o->min_ransac_points = 5; }, "ransac/min_points"},
+                        Case{[](TrackerOptions* o) { o->ransac_confidence = 1.0; },
+                             "ransac/confidence"}}) {
+    TrackerOptions bad;
+    c.spoil(&bad);
+    EXPECT_NE(bad.validate().find(c.key), std::string::npos) << c.key << ": " << bad.validate();
+  }
+  // A refused file changes nothing.
+  TrackerOptions unchanged;
+  EXPECT_FALSE(parseTrackerOptions(
+      YamlParameterSource::fromString("detector: {grid_cols: 3}\nransac: {type: lmeds}\n"),
+      &unchanged, &error));
+  EXPECT_EQ(unchanged.grid_cols, TrackerOptions().grid_cols);
 }
 
 }  // namespace

@@ -1,11 +1,13 @@
-// Every tunable of the stereo tracker in one struct, filled by one parser from a ParameterSource
-// (a YAML file offline, the ROS parameter server in the nodelet). Keys and documentation:
-// config/tracker.yaml. No ROS.
+// Every tunable of the stereo tracker in one struct. One key table drives parsing from a
+// ParameterSource (a YAML file offline, the ROS parameter server in the nodelet), range checks and
+// the start-up description. Keys and documentation: config/tracker.yaml. No ROS.
 #pragma once
 
+#include "ekf_vislam/core/option_table.h"
 #include "ekf_vislam/core/parameter_source.h"
 
 #include <string>
+#include <vector>
 
 namespace ekf_vislam {
 
@@ -26,7 +28,7 @@ struct TrackerOptions {
   // detector/
   FeatureDetectorType detector = FeatureDetectorType::kFast;
   int grid_cols = 20;                 ///< detection grid over the left image
-  int grid_rows = 8; 
+  int grid_rows = 8;
   int max_features_per_cell = 4;      ///< new features only in cells below this count
   double min_feature_distance = 10;   ///< px between two features (new ones keep this from all)
   int fast_threshold = 12;            ///< FAST intensity threshold
@@ -63,16 +65,20 @@ struct TrackerOptions {
   int min_ransac_points = 12;         ///< fewer matches: no outlier check this frame
   double max_pnp_depth_m = 60.0;      ///< farther previous stereo points are not used by PnP
 
-  /// Empty when every value is usable, else what is wrong (one line per problem).
+  /// Empty when every value is usable, else what is wrong (the first problem, naming its key).
   std::string validate() const;
 };
 
 /// Fills *options from the keys present in `source` (absent keys keep their value). Returns false
-/// and sets *error on a key of the wrong type or an unknown choice; does not call validate().
+/// and sets *error on a key of the wrong type or an unknown choice, leaving *options unchanged;
+/// does not call validate().
 bool parseTrackerOptions(const ParameterSource& source, TrackerOptions* options,
                          std::string* error);
 
-/// Multi-line "key: value" listing of every option (logged by the nodelet at start).
+/// Every option by group ("detector: type=fast grid_cols=20 ..."; logged by the nodelet at start).
 std::string describeOptions(const TrackerOptions& options);
+
+/// Every key of the table ("detector/type", ...), with its kind and range.
+std::vector<OptionKeyList::Key> trackerOptionKeys();
 
 }  // namespace ekf_vislam

@@ -15,6 +15,7 @@ void FilterState::reset(const StatePrior& prior) {
   imu_R_twist.setIdentity();
   disparity_offset = 0.0;
   baseline_scale_error = 0.0;
+  track_drift_rate_imu.setZero();
   dim_ = layout_.headDim();
   const int capacity = std::max(64, dim_);
   sigma_ = Eigen::MatrixXd::Zero(capacity, capacity);
@@ -37,8 +38,8 @@ void FilterState::setPrior(const StatePrior& prior) {
   diagonal << p2, p2, p2, r2, r2, r2;
   sigma_.topLeftCorner<6, 6>() = M_inv * diagonal.asDiagonal() * M_inv.transpose();
   for (int i = 0; i < layout_.biasDim(); ++i) {
-    const double s = layout_.bias_components[i] < 3 ? prior.velocity_bias_sigma
-                                                    : prior.gyro_bias_sigma;
+    const double s =
+        layout_.bias_components[i] < 3 ? prior.velocity_bias_sigma : prior.gyro_bias_sigma;
     const int row = layout_.biasRow() + i;
     sigma_(row, row) = s * s;
   }
@@ -53,6 +54,10 @@ void FilterState::setPrior(const StatePrior& prior) {
   if (layout_.scale_dim > 0) {
     const int row = layout_.scaleRow();
     sigma_(row, row) = prior.baseline_scale_sigma * prior.baseline_scale_sigma;
+  }
+  for (int i = 0; i < layout_.drift_dim; ++i) {
+    const int row = layout_.driftRow() + i;
+    sigma_(row, row) = prior.track_drift_rate_sigma * prior.track_drift_rate_sigma;
   }
   clonePose();
 }
@@ -138,6 +143,7 @@ void FilterState::applyCorrection(const Eigen::VectorXd& dx, bool correct_pose) 
   if (L.rotation_dim > 0) imu_R_twist = se3::expSO3(dx.segment<3>(L.rotationRow())) * imu_R_twist;
   if (L.disparity_dim > 0) disparity_offset += dx(L.disparityRow());
   if (L.scale_dim > 0) baseline_scale_error += dx(L.scaleRow());
+  if (L.drift_dim > 0) track_drift_rate_imu += dx.segment<3>(L.driftRow());
   // Landmarks: p <- exp(dphi^) p + J_l(dphi) dxi (the SE_K(3) exponential).
   const Eigen::Vector3d dphi =
       correct_pose ? Eigen::Vector3d(dx.segment<3>(3)) : Eigen::Vector3d::Zero();

@@ -3,6 +3,8 @@
 #include "ekf_vislam/core/se3.h"
 #include "ekf_vislam/core/state_helper.h"
 
+#include <algorithm>
+
 namespace ekf_vislam {
 
 LandmarkManager::LandmarkManager(const VislamOptions& options)
@@ -42,8 +44,7 @@ bool LandmarkManager::initialize(const StereoObservation& f, double stamp, size_
   const Eigen::Vector3d p_imu =
       imu_T_cam.topLeftCorner<3, 3>() * p_cam + imu_T_cam.topRightCorner<3, 1>();
   const Eigen::Matrix3d R_world_imu = state->imu_T_world.topLeftCorner<3, 3>().transpose();
-  const Eigen::Vector3d p_world =
-      R_world_imu * (p_imu - state->imu_T_world.topRightCorner<3, 1>());
+  const Eigen::Vector3d p_world = R_world_imu * (p_imu - state->imu_T_world.topRightCorner<3, 1>());
 
   const double pixel_var = options_->noise.pixel_sigma * options_->noise.pixel_sigma;
   const Eigen::Matrix3d J_z = R_world_imu * imu_T_cam.topLeftCorner<3, 3>() * J_uvu;
@@ -60,8 +61,8 @@ bool LandmarkManager::initialize(const StereoObservation& f, double stamp, size_
   }
   if (layout.scale_dim > 0) {
     // Every coordinate of the triangulated point scales with the baseline.
-    const Eigen::Vector3d dp_dbeta = R_world_imu * imu_T_cam.topLeftCorner<3, 3>() * p_cam /
-                                     (1.0 + state->baseline_scale_error);
+    const Eigen::Vector3d dp_dbeta =
+        R_world_imu * imu_T_cam.topLeftCorner<3, 3>() * p_cam / (1.0 + state->baseline_scale_error);
     for (int i = 0; i < 3; ++i) A(i, layout.scaleRow()) = dp_dbeta(i);
   }
   const Eigen::Matrix3d sigma_pixels = pixel_var * J_z * J_z.transpose();
@@ -78,6 +79,7 @@ bool LandmarkManager::initialize(const StereoObservation& f, double stamp, size_
   estimate.first_stamp = estimate.last_stamp = stamp;
   LandmarkTrack track;
   track.map_index = reuse ? reuse_map_index : map_.size() - 1;
+  track.anchor_stamp = stamp;
   tracks_.push_back(track);
   tracking_[f.id] = k;
   setFlowReference(k, f, camera, *state);
@@ -91,6 +93,7 @@ bool LandmarkManager::initialize(const StereoObservation& f, double stamp, size_
 void LandmarkManager::recordUsed(size_t k, const StereoObservation& f) {
   tracks_[k].previous_z = Eigen::Vector4d(f.u_left, f.v_left, f.u_right, f.v_right);
   tracks_[k].previous_frame = frame_;
+  tracks_[k].previous_stamp = frame_stamp_;
 }
 
 void LandmarkManager::setFlowReference(size_t k, const StereoObservation& f,
@@ -98,8 +101,12 @@ void LandmarkManager::setFlowReference(size_t k, const StereoObservation& f,
   LandmarkTrack& track = tracks_[k];
   Eigen::Vector4d z_pred;
   Matrix43d H_landmark;
-  track.has_flow_reference = camera.project(state.imu_T_world, state.landmark(k), &z_pred,
-                                            nullptr, &H_landmark, options_->landmarks.min_depth * 0.5);
+  // Predicted with the track's drift at its age, as the updater predicts the next observation.
+  const Eigen::Vector3d drift_angle =
+      std::max(0.0, frame_stamp_ - track.anchor_stamp) * state.track_drift_rate_imu;
+  track.has_flow_reference =
+      camera.projectTurned(state.imu_T_world, state.landmark(k), drift_angle, &z_pred, &H_landmark,
+                           nullptr, options_->landmarks.min_depth * 0.5);
   if (!track.has_flow_reference) return;
   // Rows uL and v of the observation (the first two of the selector in either layout).
   const Eigen::Matrix<double, 2, 4> M2 = observation_selector_.topRows<2>();

@@ -11,8 +11,7 @@ Vector6d Propagator::correctedTwist(const FilterState& state, const TwistData& t
   const Eigen::Vector3d v_twist = twist.v_imu - b.head<3>();
   const Eigen::Vector3d w_twist = twist.w_imu - b.tail<3>();
   Vector6d u;
-  u.head<3>() =
-      velocityPriorGain(state, twist).head<3>().cwiseProduct(state.imu_R_twist * v_twist);
+  u.head<3>() = velocityPriorGain(state, twist).head<3>().cwiseProduct(state.imu_R_twist * v_twist);
   u.tail<3>() = state.imu_R_twist * w_twist;
   return u;
 }
@@ -28,7 +27,8 @@ Vector6d Propagator::velocityPriorGain(const FilterState& state, const TwistData
   const double dt = period();
   const double linear_density = linearNoiseDensity();
   const double r_configured = linear_density * linear_density / dt;
-  const double sigmas[2] = {options_->vehicle.lateral_velocity_sigma, options_->vehicle.vertical_velocity_sigma};
+  const double sigmas[2] = {options_->vehicle.lateral_velocity_sigma,
+                            options_->vehicle.vertical_velocity_sigma};
   for (int axis = 1; axis <= 2; ++axis) {
     const double r = own ? own_density(axis, axis) / dt : r_configured;
     const double s2 = sigmas[axis - 1] * sigmas[axis - 1];
@@ -173,6 +173,10 @@ void Propagator::addRandomWalks(double dt, FilterState* state) const {
   if (layout.scale_dim > 0) {
     const double rw = options_->intrinsic.baseline_scale_random_walk;
     S(layout.scaleRow(), layout.scaleRow()) += dt * rw * rw;
+  }
+  const double drift_rw = options_->track_drift.rate_random_walk;
+  for (int i = 0; i < layout.drift_dim; ++i) {
+    S(layout.driftRow() + i, layout.driftRow() + i) += dt * drift_rw * drift_rw;
   }
 }
 

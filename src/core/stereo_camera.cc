@@ -31,10 +31,10 @@ std::string StereoCalibration::validate() const {
 }
 
 StereoCamera::StereoCamera(const StereoCalibration& calibration) : calibration_(calibration) {
-  const double fx = calibration.fx, fy = calibration.fy, cx = calibration.cx,
-               cy = calibration.cy, b = calibration.baseline;
-  Ks_ << fx, 0.0, cx, 0.0,  //
-      0.0, fy, cy, 0.0,     //
+  const double fx = calibration.fx, fy = calibration.fy, cx = calibration.cx, cy = calibration.cy,
+               b = calibration.baseline;
+  Ks_ << fx, 0.0, cx, 0.0,   //
+      0.0, fy, cy, 0.0,      //
       fx, 0.0, cx, -fx * b,  //
       0.0, fy, cy, 0.0;
   cam_T_imu_ = calibration.cam_T_imu.matrix();
@@ -65,6 +65,29 @@ bool StereoCamera::project(const Eigen::Matrix4d& imu_T_world, const Eigen::Vect
   return true;
 }
 
+bool StereoCamera::projectTurned(const Eigen::Matrix4d& imu_T_world, const Eigen::Vector3d& p_world,
+                                 const Eigen::Vector3d& angle_imu, Eigen::Vector4d* z,
+                                 Matrix43d* H_landmark, Matrix43d* H_angle,
+                                 double min_depth) const {
+  if (H_angle == nullptr && angle_imu.isZero(0.0)) {
+    return project(imu_T_world, p_world, z, nullptr, H_landmark, min_depth);
+  }
+  // The turned point seen as a world point: p_seen = world_T_imu R_d imu_T_world p_world.
+  const Eigen::Matrix3d R_iw = imu_T_world.topLeftCorner<3, 3>();
+  const Eigen::Vector3d t_iw = imu_T_world.topRightCorner<3, 1>();
+  const Eigen::Matrix3d R_d = se3::expSO3(angle_imu);
+  const Eigen::Vector3d p_imu_seen = R_d * (R_iw * p_world + t_iw);
+  const Eigen::Vector3d p_seen = R_iw.transpose() * (p_imu_seen - t_iw);
+  Matrix43d H_seen;
+  if (!project(imu_T_world, p_seen, z, nullptr, &H_seen, min_depth)) return false;
+  const Matrix43d H_imu = H_seen * R_iw.transpose();  // d z / d p_imu_seen
+  if (H_landmark != nullptr) *H_landmark = H_imu * R_d * R_iw;
+  // exp((angle + d)^) = exp((J_l(angle) d)^) exp(angle^) to first order.
+  if (H_angle != nullptr)
+    *H_angle = -H_imu * se3::hat(p_imu_seen) * se3::leftJacobianSO3(angle_imu);
+  return true;
+}
+
 bool StereoCamera::triangulate(double u_left, double v, double u_right, Eigen::Vector3d* p_cam,
                                Eigen::Matrix3d* J) const {
   const double d = u_left - u_right;
@@ -76,7 +99,7 @@ bool StereoCamera::triangulate(double u_left, double v, double u_right, Eigen::V
   if (J != nullptr) {
     const double d2 = d * d;
     // Columns: d/du_left, d/dv, d/du_right.
-    *J << b / d - du * b / d2, 0.0, du * b / d2,                       //
+    *J << b / d - du * b / d2, 0.0, du * b / d2,                               //
         -dv * fx * b / (fy * d2), fx * b / (fy * d), dv * fx * b / (fy * d2),  //
         -fx * b / d2, 0.0, fx * b / d2;
   }

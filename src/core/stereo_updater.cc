@@ -4,6 +4,7 @@
 #include "ekf_vislam/core/se3.h"
 #include "ekf_vislam/core/track_jump_detector.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace ekf_vislam {
@@ -12,21 +13,26 @@ StereoUpdater::StereoUpdater(const VislamOptions& options)
     : options_(&options),
       rows_per_observation_(options.noise.merge_stereo_rows ? 3 : 4),
       observation_selector_(stereoObservationSelector(options.noise.merge_stereo_rows)),
-      gate_threshold_(chiSquareQuantile(options.landmarks.gating_probability, rows_per_observation_)),
+      gate_threshold_(
+          chiSquareQuantile(options.landmarks.gating_probability, rows_per_observation_)),
       restart_threshold_(chiSquareQuantile(0.9999, rows_per_observation_)) {}
 
 bool StereoUpdater::predict(const StereoCamera& camera, const FilterState& state,
                             const Eigen::Matrix4d& imu_T_world, const Eigen::Vector3d& p_world,
-                            const Eigen::Vector4d& z, Eigen::VectorXd* residual,
-                            Eigen::MatrixXd* H_landmark, Eigen::MatrixXd* H_calibration) const {
+                            const Eigen::Vector4d& z, double age, Eigen::VectorXd* residual,
+                            Eigen::MatrixXd* H_landmark, Eigen::MatrixXd* H_calibration,
+                            Eigen::MatrixXd* H_drift) const {
   const StateLayout& layout = state.layout();
   const Eigen::MatrixXd& M = observation_selector_;
+  // Track drift: the track shows the point turned by exp(age w^) about the IMU origin.
   Eigen::Vector4d z_pred;
-  Matrix43d H;
-  if (!camera.project(imu_T_world, p_world, &z_pred, nullptr, &H,
-                      options_->landmarks.min_depth * 0.5)) {
+  Matrix43d H, H_angle = Matrix43d::Zero();
+  const bool drift = layout.drift_dim > 0;
+  if (!camera.projectTurned(imu_T_world, p_world, age * state.track_drift_rate_imu, &z_pred, &H,
+                            drift ? &H_angle : nullptr, options_->landmarks.min_depth * 0.5)) {
     return false;
   }
+  *H_drift = age * M * H_angle.leftCols(layout.drift_dim);
   // d z / d calibration: the uR row only. Offset: measured uR = true uR - offset. Baseline
   // scale: uR = fx (x - b0 (1 + beta)) / z + cx, d uR / d beta = -fx b0 / z.
   Eigen::Matrix<double, 4, 2> H_cal = Eigen::Matrix<double, 4, 2>::Zero();
@@ -41,8 +47,8 @@ bool StereoUpdater::predict(const StereoCamera& camera, const FilterState& state
   return true;
 }
 
-void StereoUpdater::setCloneView(const Eigen::Vector3d& p_world, double weight,
-                                 StereoCandidate* c, const Eigen::MatrixXd& H_landmark_clone) {
+void StereoUpdater::setCloneView(const Eigen::Vector3d& p_world, double weight, StereoCandidate* c,
+                                 const Eigen::MatrixXd& H_landmark_clone) {
   // Seen from the clone (error [rho_c; phi_c]): p_imu = R_c^T (p_mean + xi - rho_c +
   // p^ (phi_c - phi) - t_c) to first order, so the current pose enters through phi only.
   // `weight` scales this view's part (1: seen from the clone; -rho: the previous observation's
@@ -62,8 +68,8 @@ bool StereoUpdater::linearize(const StereoCamera& camera, const FilterState& sta
   const Eigen::Vector4d z(c->feature.u_left, c->feature.v_left, c->feature.u_right,
                           c->feature.v_right);
   const Eigen::Matrix4d& imu_T_world = c->via_clone ? state.imu_T_world_clone : state.imu_T_world;
-  if (!predict(camera, state, imu_T_world, p_world, z, &c->residual, &c->H_landmark,
-               &c->H_calibration)) {
+  if (!predict(camera, state, imu_T_world, p_world, z, c->track_age, &c->residual, &c->H_landmark,
+               &c->H_calibration, &c->H_drift)) {
     return false;
   }
   // Invariant error: p_imu = R^T (p_mean + xi - rho - p) to first order, so the observation
@@ -79,8 +85,9 @@ bool StereoUpdater::linearize(const StereoCamera& camera, const FilterState& sta
 }
 
 bool StereoUpdater::linearizeCandidate(const StereoCamera& camera, const FilterState& state,
-                                       const LandmarkManager& landmarks,
-                                       StereoCandidate* c) const {
+                                       const LandmarkManager& landmarks, StereoCandidate* c) const {
+  const LandmarkTrack& track = landmarks.track(c->landmark);
+  c->track_age = std::max(0.0, landmarks.frameStamp() - track.anchor_stamp);
   if (!linearize(camera, state, c)) return false;
   // The track-jump test compares the observation itself with the last frame's.
   c->flow_residual = c->residual.head<2>();
@@ -106,14 +113,16 @@ void StereoUpdater::difference(const StereoCamera& camera, const FilterState& st
   if (rho <= 0.0 || c->via_clone || track.previous_frame != landmarks.frame() - 1) return;
   const Eigen::Vector3d p_world = state.landmark(c->landmark);
   Eigen::VectorXd residual_prev;
-  Eigen::MatrixXd H_landmark_prev, H_calibration_prev;
-  if (!predict(camera, state, state.imu_T_world_clone, p_world, track.previous_z, &residual_prev,
-               &H_landmark_prev, &H_calibration_prev)) {
+  Eigen::MatrixXd H_landmark_prev, H_calibration_prev, H_drift_prev;
+  const double age_prev = std::max(0.0, track.previous_stamp - track.anchor_stamp);
+  if (!predict(camera, state, state.imu_T_world_clone, p_world, track.previous_z, age_prev,
+               &residual_prev, &H_landmark_prev, &H_calibration_prev, &H_drift_prev)) {
     return;
   }
   const double whiten = 1.0 / std::sqrt(1.0 - rho * rho);
   c->residual = whiten * (c->residual - rho * residual_prev);
   c->H_calibration = whiten * (c->H_calibration - rho * H_calibration_prev);
+  c->H_drift = whiten * (c->H_drift - rho * H_drift_prev);
   if (options_->mode == EstimatorMode::kSlam && state.layout().clone_dim > 0) {
     setCloneView(p_world, -rho, c, H_landmark_prev);
     c->H_pose *= whiten;
@@ -128,6 +137,7 @@ SparseJacobian StereoUpdater::gateJacobian(const FilterState& state,
   const StateLayout& layout = state.layout();
   SparseJacobian jacobian{{StateLayout::kPoseRow, c.H_pose}};
   if (layout.calibrationDim() > 0) jacobian.push_back({layout.calibrationRow(), c.H_calibration});
+  if (layout.drift_dim > 0) jacobian.push_back({layout.driftRow(), c.H_drift});
   if (c.clone_columns) jacobian.push_back({layout.cloneRow(), c.H_clone});
   jacobian.push_back({layout.landmarkRow(c.landmark), c.H_landmark});
   return jacobian;
@@ -140,14 +150,14 @@ SparseJacobian StereoUpdater::updateJacobian(const FilterState& state,
   if (options_->mode == EstimatorMode::kSlam) jacobian.push_back({StateLayout::kPoseRow, c.H_pose});
   if (c.clone_columns) jacobian.push_back({layout.cloneRow(), c.H_clone});
   if (layout.calibrationDim() > 0) jacobian.push_back({layout.calibrationRow(), c.H_calibration});
+  if (layout.drift_dim > 0) jacobian.push_back({layout.driftRow(), c.H_drift});
   return jacobian;
 }
 
-StereoUpdateOutcome StereoUpdater::update(std::vector<StereoCandidate>* candidates,
-                                          bool jump_test, const StereoCalibration& nominal,
-                                          StereoCamera* camera, FilterState* state,
-                                          LandmarkManager* landmarks, EstimatorStats* stats,
-                                          FeedResult* result) const {
+StereoUpdateOutcome StereoUpdater::update(std::vector<StereoCandidate>* candidates, bool jump_test,
+                                          const StereoCalibration& nominal, StereoCamera* camera,
+                                          FilterState* state, LandmarkManager* landmarks,
+                                          EstimatorStats* stats, FeedResult* result) const {
   StereoUpdateOutcome outcome;
   for (StereoCandidate& c : *candidates) {
     c.predicted = linearizeCandidate(*camera, *state, *landmarks, &c);
@@ -219,7 +229,8 @@ bool StereoUpdater::decide(StereoCandidate* c, LandmarkManager* landmarks,
     return false;
   }
   track.consecutive_gated = 0;
-  if (options_->landmarks.max_track_length > 0 && track.frames > options_->landmarks.max_track_length) {
+  if (options_->landmarks.max_track_length > 0 &&
+      track.frames > options_->landmarks.max_track_length) {
     // Long track (real tracks drift off their point): the landmark leaves the state and the
     // track goes on as a new landmark (new map entry) from this observation, which has just
     // passed the gate, so an outlier never starts the new segment.
@@ -230,9 +241,9 @@ bool StereoUpdater::decide(StereoCandidate* c, LandmarkManager* landmarks,
   return true;
 }
 
-bool StereoUpdater::stackedUpdate(const std::vector<StereoCandidate*>& accepted,
-                                  FilterState* state, LandmarkManager* landmarks,
-                                  EstimatorStats* stats, FeedResult* result) const {
+bool StereoUpdater::stackedUpdate(const std::vector<StereoCandidate*>& accepted, FilterState* state,
+                                  LandmarkManager* landmarks, EstimatorStats* stats,
+                                  FeedResult* result) const {
   const int r = rows_per_observation_;
   const int n = static_cast<int>(accepted.size());
   std::vector<SparseJacobian> jacobians;
@@ -243,8 +254,8 @@ bool StereoUpdater::stackedUpdate(const std::vector<StereoCandidate*>& accepted,
     residual.segment(k * r, r) = accepted[k]->residual;
   }
   const double pixel_var = options_->noise.pixel_sigma * options_->noise.pixel_sigma;
-  const UpdateOutcome outcome = state_helper::update(
-      state, jacobians, residual, pixel_var, options_->mode == EstimatorMode::kSlam);
+  const UpdateOutcome outcome = state_helper::update(state, jacobians, residual, pixel_var,
+                                                     options_->mode == EstimatorMode::kSlam);
   if (outcome.status == UpdateStatus::kNotPositiveDefinite) {
     stats->increment(Counter::kUpdateNonFinite);
     result->message = "innovation covariance not positive definite: update skipped";

@@ -22,6 +22,8 @@ StateLayout layoutFor(const VislamOptions& options) {
   layout.rotation_dim = options.extrinsic.estimate_twist_rotation ? 3 : 0;
   layout.disparity_dim = options.intrinsic.estimate_disparity_offset ? 1 : 0;
   layout.scale_dim = options.intrinsic.estimate_baseline_scale ? 1 : 0;
+  layout.drift_dim =
+      options.track_drift.estimate_rate && options.mode != EstimatorMode::kDeadReckoning ? 3 : 0;
   // The clone: the pose at the last repeated frame, and with a correlated pixel error the pose
   // at the previous frame.
   const bool clone = options.limits.repeated_frames == RepeatedFramePolicy::kShift ||
@@ -66,6 +68,7 @@ StatePrior VislamEstimator::prior() const {
   prior.twist_rotation_sigma = o.extrinsic.twist_rotation_prior_sigma;
   prior.disparity_offset_sigma = o.intrinsic.disparity_offset_prior_sigma;
   prior.baseline_scale_sigma = o.intrinsic.baseline_scale_prior_sigma;
+  prior.track_drift_rate_sigma = o.track_drift.rate_prior_sigma;
   return prior;
 }
 
@@ -120,8 +123,8 @@ FeedResult VislamEstimator::feedTwist(const TwistData& twist) {
   if (twist.stamp <= last_twist_stamp_) {
     std::ostringstream text;
     text << "twist stamp " << std::fixed << twist.stamp << " not after the previous twist ("
-         << last_twist_stamp_ << "): "
-         << (twist.stamp == last_twist_stamp_ ? "duplicate" : "time went backwards");
+         << last_twist_stamp_
+         << "): " << (twist.stamp == last_twist_stamp_ ? "duplicate" : "time went backwards");
     return reject(Counter::kTwistNotIncreasing, text.str());
   }
   const double previous_twist_stamp = last_twist_stamp_;
@@ -157,8 +160,8 @@ void VislamEstimator::advanceTo(double stamp, const TwistData& twist, double twi
       in_twist_gap_ = true;
       stats_.increment(Counter::kTwistGap);
       std::ostringstream why;
-      why << "no twist for " << since_twist << " s (limits/max_twist_gap = " << o.limits.max_twist_gap
-          << " s): ";
+      why << "no twist for " << since_twist
+          << " s (limits/max_twist_gap = " << o.limits.max_twist_gap << " s): ";
       if (o.limits.gap_policy == GapPolicy::kReset) {
         why << "filter reset (map kept)";
         landmarks_.remove(std::vector<bool>(landmarks_.activeCount(), true),
@@ -224,7 +227,7 @@ FeedResult VislamEstimator::feedFeatures(const FeatureFrame& frame) {
   stats_.increment(Counter::kFrameUsed);
   if (frame.features.empty()) stats_.increment(Counter::kFrameEmpty);
   const RepeatedFramePolicy policy = options_->limits.repeated_frames;
-  landmarks_.beginFrame();
+  landmarks_.beginFrame(frame.stamp);
   std::vector<size_t> new_tracks;
   if (repeated_frames_.isRepeat(frame, &new_tracks)) {
     stats_.increment(Counter::kFrameRepeated);
@@ -281,14 +284,14 @@ void VislamEstimator::collectCandidates(const FeatureFrame& frame, size_t count,
 
 void VislamEstimator::endAbsentTracks(const FeatureFrame& frame,
                                       const std::unordered_set<uint32_t>& present,
-                                      std::vector<StereoCandidate>* updates,
-                                      FeedResult* result) {
+                                      std::vector<StereoCandidate>* updates, FeedResult* result) {
   // Before the update: a smaller state is cheaper. An empty message ends no track.
   const std::vector<bool> ended = landmarks_.endedTracks(present, frame.features.empty());
   if (std::find(ended.begin(), ended.end(), true) == ended.end()) return;
   std::vector<size_t> map_index;
   map_index.reserve(updates->size());
-  for (const StereoCandidate& c : *updates) map_index.push_back(landmarks_.track(c.landmark).map_index);
+  for (const StereoCandidate& c : *updates)
+    map_index.push_back(landmarks_.track(c.landmark).map_index);
   result->landmarks_marginalized += landmarks_.endTracks(ended, &state_, &stats_);
   for (size_t i = 0; i < updates->size(); ++i) {
     (*updates)[i].landmark = *landmarks_.find(landmarks_.map()[map_index[i]].id);
@@ -308,8 +311,7 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result
   if (cap > 0 && count > static_cast<size_t>(cap)) {
     stats_.increment(Counter::kFrameCapped);
     std::ostringstream why;
-    why << "frame with " << count << " features capped to limits/max_features_per_frame = "
-        << cap;
+    why << "frame with " << count << " features capped to limits/max_features_per_frame = " << cap;
     result->message = why.str();
     result->observations_rejected += static_cast<int>(count) - cap;
     count = cap;
@@ -322,8 +324,8 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result
   // Joint update with the re-observed landmarks, then new landmarks from the corrected pose.
   StereoUpdateOutcome outcome;
   if (!updates.empty()) {
-    outcome = updater_.update(&updates, consumeJumpTest(), nominal_calibration_, &camera_,
-                              &state_, &landmarks_, &stats_, result);
+    outcome = updater_.update(&updates, consumeJumpTest(), nominal_calibration_, &camera_, &state_,
+                              &landmarks_, &stats_, result);
     landmarks_.apply(outcome.leaving, &state_, &stats_, result);
   }
   // Tracks through the last repeated frame have been seen from the clone: from now on they

@@ -66,6 +66,11 @@ void visitVislamOptions(Options& o, Visitor& v) {
   v.number("intrinsic/baseline_scale_random_walk", intrinsic.baseline_scale_random_walk,
            Bound::kNonNegative);
 
+  auto& drift = o.track_drift;
+  v.flag("track_drift/estimate_rate", drift.estimate_rate);
+  v.number("track_drift/rate_prior_sigma", drift.rate_prior_sigma, Bound::kPositive);
+  v.number("track_drift/rate_random_walk", drift.rate_random_walk, Bound::kNonNegative);
+
   v.number("vehicle/lateral_velocity_sigma", o.vehicle.lateral_velocity_sigma, Bound::kNonNegative);
   v.number("vehicle/vertical_velocity_sigma", o.vehicle.vertical_velocity_sigma,
            Bound::kNonNegative);

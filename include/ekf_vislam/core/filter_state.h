@@ -3,7 +3,8 @@
 //
 // Error definitions (doc/estimator.md): pose world_T_imu = exp(eps^) world_T_imu_mean with
 // eps = [rho; phi] (world frame, translation first); bias b_true = b_mean + db; twist rotation
-// R_m = exp(theta^) R_m_mean; disparity offset and baseline-scale error additive; the clone like
+// R_m = exp(theta^) R_m_mean; disparity offset, baseline-scale error and track drift rate
+// additive; the clone like
 // the pose; landmark i: p_i = exp(phi^) p_i_mean + xi_i in SLAM mode (right-invariant error),
 // p_i = p_i_mean + xi_i otherwise.
 #pragma once
@@ -17,7 +18,7 @@
 namespace ekf_vislam {
 
 /// Which variables the state holds and where their rows are. Order: pose, bias, twist rotation,
-/// disparity offset, baseline scale, clone, then the landmarks (3 rows each).
+/// disparity offset, baseline scale, track drift rate, clone, then the landmarks (3 rows each).
 struct StateLayout {
   static constexpr int kPoseRow = 0;
   static constexpr int kPoseDim = 6;
@@ -26,6 +27,7 @@ struct StateLayout {
   int rotation_dim = 0;   ///< 3 when the twist rotation R_m is estimated
   int disparity_dim = 0;  ///< 1 when the disparity offset is estimated
   int scale_dim = 0;      ///< 1 when the baseline scale is estimated
+  int drift_dim = 0;      ///< 3 when the track drift rate is estimated
   int clone_dim = 0;      ///< 6 when the pose clone has rows (repeated frames, SLAM mode)
 
   int biasDim() const { return static_cast<int>(bias_components.size()); }
@@ -35,8 +37,9 @@ struct StateLayout {
   int calibrationDim() const { return disparity_dim + scale_dim; }
   int disparityRow() const { return calibrationRow(); }
   int scaleRow() const { return calibrationRow() + disparity_dim; }
-  /// States the prediction moves besides the pose: bias, twist rotation, calibration.
-  int auxDim() const { return biasDim() + rotation_dim + calibrationDim(); }
+  int driftRow() const { return calibrationRow() + calibrationDim(); }
+  /// States between the pose and the clone: bias, twist rotation, calibration, track drift.
+  int auxDim() const { return biasDim() + rotation_dim + calibrationDim() + drift_dim; }
   int cloneRow() const { return kPoseDim + auxDim(); }
   /// Rows before the first landmark.
   int headDim() const { return cloneRow() + clone_dim; }
@@ -52,6 +55,7 @@ struct StatePrior {
   double twist_rotation_sigma = 0.0;
   double disparity_offset_sigma = 0.0;
   double baseline_scale_sigma = 0.0;
+  double track_drift_rate_sigma = 0.0;  ///< rad/s, each IMU axis
 };
 
 class FilterState {
@@ -75,8 +79,11 @@ class FilterState {
   Eigen::Matrix4d imu_T_world_clone = Eigen::Matrix4d::Identity();
   Eigen::VectorXd bias;  ///< estimated bias components (layout().bias_components)
   Eigen::Matrix3d imu_R_twist = Eigen::Matrix3d::Identity();  ///< R_m
-  double disparity_offset = 0.0;      ///< px, measured minus true disparity
+  double disparity_offset = 0.0;                              ///< px, measured minus true disparity
   double baseline_scale_error = 0.0;  ///< beta: baseline = calibrated baseline x (1 + beta)
+  /// Rate (rad/s, IMU axes) at which the feature tracks turn away from their points: an
+  /// observation of age a (s since its landmark started) shows the point at exp(a w^) p_imu.
+  Eigen::Vector3d track_drift_rate_imu = Eigen::Vector3d::Zero();
   Eigen::Vector3d landmark(size_t index) const {
     return landmark_means_.segment<3>(layout_.landmarkRow(index));
   }

@@ -23,10 +23,10 @@ namespace ekf_vislam {
 /// Bookkeeping of one landmark in the state (index k: state rows StateLayout::landmarkRow(k)).
 struct LandmarkTrack {
   size_t map_index = 0;
-  bool tracking = true;  ///< false: its track ended but it stays (keep_all_landmarks_in_state)
+  bool tracking = true;       ///< false: its track ended but it stays (keep_all_landmarks_in_state)
   int consecutive_gated = 0;  ///< frames in a row whose observation disagreed grossly
-  int frames = 1;         ///< frames its track has been seen in since this landmark started
-  int frames_absent = 0;  ///< consecutive non-empty frames its id was missing from
+  int frames = 1;             ///< frames its track has been seen in since this landmark started
+  int frames_absent = 0;      ///< consecutive non-empty frames its id was missing from
   /// Residual [uL, v] (px) left after the last update that used it: the reference of the next
   /// frame's track-jump test. Valid only when has_flow_reference.
   Eigen::Vector2d flow_residual = Eigen::Vector2d::Zero();
@@ -40,6 +40,10 @@ struct LandmarkTrack {
   /// the pixel error is correlated along the track (noise/pixel_correlation).
   Eigen::Vector4d previous_z = Eigen::Vector4d::Zero();
   int previous_frame = -1;
+  double previous_stamp = 0.0;  ///< s, of previous_frame
+  /// Stamp (s) of the frame that started this landmark: the age of an observation, over which
+  /// the track has drifted (track_drift/), counts from it.
+  double anchor_stamp = 0.0;
 };
 
 /// Landmarks that leave the state after an update, decided by the updater, applied at once.
@@ -73,8 +77,12 @@ class LandmarkManager {
                   const StereoCamera& camera, FilterState* state, EstimatorStats* stats,
                   FeedResult* result);
   /// Counts a feature frame (repeated frames included): frame() numbers the frames.
-  void beginFrame() { ++frame_; }
+  void beginFrame(double stamp) {
+    ++frame_;
+    frame_stamp_ = stamp;
+  }
   int frame() const { return frame_; }
+  double frameStamp() const { return frame_stamp_; }
   /// Observation f of landmark k was used in the current frame.
   void recordUsed(size_t k, const StereoObservation& f);
   /// Flow reference of landmark k from observation f at the current state (track-jump test).
@@ -110,6 +118,7 @@ class LandmarkManager {
   std::unordered_map<uint32_t, size_t> tracking_;  ///< tracked id -> state index
   std::vector<LandmarkEstimate> map_;
   int frame_ = 0;
+  double frame_stamp_ = 0.0;
 };
 
 }  // namespace ekf_vislam

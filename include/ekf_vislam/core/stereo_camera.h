@@ -38,6 +38,15 @@ class StereoCamera {
                Eigen::Vector4d* z, Matrix46d* H_pose = nullptr, Matrix43d* H_landmark = nullptr,
                double min_depth = 1e-3) const;
 
+  /// project() of the point turned by exp(angle^) about the IMU origin, IMU axes (a track that
+  /// has drifted by `angle`; about the IMU rather than the camera, so that the turn cannot be
+  /// told from a rotation of the pose): H_landmark as in project(), and H_angle (4x3) with
+  /// respect to a left perturbation of the angle (exp(d^) exp(angle^)). angle = 0 gives
+  /// project() exactly.
+  bool projectTurned(const Eigen::Matrix4d& imu_T_world, const Eigen::Vector3d& p_world,
+                     const Eigen::Vector3d& angle_imu, Eigen::Vector4d* z, Matrix43d* H_landmark,
+                     Matrix43d* H_angle, double min_depth = 1e-3) const;
+
   /// Point in the left camera frame from (uL, v, uR) (v: the row, e.g. (vL + vR) / 2), and the
   /// 3x3 Jacobian of that point with respect to (uL, v, uR). Returns false when the disparity
   /// uL - uR is not positive.

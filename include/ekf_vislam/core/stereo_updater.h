@@ -27,10 +27,12 @@ struct StereoCandidate {
   /// clone (the pose at that frame), not from the current pose.
   bool via_clone = false;
   // Filled by the updater.
+  double track_age = 0.0;  ///< s since the landmark started (track_drift/)
   Eigen::VectorXd residual;
   Eigen::MatrixXd H_pose;         ///< rows x 6
   Eigen::MatrixXd H_landmark;     ///< rows x 3
   Eigen::MatrixXd H_calibration;  ///< rows x calibration dim
+  Eigen::MatrixXd H_drift;        ///< rows x 3, when the track drift rate is in the state
   Eigen::MatrixXd H_clone;        ///< rows x 6, when seen from the clone in SLAM mode
   bool clone_columns = false;     ///< H_clone is used
   /// Differenced with the track's previous observation (noise/pixel_correlation): residual and
@@ -72,23 +74,23 @@ class StereoUpdater {
   /// the baseline scale in the state, *camera follows its corrected estimate (from `nominal`).
   StereoUpdateOutcome update(std::vector<StereoCandidate>* candidates, bool jump_test,
                              const StereoCalibration& nominal, StereoCamera* camera,
-                             FilterState* state, LandmarkManager* landmarks,
-                             EstimatorStats* stats, FeedResult* result) const;
+                             FilterState* state, LandmarkManager* landmarks, EstimatorStats* stats,
+                             FeedResult* result) const;
 
  private:
-  /// Residual and Jacobians (landmark, calibration) of observation z of p_world from a pose;
-  /// false when the point is not in front of the camera.
+  /// Residual and Jacobians (landmark, calibration, track drift rate) of observation z, of age
+  /// `age` (s), of p_world from a pose; false when the point is not in front of the camera.
   bool predict(const StereoCamera& camera, const FilterState& state,
                const Eigen::Matrix4d& imu_T_world, const Eigen::Vector3d& p_world,
-               const Eigen::Vector4d& z, Eigen::VectorXd* residual, Eigen::MatrixXd* H_landmark,
-               Eigen::MatrixXd* H_calibration) const;
+               const Eigen::Vector4d& z, double age, Eigen::VectorXd* residual,
+               Eigen::MatrixXd* H_landmark, Eigen::MatrixXd* H_calibration,
+               Eigen::MatrixXd* H_drift) const;
   /// Adds `weight` times the pose and clone Jacobians of a view from the clone.
   static void setCloneView(const Eigen::Vector3d& p_world, double weight, StereoCandidate* c,
                            const Eigen::MatrixXd& H_landmark_clone);
   /// Predicted observation, residual and Jacobians of one candidate; false when the landmark is
   /// not in front of the camera.
-  bool linearize(const StereoCamera& camera, const FilterState& state,
-                 StereoCandidate* c) const;
+  bool linearize(const StereoCamera& camera, const FilterState& state, StereoCandidate* c) const;
   /// With noise/pixel_correlation, turns a candidate whose previous observation came in the
   /// last frame into the whitened difference with it (see the .cc).
   void difference(const StereoCamera& camera, const FilterState& state,

@@ -91,6 +91,9 @@ class VislamEstimator {
   /// Estimated stereo baseline scale (true baseline / calibrated baseline; 1 when not estimated)
   /// and the standard deviation of that ratio.
   double baselineScale() const { return 1.0 + state_.baseline_scale_error; }
+  /// Rate (rad/s, IMU axes) at which the tracks turn away from their points (track_drift/;
+  /// zero when not estimated).
+  const Eigen::Vector3d& trackDriftRate() const { return state_.track_drift_rate_imu; }
   double baselineScaleSigma() const;
 
   /// Every landmark ever initialized (active ones carry their current estimate).

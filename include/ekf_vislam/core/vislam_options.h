@@ -45,7 +45,7 @@ enum class DivergencePolicy {
 
 /// noise/: measurement and process noise.
 struct NoiseOptions {
-  double pixel_sigma = 2.0;               ///< px, std of each image coordinate
+  double pixel_sigma = 2.0;  ///< px, std of each image coordinate
   /// Correlation of a track's pixel error from one observation to the next (AR(1) along the
   /// track, stationary std pixel_sigma); 0: white. Consecutive observations are differenced
   /// (stereo_updater.h).
@@ -73,11 +73,11 @@ struct PriorOptions {
 /// bias/: twist bias states (random walks).
 struct BiasOptions {
   bool estimate_gyro_bias = true;
-  double gyro_prior_sigma = 0.02;        ///< rad/s
-  double gyro_random_walk = 1e-4;        ///< rad/s/sqrt(s)
+  double gyro_prior_sigma = 0.02;  ///< rad/s
+  double gyro_random_walk = 1e-4;  ///< rad/s/sqrt(s)
   bool estimate_velocity_bias = false;
-  double velocity_prior_sigma = 0.1;     ///< m/s
-  double velocity_random_walk = 1e-3;    ///< m/s/sqrt(s)
+  double velocity_prior_sigma = 0.1;   ///< m/s
+  double velocity_random_walk = 1e-3;  ///< m/s/sqrt(s)
 };
 
 /// extrinsic/: the rotation R_m between the frame the twist is measured in and the IMU frame
@@ -104,6 +104,18 @@ struct IntrinsicOptions {
   bool estimate_baseline_scale = false;
   double baseline_scale_prior_sigma = 0.05;  ///< relative (0.05 = 5 %)
   double baseline_scale_random_walk = 0.0;   ///< 1/sqrt(s)
+};
+
+/// track_drift/: a common rate at which the feature tracks turn away from their points. Tracks
+/// that follow a point from frame to frame accumulate error (the KITTI tracks drift 0.02-0.1 px
+/// per frame, doc/experiments.md): an observation of age a (s since its landmark started) shows
+/// the point rotated by exp(a w^) in the left camera frame. The images alone cannot tell this
+/// rotation from the vehicle's, so the rate w and the gyro bias share what the twist and the
+/// tracks disagree on, and the pose covariance carries the ambiguity.
+struct TrackDriftOptions {
+  bool estimate_rate = false;
+  double rate_prior_sigma = 1e-3;  ///< rad/s, each camera axis
+  double rate_random_walk = 0.0;   ///< rad/s/sqrt(s)
 };
 
 /// vehicle/: ground-vehicle (non-holonomic) prior on the IMU-frame velocity (x forward). The
@@ -140,9 +152,9 @@ struct LandmarkOptions {
 
 /// limits/: input sanity, twist gaps and repeated frames.
 struct LimitsOptions {
-  double max_linear_speed = 100.0;     ///< m/s; faster twists are rejected
-  double max_angular_speed = 10.0;     ///< rad/s
-  double max_twist_gap = 1.0;          ///< s; longer gaps follow gap_policy
+  double max_linear_speed = 100.0;  ///< m/s; faster twists are rejected
+  double max_angular_speed = 10.0;  ///< rad/s
+  double max_twist_gap = 1.0;       ///< s; longer gaps follow gap_policy
   GapPolicy gap_policy = GapPolicy::kPredict;
   double gap_noise_scale = 10.0;       ///< process noise multiplier across a gap
   double max_row_difference_px = 5.0;  ///< |vL - vR| beyond: rejected (rectified pair)
@@ -172,6 +184,7 @@ struct VislamOptions {
   BiasOptions bias;
   ExtrinsicOptions extrinsic;
   IntrinsicOptions intrinsic;
+  TrackDriftOptions track_drift;
   VehicleOptions vehicle;
   LandmarkOptions landmarks;
   LimitsOptions limits;

@@ -86,6 +86,7 @@ Scenario makeScenario(const ScenarioOptions& o) {
   uint32_t next_id = 0;
   // Pixel error of each track: e_k = rho e_(k-1) + sqrt(1 - rho^2) sigma n_k, e_0 = sigma n_0.
   std::map<uint32_t, Eigen::Vector4d> pixel_error;
+  std::map<uint32_t, double> track_start;  ///< stamp of each track's first observation
   const double innovation = std::sqrt(1.0 - o.pixel_correlation * o.pixel_correlation);
   auto observe = [&](uint32_t id, const Eigen::Vector4d& z) {
     auto [it, first] = pixel_error.try_emplace(id, Eigen::Vector4d::Zero());
@@ -121,6 +122,11 @@ Scenario makeScenario(const ScenarioOptions& o) {
           continue;
         }
         ++tracked;
+        const double age = frame.stamp - track_start[id_of[i]];
+        if (!o.track_drift_rate_imu.isZero(0.0)) {
+          camera.projectTurned(imu_T_world, points[i], age * o.track_drift_rate_imu, &z, nullptr,
+                               nullptr);
+        }
         frame.features.push_back(observe(id_of[i], z));
       } else if (visible) {
         visible_new.emplace_back(i, z);
@@ -132,6 +138,7 @@ Scenario makeScenario(const ScenarioOptions& o) {
       state[i] = 1;
       id_of[i] = next_id++;
       s.p_world[id_of[i]] = points[i];
+      track_start[id_of[i]] = frame.stamp;
       ++tracked;
       frame.features.push_back(observe(id_of[i], z));
     }

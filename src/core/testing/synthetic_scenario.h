@@ -21,7 +21,10 @@ struct ScenarioOptions {
   /// Drifting tracks: each track's pixel error is AR(1) with this correlation from one frame to
   /// the next (stationary std pixel_sigma); 0: white.
   double pixel_correlation = 0.0;
-  double linear_velocity_noise = 0.5;   ///< per sample, m/s
+  /// Tracks that turn away from their points: an observation of age a (s since its track
+  /// started) shows the point turned by exp(a w^) about the IMU origin (rad/s, IMU axes).
+  Eigen::Vector3d track_drift_rate_imu = Eigen::Vector3d::Zero();
+  double linear_velocity_noise = 0.5;    ///< per sample, m/s
   double angular_velocity_noise = 0.05;  ///< per sample, rad/s
   Eigen::Vector3d gyro_bias = Eigen::Vector3d(0.006, -0.008, 0.007);
   double outlier_rate = 0.0;
@@ -33,11 +36,11 @@ struct ScenarioOptions {
 
 struct Scenario {
   StereoCalibration calibration;
-  std::vector<TwistData> twists;                    ///< measured, one per frame
-  std::vector<TwistData> true_twists;               ///< noiseless, bias-free
-  std::vector<FeatureFrame> frames;                 ///< one per frame, same stamps
-  std::vector<Eigen::Matrix4d> world_T_imu;         ///< ground truth per frame
-  std::map<uint32_t, Eigen::Vector3d> p_world;      ///< ground truth landmark of each id
+  std::vector<TwistData> twists;                ///< measured, one per frame
+  std::vector<TwistData> true_twists;           ///< noiseless, bias-free
+  std::vector<FeatureFrame> frames;             ///< one per frame, same stamps
+  std::vector<Eigen::Matrix4d> world_T_imu;     ///< ground truth per frame
+  std::map<uint32_t, Eigen::Vector3d> p_world;  ///< ground truth landmark of each id
 };
 
 /// KITTI-like stereo rig driving a curvy road with landmarks on both sides. Twist k+1 drives

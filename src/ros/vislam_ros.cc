@@ -1,9 +1,9 @@
 #include "ekf_vislam/ros/vislam_ros.h"
 
 #include "ekf_vislam/ros/conversions.h"
+#include "ekf_vislam/ros/landmark_markers.h"
 #include "ekf_vislam/ros/ros_parameter_source.h"
 
-#include <Eigen/Eigenvalues>
 #include <geometry_msgs/TransformStamped.h>
 #include <nav_msgs/Odometry.h>
 
@@ -12,29 +12,6 @@
 #include <stdexcept>
 
 namespace ekf_vislam {
-
-namespace {
-
-
-std_msgs::ColorRGBA color(float r, float g, float b, float a) {
-  std_msgs::ColorRGBA c;
-  c.r = r;
-  c.g = g;
-  c.b = b;
-  c.a = a;
-  return c;
-}
-
-// Green at or below `good`, yellow halfway (log scale), red at or above `bad`.
-std_msgs::ColorRGBA sigmaColor(double sigma, double good, double bad) {
-  double t = std::log(std::max(sigma, 1e-12) / good) / std::log(bad / good);
-  if (!std::isfinite(t)) t = 1.0;
-  t = std::min(1.0, std::max(0.0, t));
-  return color(static_cast<float>(std::min(1.0, 2.0 * t)),
-               static_cast<float>(std::min(1.0, 2.0 * (1.0 - t))), 0.0f, 1.0f);
-}
-
-}  // namespace
 
 VislamRos::VislamRos(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string& name)
     : nh_(nh), pnh_(pnh), name_(name) {
@@ -54,9 +31,9 @@ VislamRos::VislamRos(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string&
            describeOptions(options_).c_str(), describeOptions(ros_options_).c_str());
 
   runner_ = std::make_unique<EstimatorRunner>(
-      options_, MeasurementSequencer::Options{
-                    ros_options_.sequencer_max_delay,
-                    static_cast<size_t>(ros_options_.sequencer_max_buffered)});
+      options_,
+      MeasurementSequencer::Options{ros_options_.sequencer_max_delay,
+                                    static_cast<size_t>(ros_options_.sequencer_max_buffered)});
   runner_->enablePreview(true);  // twist-rate odometry
   if (ros_options_.calibration.has_intrinsics && ros_options_.calibration.has_extrinsic) {
     tryCalibrate();
@@ -79,15 +56,15 @@ VislamRos::VislamRos(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string&
   const int queue = ros_options_.queue_size;
   const ros::TransportHints hints = ros::TransportHints().tcpNoDelay();
   if (ros_options_.twist_type == "odometry") {
-    twist_sub_ =
-        nh_.subscribe("imu/twist", queue, &VislamRos::odometryTwistCallback, this, hints);
+    twist_sub_ = nh_.subscribe("imu/twist", queue, &VislamRos::odometryTwistCallback, this, hints);
   } else if (ros_options_.twist_type == "twist_with_covariance") {
     twist_sub_ =
         nh_.subscribe("imu/twist", queue, &VislamRos::twistWithCovarianceCallback, this, hints);
   } else {
     twist_sub_ = nh_.subscribe("imu/twist", queue, &VislamRos::twistCallback, this, hints);
   }
-  features_sub_ = nh_.subscribe("stereo/features", queue, &VislamRos::featuresCallback, this, hints);
+  features_sub_ =
+      nh_.subscribe("stereo/features", queue, &VislamRos::featuresCallback, this, hints);
   left_info_sub_ = nh_.subscribe("stereo/left/camera_info", 10, &VislamRos::leftInfoCallback, this);
   right_info_sub_ =
       nh_.subscribe("stereo/right/camera_info", 10, &VislamRos::rightInfoCallback, this);
@@ -160,8 +137,8 @@ void VislamRos::twistWithCovarianceCallback(
 void VislamRos::odometryTwistCallback(const nav_msgs::Odometry::ConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   // The twist is that of child_frame_id: taken to the IMU frame through the (fixed) tf.
-  const std::string child = msg->child_frame_id.empty() ? ros_options_.imu_frame
-                                                        : msg->child_frame_id;
+  const std::string child =
+      msg->child_frame_id.empty() ? ros_options_.imu_frame : msg->child_frame_id;
   if (child != imu_T_twist_child_frame_) {
     if (child == ros_options_.imu_frame) {
       imu_T_twist_child_ = Eigen::Isometry3d::Identity();
@@ -171,9 +148,10 @@ void VislamRos::odometryTwistCallback(const nav_msgs::Odometry::ConstPtr& msg) {
             tf_buffer_.lookupTransform(ros_options_.imu_frame, child, ros::Time(0)).transform);
       } catch (const tf2::TransformException& e) {
         ++twists_without_tf_;
-        ROS_WARN_THROTTLE(5.0, "%s: imu/twist odometry in frame '%s': no tf to '%s' yet (%s); "
-                          "twist not used (%lu so far)", name_.c_str(), child.c_str(),
-                          ros_options_.imu_frame.c_str(), e.what(),
+        ROS_WARN_THROTTLE(5.0,
+                          "%s: imu/twist odometry in frame '%s': no tf to '%s' yet (%s); "
+                          "twist not used (%lu so far)",
+                          name_.c_str(), child.c_str(), ros_options_.imu_frame.c_str(), e.what(),
                           static_cast<unsigned long>(twists_without_tf_));
         return;
       }
@@ -181,15 +159,17 @@ void VislamRos::odometryTwistCallback(const nav_msgs::Odometry::ConstPtr& msg) {
     imu_T_twist_child_frame_ = child;
   }
   bool covariance_invalid = false;
-  const TwistData twist = ros_conversions::toTwistData(*msg, imu_T_twist_child_, &covariance_invalid);
+  const TwistData twist =
+      ros_conversions::toTwistData(*msg, imu_T_twist_child_, &covariance_invalid);
   onTwist(twist, covariance_invalid);
 }
 
 void VislamRos::warnIfNotImuFrame(const std::string& frame_id) const {
   if (!frame_id.empty() && frame_id != ros_options_.imu_frame) {
-    ROS_WARN_ONCE("%s: imu/twist header.frame_id is '%s', expected ros/imu_frame '%s'; the twist "
-                  "is used as the IMU body-frame twist anyway",
-                  name_.c_str(), frame_id.c_str(), ros_options_.imu_frame.c_str());
+    ROS_WARN_ONCE(
+        "%s: imu/twist header.frame_id is '%s', expected ros/imu_frame '%s'; the twist "
+        "is used as the IMU body-frame twist anyway",
+        name_.c_str(), frame_id.c_str(), ros_options_.imu_frame.c_str());
   }
 }
 
@@ -197,9 +177,10 @@ void VislamRos::onTwist(const TwistData& twist, bool covariance_invalid) {
   if (shut_down_) return;
   if (covariance_invalid) {
     ++twist_covariance_invalid_;
-    ROS_WARN_THROTTLE(5.0, "%s: imu/twist covariance not finite: the configured noise is used "
-                      "(%lu so far)", name_.c_str(),
-                      static_cast<unsigned long>(twist_covariance_invalid_));
+    ROS_WARN_THROTTLE(5.0,
+                      "%s: imu/twist covariance not finite: the configured noise is used "
+                      "(%lu so far)",
+                      name_.c_str(), static_cast<unsigned long>(twist_covariance_invalid_));
   }
   ++twists_received_;
   last_twist_ = ros::WallTime::now();
@@ -294,11 +275,11 @@ void VislamRos::tryCalibrate() {
   }
   calibration_status_ = "ok";
   const Eigen::Vector3d t = calibration.cam_T_imu.translation();
-  ROS_INFO("%s: calibration set: fx=%.3f fy=%.3f cx=%.3f cy=%.3f baseline=%.4f m, image %dx%d, "
-           "cam_T_imu translation (%.4f, %.4f, %.4f) m",
-           name_.c_str(), calibration.fx, calibration.fy, calibration.cx, calibration.cy,
-           calibration.baseline, calibration.image_width, calibration.image_height, t.x(), t.y(),
-           t.z());
+  ROS_INFO(
+      "%s: calibration set: fx=%.3f fy=%.3f cx=%.3f cy=%.3f baseline=%.4f m, image %dx%d, "
+      "cam_T_imu translation (%.4f, %.4f, %.4f) m",
+      name_.c_str(), calibration.fx, calibration.fy, calibration.cx, calibration.cy,
+      calibration.baseline, calibration.image_width, calibration.image_height, t.x(), t.y(), t.z());
 }
 
 bool VislamRos::lookUpImuTCam(CalibrationBuilder* builder) {
@@ -335,7 +316,8 @@ void VislamRos::reportRefusedCalibration(const std::string& why) {
 void VislamRos::onProcessed(const EstimatorRunner::Processed& processed) {
   const VislamEstimator& estimator = runner_->estimator();
   if (processed.is_frame && processed.without_calibration) {
-    ROS_WARN_THROTTLE(5.0, "%s: no valid calibration yet (%s): feature frames are skipped, "
+    ROS_WARN_THROTTLE(5.0,
+                      "%s: no valid calibration yet (%s): feature frames are skipped, "
                       "prediction continues (%lu frames so far)",
                       name_.c_str(), calibration_status_.c_str(),
                       static_cast<unsigned long>(runner_->framesWithoutCalibration()));
@@ -400,8 +382,7 @@ void VislamRos::publishOdometry(double stamp, const Eigen::Isometry3d& world_T_i
 
 void VislamRos::publishTf() {
   // Once per stamp: a twist and a frame often share one, and tf2 drops repeated stamps.
-  if (!has_odometry_ || !ros_options_.publish_tf ||
-      last_odometry_.header.stamp == last_tf_stamp_) {
+  if (!has_odometry_ || !ros_options_.publish_tf || last_odometry_.header.stamp == last_tf_stamp_) {
     return;
   }
   geometry_msgs::TransformStamped transform;
@@ -422,98 +403,13 @@ void VislamRos::publishPath() {
 
 void VislamRos::publishLandmarks() {
   landmarks_dirty_ = false;
-  const VislamEstimator& estimator = runner_->estimator();
-  const std::vector<LandmarkEstimate>& landmarks = estimator.landmarks();
-  visualization_msgs::MarkerArray array;
-
-  visualization_msgs::Marker map;
-  map.header.frame_id = ros_options_.world_frame;
-  map.header.stamp = ros_conversions::toRosTime(last_stamp_);
-  map.ns = "landmarks";
-  map.id = 0;
-  map.type = visualization_msgs::Marker::POINTS;
-  map.pose.orientation.w = 1.0;
-  map.scale.x = map.scale.y = ros_options_.landmark_point_size;
-  map.color = color(0.0f, 1.0f, 0.0f, 1.0f);
-  visualization_msgs::Marker active = map;
-  active.ns = "active_landmarks";
-  active.scale.x = active.scale.y = 2.0 * ros_options_.landmark_point_size;
-  active.color = color(0.1f, 0.6f, 1.0f, 1.0f);
-
-  map.points.reserve(landmarks.size());
-  map.colors.reserve(landmarks.size());
-  std::vector<const LandmarkEstimate*> active_landmarks;
-  for (const LandmarkEstimate& landmark : landmarks) {
-    if (!landmark.p_world.allFinite() || !landmark.covariance.allFinite()) continue;
-    geometry_msgs::Point point;
-    point.x = landmark.p_world.x();
-    point.y = landmark.p_world.y();
-    point.z = landmark.p_world.z();
-    const double sigma = std::sqrt(std::max(0.0, landmark.covariance.diagonal().maxCoeff()));
-    map.points.push_back(point);
-    map.colors.push_back(
-        sigmaColor(sigma, ros_options_.landmark_sigma_good, ros_options_.landmark_sigma_bad));
-    if (landmark.active) {
-      active.points.push_back(point);
-      active_landmarks.push_back(&landmark);
-    }
-  }
-  for (visualization_msgs::Marker* marker : {&map, &active}) {
-    marker->action = marker->points.empty() ? visualization_msgs::Marker::DELETE
-                                            : visualization_msgs::Marker::ADD;
-    array.markers.push_back(*marker);
-  }
-
-  size_t ellipsoids = 0;
-  if (ros_options_.covariance_ellipsoids) {
-    for (const LandmarkEstimate* landmark : active_landmarks) {
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(landmark->covariance);
-      if (solver.info() != Eigen::Success) continue;
-      Eigen::Matrix3d axes = solver.eigenvectors();
-      if (axes.determinant() < 0.0) axes.col(2) *= -1.0;
-      const Eigen::Quaterniond q(axes);
-      visualization_msgs::Marker sphere;
-      sphere.header = map.header;
-      sphere.ns = "landmark_covariance";
-      sphere.id = static_cast<int>(ellipsoids++);
-      sphere.type = visualization_msgs::Marker::SPHERE;
-      sphere.action = visualization_msgs::Marker::ADD;
-      sphere.pose.position.x = landmark->p_world.x();
-      sphere.pose.position.y = landmark->p_world.y();
-      sphere.pose.position.z = landmark->p_world.z();
-      sphere.pose.orientation.x = q.x();
-      sphere.pose.orientation.y = q.y();
-      sphere.pose.orientation.z = q.z();
-      sphere.pose.orientation.w = q.w();
-      const Eigen::Vector3d size =
-          2.0 * ros_options_.ellipsoid_sigma_scale *
-          solver.eigenvalues().cwiseMax(1e-8).cwiseSqrt();
-      sphere.scale.x = size.x();
-      sphere.scale.y = size.y();
-      sphere.scale.z = size.z();
-      sphere.color = color(1.0f, 0.6f, 0.0f, 0.35f);
-      array.markers.push_back(sphere);
-    }
-  }
-  for (size_t id = ellipsoids; id < previous_ellipsoids_; ++id) {
-    visualization_msgs::Marker gone;
-    gone.header = map.header;
-    gone.ns = "landmark_covariance";
-    gone.id = static_cast<int>(id);
-    gone.action = visualization_msgs::Marker::DELETE;
-    array.markers.push_back(gone);
-  }
-  previous_ellipsoids_ = ellipsoids;
-  landmarks_pub_.publish(array);
+  landmarks_pub_.publish(ros_markers::landmarkMarkers(runner_->estimator().landmarks(),
+                                                      ros_conversions::toRosTime(last_stamp_),
+                                                      ros_options_, &previous_ellipsoids_));
 }
 
 void VislamRos::clearVisualization() {
-  visualization_msgs::MarkerArray array;
-  visualization_msgs::Marker clear;
-  clear.header.frame_id = ros_options_.world_frame;
-  clear.action = visualization_msgs::Marker::DELETEALL;
-  array.markers.push_back(clear);
-  landmarks_pub_.publish(array);
+  landmarks_pub_.publish(ros_markers::clearedMarkers(ros_options_));
   previous_ellipsoids_ = 0;
   path_pub_.publish(path_);
 }
@@ -553,8 +449,8 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
   twists_at_last_diag_ = twists_received_;
   frames_at_last_diag_ = frames_received_;
   last_diag_ = now;
-  const uint64_t divergence = stats.get(Counter::kDivergenceRecovery) +
-                              stats.get(Counter::kUpdateNonFinite);
+  const uint64_t divergence =
+      stats.get(Counter::kDivergenceRecovery) + stats.get(Counter::kUpdateNonFinite);
   diverging_ = divergence > divergence_at_last_diag_;
   divergence_at_last_diag_ = divergence;
 

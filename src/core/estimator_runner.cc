@@ -211,8 +211,10 @@ RunSummary EstimatorRunner::summary() const {
   s.extra["disparity_offset_sigma_px"] = estimator_.disparityOffsetSigma();
   s.extra["baseline_scale"] = estimator_.baselineScale();
   const Vector6d bias = estimator_.twistBias();
+  const Eigen::Vector3d& drift = estimator_.trackDriftRate();
   for (int i = 0; i < 3; ++i) {
     s.extra[std::string("gyro_bias_") + "xyz"[i]] = bias(3 + i);
+    s.extra[std::string("track_drift_rate_") + "xyz"[i]] = drift(i);
   }
   struct rusage usage {};
   if (getrusage(RUSAGE_SELF, &usage) == 0) {

@@ -490,6 +490,7 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
   status.add("state_dimension", estimator.stateDimension());
   status.add("disparity_offset_px", estimator.disparityOffset());
   status.add("baseline_scale", estimator.baselineScale());
+  status.add("track_drift_rate_rad_s", estimator.trackDriftRate().norm());
   status.add("observations_rejected", stats.observationsRejected());
   for (int i = 0; i < static_cast<int>(Counter::kCount); ++i) {
     status.add(counterName(static_cast<Counter>(i)), stats.get(static_cast<Counter>(i)));

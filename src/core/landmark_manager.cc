@@ -3,8 +3,6 @@
 #include "ekf_vislam/core/se3.h"
 #include "ekf_vislam/core/state_helper.h"
 
-#include <algorithm>
-
 namespace ekf_vislam {
 
 LandmarkManager::LandmarkManager(const VislamOptions& options)
@@ -102,8 +100,7 @@ void LandmarkManager::setFlowReference(size_t k, const StereoObservation& f,
   Eigen::Vector4d z_pred;
   Matrix43d H_landmark;
   // Predicted with the track's drift at its age, as the updater predicts the next observation.
-  const Eigen::Vector3d drift_angle =
-      std::max(0.0, frame_stamp_ - track.anchor_stamp) * state.track_drift_rate_imu;
+  const Eigen::Vector3d drift_angle = track.ageAt(frame_stamp_) * state.track_drift_rate_imu;
   track.has_flow_reference =
       camera.projectTurned(state.imu_T_world, state.landmark(k), drift_angle, &z_pred, &H_landmark,
                            nullptr, options_->landmarks.min_depth * 0.5);

@@ -87,7 +87,7 @@ bool StereoUpdater::linearize(const StereoCamera& camera, const FilterState& sta
 bool StereoUpdater::linearizeCandidate(const StereoCamera& camera, const FilterState& state,
                                        const LandmarkManager& landmarks, StereoCandidate* c) const {
   const LandmarkTrack& track = landmarks.track(c->landmark);
-  c->track_age = std::max(0.0, landmarks.frameStamp() - track.anchor_stamp);
+  c->track_age = track.ageAt(landmarks.frameStamp());
   if (!linearize(camera, state, c)) return false;
   // The track-jump test compares the observation itself with the last frame's.
   c->flow_residual = c->residual.head<2>();
@@ -114,7 +114,7 @@ void StereoUpdater::difference(const StereoCamera& camera, const FilterState& st
   const Eigen::Vector3d p_world = state.landmark(c->landmark);
   Eigen::VectorXd residual_prev;
   Eigen::MatrixXd H_landmark_prev, H_calibration_prev, H_drift_prev;
-  const double age_prev = std::max(0.0, track.previous_stamp - track.anchor_stamp);
+  const double age_prev = track.ageAt(track.previous_stamp);
   if (!predict(camera, state, state.imu_T_world_clone, p_world, track.previous_z, age_prev,
                &residual_prev, &H_landmark_prev, &H_calibration_prev, &H_drift_prev)) {
     return;

@@ -239,8 +239,8 @@ TEST(VislamEstimator, DeadReckoningIntegratesTheTwist) {
   s.twists = s.true_twists;
   VislamOptions o;
   o.mode = EstimatorMode::kDeadReckoning;
-  o.vehicle.lateral_velocity_sigma = o.vehicle.vertical_velocity_sigma =
-      0.0;  // integrate the twist as given
+  // Integrate the twist as given.
+  o.vehicle.lateral_velocity_sigma = o.vehicle.vertical_velocity_sigma = 0.0;
   const RunResult r = run(s, o);
   EXPECT_LT(r.final_error_m, 1e-9);
 }
@@ -291,8 +291,8 @@ TEST(VislamEstimator, LandmarkInitializationCovarianceFromJacobians) {
   const Scenario s = makeScenario(so);
   VislamOptions o;
   o.bias.estimate_gyro_bias = false;
-  o.extrinsic.estimate_twist_rotation =
-      false;  // state: pose, disparity offset, baseline scale, landmark
+  // State: pose, disparity offset, baseline scale, landmark.
+  o.extrinsic.estimate_twist_rotation = false;
   o.intrinsic.estimate_disparity_offset = true;
   o.intrinsic.estimate_baseline_scale = true;
   VislamEstimator estimator(o);
@@ -576,8 +576,8 @@ TEST(VislamEstimator, LandmarkLifeCycleAugmentMarginalizeKeepInMap) {
   so.frames = 40;
   const Scenario s = makeScenario(so);
   VislamOptions options = defaultOptions();
-  options.landmarks.max_track_gap =
-      0;  // a missing id ends its track at once (the gap has its own test)
+  // A missing id ends its track at once (the gap has its own test).
+  options.landmarks.max_track_gap = 0;
   VislamEstimator estimator(options);
   ASSERT_TRUE(estimator.setCalibration(s.calibration));
   estimator.feedTwist(s.twists[0]);

@@ -12,6 +12,7 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <limits>
 #include <optional>
 #include <unordered_map>
@@ -44,6 +45,9 @@ struct LandmarkTrack {
   /// Stamp (s) of the frame that started this landmark: the age of an observation, over which
   /// the track has drifted (track_drift/), counts from it.
   double anchor_stamp = 0.0;
+
+  /// Age (s, never negative) of an observation of this landmark taken at `stamp`.
+  double ageAt(double stamp) const { return std::max(0.0, stamp - anchor_stamp); }
 };
 
 /// Landmarks that leave the state after an update, decided by the updater, applied at once.

@@ -109,12 +109,12 @@ struct IntrinsicOptions {
 /// track_drift/: a common rate at which the feature tracks turn away from their points. Tracks
 /// that follow a point from frame to frame accumulate error (the KITTI tracks drift 0.02-0.1 px
 /// per frame, doc/experiments.md): an observation of age a (s since its landmark started) shows
-/// the point rotated by exp(a w^) in the left camera frame. The images alone cannot tell this
-/// rotation from the vehicle's, so the rate w and the gyro bias share what the twist and the
-/// tracks disagree on, and the pose covariance carries the ambiguity.
+/// the point turned by exp(a w^) about the IMU origin (IMU axes). Off by default: on the KITTI
+/// tracks the drift depends on the image position, the parallax of the translation makes w
+/// observable, and the fitted common rate bends the trajectory.
 struct TrackDriftOptions {
   bool estimate_rate = false;
-  double rate_prior_sigma = 1e-3;  ///< rad/s, each camera axis
+  double rate_prior_sigma = 1e-3;  ///< rad/s, each IMU axis
   double rate_random_walk = 0.0;   ///< rad/s/sqrt(s)
 };
 

@@ -1,12 +1,12 @@
 #include "ekf_vislam/core/estimator_runner.h"
 
-#include <algorithm>
-#include <limits>
-#include <cmath>
-#include <cerrno>
-#include <cstring>
 #include <sys/resource.h>
 #include <sys/stat.h>
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <limits>
 
 namespace ekf_vislam {
 
@@ -159,8 +159,8 @@ void EstimatorRunner::feedFrame(const FeatureFrame& frame, const Observer& obser
   // Latency: from the push of this frame to now (frames leave the sequencer in stamp order).
   while (!frame_arrivals_.empty() && !(frame_arrivals_.front().first > frame.stamp)) {
     if (frame_arrivals_.front().first == frame.stamp) {
-      latencies_.add(std::chrono::duration<double, std::milli>(
-                         stop - frame_arrivals_.front().second).count());
+      latencies_.add(
+          std::chrono::duration<double, std::milli>(stop - frame_arrivals_.front().second).count());
     }
     frame_arrivals_.pop_front();
   }
@@ -210,6 +210,8 @@ RunSummary EstimatorRunner::summary() const {
   s.extra["disparity_offset_px"] = estimator_.disparityOffset();
   s.extra["disparity_offset_sigma_px"] = estimator_.disparityOffsetSigma();
   s.extra["baseline_scale"] = estimator_.baselineScale();
+  s.extra["track_correlation"] = estimator_.trackCorrelation();
+  s.extra["track_variance_factor"] = estimator_.trackVarianceFactor();
   const Vector6d bias = estimator_.twistBias();
   const Eigen::Vector3d& drift = estimator_.trackDriftRate();
   for (int i = 0; i < 3; ++i) {

@@ -19,6 +19,7 @@ void FilterState::reset(const StatePrior& prior) {
   dim_ = layout_.headDim();
   const int capacity = std::max(64, dim_);
   sigma_ = Eigen::MatrixXd::Zero(capacity, capacity);
+  if (layout_.reported_covariance) sigma_reported_ = Eigen::MatrixXd::Zero(capacity, capacity);
   landmark_means_ = Eigen::VectorXd::Zero(capacity);
   setPrior(prior);
 }
@@ -59,6 +60,7 @@ void FilterState::setPrior(const StatePrior& prior) {
     const int row = layout_.driftRow() + i;
     sigma_(row, row) = prior.track_drift_rate_sigma * prior.track_drift_rate_sigma;
   }
+  if (layout_.reported_covariance) covariance(1) = sigma_.topLeftCorner(dim_, dim_);
   clonePose();
 }
 
@@ -73,19 +75,23 @@ void FilterState::clonePose() {
   if (layout_.clone_dim == 0) return;
   // The clone's error equals the pose error now: rows, then columns (which sets the clone block
   // to the pose block).
-  auto S = covariance();
   const int c = layout_.cloneRow();
-  S.middleRows(c, StateLayout::kPoseDim) = S.topRows(StateLayout::kPoseDim);
-  S.middleCols(c, StateLayout::kPoseDim) = S.leftCols(StateLayout::kPoseDim);
+  for (int which = 0; which < covarianceCount(); ++which) {
+    auto S = covariance(which);
+    S.middleRows(c, StateLayout::kPoseDim) = S.topRows(StateLayout::kPoseDim);
+    S.middleCols(c, StateLayout::kPoseDim) = S.leftCols(StateLayout::kPoseDim);
+  }
 }
 
 void FilterState::ensureCapacity(int dim) {
   const int capacity = static_cast<int>(sigma_.rows());
   if (dim <= capacity) return;
   const int new_capacity = std::max(dim, 2 * capacity);
-  Eigen::MatrixXd grown = Eigen::MatrixXd::Zero(new_capacity, new_capacity);
-  grown.topLeftCorner(dim_, dim_) = sigma_.topLeftCorner(dim_, dim_);
-  sigma_.swap(grown);
+  for (int which = 0; which < covarianceCount(); ++which) {
+    Eigen::MatrixXd grown = Eigen::MatrixXd::Zero(new_capacity, new_capacity);
+    grown.topLeftCorner(dim_, dim_) = storage(which).topLeftCorner(dim_, dim_);
+    storage(which).swap(grown);
+  }
   Eigen::VectorXd grown_mean = Eigen::VectorXd::Zero(new_capacity);
   grown_mean.head(dim_) = landmark_means_.head(dim_);
   landmark_means_.swap(grown_mean);
@@ -94,12 +100,22 @@ void FilterState::ensureCapacity(int dim) {
 void FilterState::appendLandmark(const Eigen::Vector3d& p_world,
                                  const Eigen::MatrixXd& cross_covariance,
                                  const Eigen::Matrix3d& own_covariance) {
+  const auto count = static_cast<size_t>(covarianceCount());
+  appendLandmark(p_world, std::vector<Eigen::MatrixXd>(count, cross_covariance),
+                 std::vector<Eigen::Matrix3d>(count, own_covariance));
+}
+
+void FilterState::appendLandmark(const Eigen::Vector3d& p_world,
+                                 const std::vector<Eigen::MatrixXd>& cross_covariances,
+                                 const std::vector<Eigen::Matrix3d>& own_covariances) {
   const int row = dim_;
   ensureCapacity(dim_ + 3);
-  auto S = sigma_.topLeftCorner(dim_ + 3, dim_ + 3);
-  S.block(row, 0, 3, dim_) = cross_covariance;
-  S.block(0, row, dim_, 3) = cross_covariance.transpose();
-  S.block<3, 3>(row, row) = own_covariance;
+  for (int which = 0; which < covarianceCount(); ++which) {
+    auto S = storage(which).topLeftCorner(dim_ + 3, dim_ + 3);
+    S.block(row, 0, 3, dim_) = cross_covariances[which];
+    S.block(0, row, dim_, 3) = cross_covariances[which].transpose();
+    S.block<3, 3>(row, row) = own_covariances[which];
+  }
   landmark_means_.segment<3>(row) = p_world;
   dim_ += 3;
 }
@@ -107,12 +123,15 @@ void FilterState::appendLandmark(const Eigen::Vector3d& p_world,
 void FilterState::keepRows(const std::vector<int>& rows) {
   // New indices never exceed old ones, so ascending copies are safe.
   const int new_dim = static_cast<int>(rows.size());
-  for (int c = 0; c < new_dim; ++c) {
-    if (rows[c] != c) sigma_.col(c).head(dim_) = sigma_.col(rows[c]).head(dim_);
-  }
-  for (int c = 0; c < new_dim; ++c) {
-    for (int r = 0; r < new_dim; ++r) {
-      if (rows[r] != r) sigma_(r, c) = sigma_(rows[r], c);
+  for (int which = 0; which < covarianceCount(); ++which) {
+    Eigen::MatrixXd& sigma = storage(which);
+    for (int c = 0; c < new_dim; ++c) {
+      if (rows[c] != c) sigma.col(c).head(dim_) = sigma.col(rows[c]).head(dim_);
+    }
+    for (int c = 0; c < new_dim; ++c) {
+      for (int r = 0; r < new_dim; ++r) {
+        if (rows[r] != r) sigma(r, c) = sigma(rows[r], c);
+      }
     }
   }
   for (int r = 0; r < new_dim; ++r) landmark_means_(r) = landmark_means_(rows[r]);
@@ -121,8 +140,10 @@ void FilterState::keepRows(const std::vector<int>& rows) {
   const int capacity = static_cast<int>(sigma_.rows());
   if (capacity > 256 && dim_ < capacity / 4) {
     const int new_capacity = std::max(64, 2 * dim_);
-    Eigen::MatrixXd shrunk = sigma_.topLeftCorner(new_capacity, new_capacity);
-    sigma_.swap(shrunk);
+    for (int which = 0; which < covarianceCount(); ++which) {
+      Eigen::MatrixXd shrunk = storage(which).topLeftCorner(new_capacity, new_capacity);
+      storage(which).swap(shrunk);
+    }
     Eigen::VectorXd shrunk_mean = landmark_means_.head(new_capacity);
     landmark_means_.swap(shrunk_mean);
   }

@@ -184,7 +184,7 @@ void LandmarkManager::apply(const LandmarkDecisions& decisions, FilterState* sta
 
 Eigen::Matrix3d LandmarkManager::covariance(const FilterState& state, size_t k) const {
   const int row = state.layout().landmarkRow(k);
-  const auto S = state.covariance();
+  const auto S = state.reportedCovariance();
   if (options_->mode != EstimatorMode::kSlam) return S.block<3, 3>(row, row);
   // dp = xi - p^ phi.
   Eigen::Matrix<double, 3, 6> M;

@@ -132,7 +132,6 @@ void Propagator::predict(double dt, const TwistData& twist, double noise_scale,
   // landmark (SLAM mode; in mapping mode the landmarks do not depend on the pose).
   const Matrix6d Ad = se3::adjoint(se3::inverse(state->imu_T_world));
   const int dim = state->dim();
-  auto S = state->covariance();
   Eigen::MatrixXd D = Eigen::MatrixXd::Zero(dim, kPoseDim);
   D.topLeftCorner<6, 6>().setIdentity();
   if (options_->mode == EstimatorMode::kSlam) {
@@ -141,22 +140,32 @@ void Propagator::predict(double dt, const TwistData& twist, double noise_scale,
     }
   }
   const int aux = layout.auxDim();
+  // F = I + E on the auxiliary columns, E = D G (dim x aux), G = dt Ad J_l(xi) du/daux.
+  Eigen::MatrixXd E;
   if (aux > 0) {
-    // F = I + E on the auxiliary columns, E = D G (dim x aux), G = dt Ad J_l(xi) du/daux.
-    const Eigen::MatrixXd G = dt * Ad * se3::leftJacobian(xi) * twistJacobian(*state, twist, u);
-    const Eigen::MatrixXd E = D * G;
-    const Eigen::MatrixXd E_sigma = E * S.middleRows(kPoseDim, aux);  // dim x dim
-    const Eigen::MatrixXd sigma_aa = S.block(kPoseDim, kPoseDim, aux, aux);
-    S += E_sigma + E_sigma.transpose() + E * sigma_aa * E.transpose();
+    E = D * (dt * Ad * se3::leftJacobian(xi) * twistJacobian(*state, twist, u));
   }
   const Matrix6d Q_world = (noise_scale * dt) * Ad * noiseDensity(*state, twist) * Ad.transpose();
-  S.noalias() += D * Q_world * D.transpose();
+  for (int which = 0; which < state->covarianceCount(); ++which) {
+    auto S = state->covariance(which);
+    if (aux > 0) {
+      const Eigen::MatrixXd E_sigma = E * S.middleRows(kPoseDim, aux);  // dim x dim
+      const Eigen::MatrixXd sigma_aa = S.block(kPoseDim, kPoseDim, aux, aux);
+      S += E_sigma + E_sigma.transpose() + E * sigma_aa * E.transpose();
+    }
+    S.noalias() += D * Q_world * D.transpose();
+  }
   addRandomWalks(dt, state);
 }
 
 void Propagator::addRandomWalks(double dt, FilterState* state) const {
-  const StateLayout& layout = state->layout();
-  auto S = state->covariance();
+  for (int which = 0; which < state->covarianceCount(); ++which) {
+    addRandomWalks(dt, state->layout(), state->covariance(which));
+  }
+}
+
+void Propagator::addRandomWalks(double dt, const StateLayout& layout,
+                                Eigen::Block<Eigen::MatrixXd> S) const {
   for (int i = 0; i < layout.biasDim(); ++i) {
     const double rw = layout.bias_components[i] < 3 ? options_->bias.velocity_random_walk
                                                     : options_->bias.gyro_random_walk;

@@ -30,6 +30,39 @@ void RepeatedFrameHandler::hold(const FeatureFrame& frame, const std::vector<siz
   }
 }
 
+void RepeatedFrameHandler::shiftCovariance(
+    const FilterState& state, const Eigen::Matrix3d& R, const Eigen::Vector3d& p_camera_world,
+    const std::vector<std::pair<int, Eigen::Matrix3d>>& moved,
+    Eigen::Block<Eigen::MatrixXd> S) const {
+  const StateLayout& layout = state.layout();
+  const bool slam = layout.clone_dim > 0;
+  const int c = layout.cloneRow();
+  for (const auto& [row, Rp] : moved) {
+    Eigen::MatrixXd rows = R * S.middleRows(row, 3);
+    if (slam) {
+      rows += S.topRows(3) - Rp * S.middleRows(3, 3) - R * S.middleRows(c, 3) +
+              Rp * S.middleRows(c + 3, 3);
+    }
+    S.middleRows(row, 3) = rows;
+  }
+  for (const auto& [row, Rp] : moved) {
+    Eigen::MatrixXd cols = S.middleCols(row, 3) * R.transpose();
+    if (slam) {
+      cols += S.leftCols(3) - S.middleCols(3, 3) * Rp.transpose() -
+              S.middleCols(c, 3) * R.transpose() + S.middleCols(c + 3, 3) * Rp.transpose();
+    }
+    S.middleCols(row, 3) = cols;
+  }
+  const double relative_var =
+      options_->limits.repeated_frame_depth_sigma * options_->limits.repeated_frame_depth_sigma;
+  for (const auto& moved_row : moved) {
+    const int row = moved_row.first;
+    S.middleRows(row, 3) = S.middleCols(row, 3).transpose();
+    const Eigen::Vector3d ray = state.landmark((row - layout.headDim()) / 3) - p_camera_world;
+    S.block<3, 3>(row, row) += relative_var * ray * ray.transpose();
+  }
+}
+
 void RepeatedFrameHandler::shiftCrossingTracks(const StereoCamera& camera, FilterState* state,
                                                LandmarkManager* landmarks, EstimatorStats* stats,
                                                FeedResult* result) {
@@ -43,47 +76,23 @@ void RepeatedFrameHandler::shiftCrossingTracks(const StereoCamera& camera, Filte
   const Eigen::Matrix4d delta = world_T_imu * state->imu_T_world_clone;
   const Eigen::Matrix3d R = delta.topLeftCorner<3, 3>();
   const Eigen::Vector3d t = delta.topRightCorner<3, 1>();
-  auto S = state->covariance();
   const StateLayout& layout = state->layout();
-  const bool slam = layout.clone_dim > 0;
-  const int c = layout.cloneRow();
   std::vector<std::pair<int, Eigen::Matrix3d>> moved;  // landmark row, R_D p^ (old mean)
   for (uint32_t id : crossing_ids_) {
     const std::optional<size_t> k = landmarks->find(id);
     if (!k) continue;  // ended, or restarted from its new observation
-    const int row = layout.landmarkRow(*k);
     const Eigen::Vector3d p = state->landmark(*k);
-    const Eigen::Matrix3d Rp = R * se3::hat(p);
-    Eigen::MatrixXd rows = R * S.middleRows(row, 3);
-    if (slam) {
-      rows += S.topRows(3) - Rp * S.middleRows(3, 3) - R * S.middleRows(c, 3) +
-              Rp * S.middleRows(c + 3, 3);
-    }
-    S.middleRows(row, 3) = rows;
+    moved.emplace_back(layout.landmarkRow(*k), R * se3::hat(p));
     state->setLandmark(*k, R * p + t);
-    moved.emplace_back(row, Rp);
     landmarks->track(*k).has_flow_reference = false;
     stats->increment(Counter::kLandmarkShifted);
     ++result->landmarks_shifted;
   }
-  for (const auto& [row, Rp] : moved) {
-    Eigen::MatrixXd cols = S.middleCols(row, 3) * R.transpose();
-    if (slam) {
-      cols += S.leftCols(3) - S.middleCols(3, 3) * Rp.transpose() -
-              S.middleCols(c, 3) * R.transpose() + S.middleCols(c + 3, 3) * Rp.transpose();
-    }
-    S.middleCols(row, 3) = cols;
-  }
   const Eigen::Vector3d p_camera_world =
       world_T_imu.topLeftCorner<3, 3>() * camera.imuTCam().topRightCorner<3, 1>() +
       world_T_imu.topRightCorner<3, 1>();
-  const double relative_var =
-      options_->limits.repeated_frame_depth_sigma * options_->limits.repeated_frame_depth_sigma;
-  for (const auto& moved_row : moved) {
-    const int row = moved_row.first;
-    S.middleRows(row, 3) = S.middleCols(row, 3).transpose();
-    const Eigen::Vector3d ray = state->landmark((row - layout.headDim()) / 3) - p_camera_world;
-    S.block<3, 3>(row, row) += relative_var * ray * ray.transpose();
+  for (int which = 0; which < state->covarianceCount(); ++which) {
+    shiftCovariance(*state, R, p_camera_world, moved, state->covariance(which));
   }
   crossing_ids_.clear();
 }

@@ -2,6 +2,8 @@
 
 #include <Eigen/Cholesky>
 
+#include <cmath>
+
 namespace ekf_vislam {
 namespace state_helper {
 namespace {
@@ -15,6 +17,44 @@ void forEachBlock(const std::vector<SparseJacobian>& jacobians, Visit visit) {
     for (const JacobianBlock& block : jacobian) visit(row, rows, block);
     row += rows;
   }
+}
+
+/// P H^T (dim x m) of a covariance, from the touched columns only (adding to zero first is exact).
+Eigen::MatrixXd covarianceTimesHt(const std::vector<SparseJacobian>& jacobians,
+                                  const Eigen::Block<Eigen::MatrixXd>& S, int m) {
+  Eigen::MatrixXd PHt = Eigen::MatrixXd::Zero(S.rows(), m);
+  forEachBlock(jacobians, [&](int row, int rows, const JacobianBlock& block) {
+    PHt.middleCols(row, rows).noalias() +=
+        S.middleCols(block.first_row, block.H.cols()) * block.H.transpose();
+  });
+  return PHt;
+}
+
+/// The reported covariance after an update with the gain K of the other one (Joseph form):
+/// P <- (I - K H) P (I - K H)^T + K R K^T = P + K C^T + C K^T with C = K S / 2 - P H^T and
+/// S = H P H^T + R: the covariance of that gain's error when the noise is R = noise_var I.
+void updateReported(const std::vector<SparseJacobian>& jacobians, const Eigen::MatrixXd& K,
+                    double noise_var, Eigen::Block<Eigen::MatrixXd> P) {
+  const int m = static_cast<int>(K.cols());
+  const Eigen::MatrixXd PHt = covarianceTimesHt(jacobians, P, m);
+  Eigen::MatrixXd innovation_cov = Eigen::MatrixXd::Zero(m, m);
+  forEachBlock(jacobians, [&](int row, int rows, const JacobianBlock& block) {
+    innovation_cov.middleRows(row, rows).noalias() +=
+        block.H * PHt.middleRows(block.first_row, block.H.cols());
+  });
+  innovation_cov.diagonal().array() += noise_var;
+  const Eigen::MatrixXd C = 0.5 * K * innovation_cov - PHt;
+  // K C^T + C K^T = (u + v)(u + v)^T / 2 - (u - v)(u - v)^T / 2 with u = a K, v = C / a: two
+  // symmetric rank-m updates of the lower triangle; a balances the two factors' scales.
+  const double k_norm = K.norm();
+  const double a = k_norm > 0.0 ? std::sqrt(C.norm() / k_norm) : 1.0;
+  if (!(a > 0.0) || !std::isfinite(a)) return;
+  const Eigen::MatrixXd u = a * K;
+  const Eigen::MatrixXd v = C / a;
+  P.selfadjointView<Eigen::Lower>().rankUpdate(u + v, 0.5);
+  P.selfadjointView<Eigen::Lower>().rankUpdate(u - v, -0.5);
+  const int dim = static_cast<int>(P.rows());
+  for (int j = 1; j < dim; ++j) P.col(j).head(j) = P.row(j).head(j).transpose();
 }
 
 }  // namespace
@@ -44,7 +84,8 @@ double mahalanobis2(const FilterState& state, const SparseJacobian& jacobian,
 }
 
 UpdateOutcome update(FilterState* state, const std::vector<SparseJacobian>& jacobians,
-                     const Eigen::VectorXd& residual, double noise_var, bool correct_pose) {
+                     const Eigen::VectorXd& residual, double noise_var, bool correct_pose,
+                     double reported_noise_var) {
   UpdateOutcome outcome;
   auto S = state->covariance();
   const int dim = state->dim();
@@ -75,13 +116,22 @@ UpdateOutcome update(FilterState* state, const std::vector<SparseJacobian>& jaco
     outcome.status = UpdateStatus::kNonFinite;
     return outcome;
   }
+  if (state->covarianceCount() > 1) {
+    // K^T = S^-1 (P H^T)^T = L^-T B.
+    const Eigen::MatrixXd K = llt.matrixU().solve(B).transpose();
+    updateReported(jacobians, K, reported_noise_var < 0.0 ? noise_var : reported_noise_var,
+                   state->covariance(1));
+  }
   S.selfadjointView<Eigen::Lower>().rankUpdate(B.transpose(), -1.0);
   for (int j = 1; j < dim; ++j) S.col(j).head(j) = S.row(j).head(j).transpose();
   state->applyCorrection(dx, correct_pose);
   // Guard: the diagonal must stay positive.
-  if (!(S.diagonal().array() > 0.0).all()) {
-    outcome.covariance_repaired = true;
-    S.diagonal() = S.diagonal().cwiseMax(1e-12);
+  for (int which = 0; which < state->covarianceCount(); ++which) {
+    auto C = state->covariance(which);
+    if (!(C.diagonal().array() > 0.0).all()) {
+      outcome.covariance_repaired = true;
+      C.diagonal() = C.diagonal().cwiseMax(1e-12);
+    }
   }
   return outcome;
 }
@@ -90,11 +140,14 @@ void augment(FilterState* state, const Eigen::Vector3d& p_world, const Eigen::Ma
              const Eigen::Matrix3d& own_covariance) {
   // Cov(x_new, state) = A Sigma_[head, :]: O(head x dim), not O(dim^2).
   const int head = static_cast<int>(A_head.cols());
-  const auto S = state->covariance();
-  const Eigen::MatrixXd cross = A_head * S.topRows(head);
-  Eigen::Matrix3d sigma_new = own_covariance;
-  sigma_new += cross.leftCols(head) * A_head.transpose();
-  state->appendLandmark(p_world, cross, sigma_new);
+  std::vector<Eigen::MatrixXd> crosses;
+  std::vector<Eigen::Matrix3d> owns;
+  for (int which = 0; which < state->covarianceCount(); ++which) {
+    const auto S = state->covariance(which);
+    crosses.push_back(A_head * S.topRows(head));
+    owns.push_back(own_covariance + crosses.back().leftCols(head) * A_head.transpose());
+  }
+  state->appendLandmark(p_world, crosses, owns);
 }
 
 void marginalizeLandmarks(FilterState* state, const std::vector<bool>& remove) {

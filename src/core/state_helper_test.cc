@@ -37,6 +37,23 @@ FilterState makeState(std::mt19937* rng) {
   return state;
 }
 
+// makeState's layout with a reported covariance beside the gains' one (another random SPD).
+FilterState makeReportingState(std::mt19937* rng) {
+  StateLayout layout;
+  layout.bias_components = {5};
+  layout.disparity_dim = 1;
+  layout.reported_covariance = true;
+  FilterState state(layout);
+  state.reset(StatePrior());
+  for (int k = 0; k < 3; ++k) {
+    state.appendLandmark(10.0 * Eigen::Vector3d(randomMatrix(3, 1, rng)),
+                         Eigen::MatrixXd::Zero(3, state.dim()), Eigen::Matrix3d::Identity());
+  }
+  state.covariance(0) = randomCovariance(state.dim(), rng);
+  state.covariance(1) = randomCovariance(state.dim(), rng);
+  return state;
+}
+
 JacobianBlock block(int first_row, int cols, std::mt19937* rng) {
   JacobianBlock b;
   b.first_row = first_row;
@@ -240,6 +257,115 @@ TEST(StateHelper, UpdateRefusesANonPositiveDefiniteInnovationAndChangesNothing) 
   EXPECT_EQ(state_helper::update(&state, jacobians, residual, -1e3, true).status,
             UpdateStatus::kNotPositiveDefinite);
   expectStateUnchanged(state, before);
+}
+
+TEST(StateHelper, ReportedCovarianceFollowsTheGainsOfTheOtherInJosephForm) {
+  std::mt19937 rng(11);
+  FilterState state = makeReportingState(&rng);
+  const FilterState before = state;
+  const std::vector<SparseJacobian> jacobians = twoObservations(state.layout(), &rng);
+  const Eigen::VectorXd residual = randomMatrix(6, 1, &rng);
+  const double noise_var = 0.5;
+  const double reported_noise_var = 7.0;
+  ASSERT_EQ(state_helper::update(&state, jacobians, residual, noise_var, false, reported_noise_var)
+                .status,
+            UpdateStatus::kApplied);
+
+  // The gains' covariance and the means: the ordinary update.
+  const Eigen::MatrixXd H = denseJacobian(jacobians, 17);
+  const DenseUpdate expected = denseEkf(before.covariance(0), H, residual, noise_var);
+  EXPECT_LT((state.covariance(0) - expected.covariance).norm(), 1e-9 * expected.covariance.norm());
+  // The reported one: (I - K H) P_r (I - K H)^T + K R_r K^T with K of the gains' covariance.
+  const Eigen::MatrixXd P = before.covariance(0);
+  const Eigen::MatrixXd S = H * P * H.transpose() + noise_var * Eigen::MatrixXd::Identity(6, 6);
+  const Eigen::MatrixXd K = P * H.transpose() * S.inverse();
+  const Eigen::MatrixXd A = Eigen::MatrixXd::Identity(17, 17) - K * H;
+  const Eigen::MatrixXd joseph =
+      A * before.covariance(1) * A.transpose() + reported_noise_var * K * K.transpose();
+  EXPECT_LT((Eigen::MatrixXd(state.covariance(1)) - joseph).norm(), 1e-9 * joseph.norm());
+  EXPECT_TRUE(Eigen::MatrixXd(state.covariance(1)).isApprox(state.covariance(1).transpose()));
+}
+
+TEST(StateHelper, ReportedCovarianceEqualsTheOtherWhenNoiseAndStartAgree) {
+  // Joseph form with the optimal gain is the ordinary update.
+  std::mt19937 rng(12);
+  FilterState state = makeReportingState(&rng);
+  state.covariance(1) = state.covariance(0);
+  const std::vector<SparseJacobian> jacobians = twoObservations(state.layout(), &rng);
+  ASSERT_EQ(state_helper::update(&state, jacobians, randomMatrix(6, 1, &rng), 0.5, true).status,
+            UpdateStatus::kApplied);
+  const Eigen::MatrixXd P0 = state.covariance(0);
+  EXPECT_LT((Eigen::MatrixXd(state.covariance(1)) - P0).norm(), 1e-9 * P0.norm());
+}
+
+TEST(StateHelper, AugmentAndMarginalizeKeepBothCovariances) {
+  std::mt19937 rng(13);
+  FilterState state = makeReportingState(&rng);
+  const FilterState before = state;
+  const int head = state.layout().headDim();
+  const Eigen::MatrixXd A_head = randomMatrix(3, head, &rng);
+  const Eigen::Matrix3d own = Eigen::Matrix3d::Identity() * 0.3;
+  state_helper::augment(&state, Eigen::Vector3d(1.0, 2.0, 3.0), A_head, own);
+  for (int which = 0; which < 2; ++which) {
+    const auto S = before.covariance(which);
+    const auto S_new = state.covariance(which);
+    const Eigen::MatrixXd cross = A_head * S.topRows(head);
+    EXPECT_LT((S_new.bottomLeftCorner(3, before.dim()) - cross).norm(), 1e-12) << which;
+    const Eigen::Matrix3d expected_own =
+        own + A_head * S.topLeftCorner(head, head) * A_head.transpose();
+    EXPECT_LT((S_new.bottomRightCorner<3, 3>() - expected_own).norm(), 1e-12) << which;
+  }
+  state_helper::marginalizeLandmarks(&state, {false, true, false, true});
+  for (int which = 0; which < 2; ++which) {
+    EXPECT_TRUE(state.covariance(which).topLeftCorner(head + 3, head + 3) ==
+                before.covariance(which).topLeftCorner(head + 3, head + 3))
+        << which;
+    const Eigen::Matrix3d kept = before.covariance(which).block(head + 6, head + 6, 3, 3);
+    EXPECT_TRUE(state.covariance(which).bottomRightCorner(3, 3) == kept) << which;
+  }
+}
+
+TEST(StateHelper, ReportedCovarianceIsTheErrorCovarianceOfTheMismatchedGain) {
+  // A static 3-vector observed 20 times with noise of std 2 while the gains assume 0.5: the
+  // reported covariance (noise 4) must match the spread of the errors over many trials, while
+  // the gains' covariance is 16 times too small.
+  std::mt19937 rng(14);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const int trials = 4000;
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d reported = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d gains = Eigen::Matrix3d::Zero();
+  for (int trial = 0; trial < trials; ++trial) {
+    StateLayout layout;
+    layout.reported_covariance = true;
+    FilterState state(layout);
+    StatePrior prior;
+    prior.position_sigma = 1.0;
+    prior.rotation_sigma = 1.0;
+    state.reset(prior);
+    const Eigen::Vector3d truth(normal(rng), normal(rng), normal(rng));
+    // The landmark's prior: mean 0, covariance I, appended without cross terms.
+    state.appendLandmark(Eigen::Vector3d::Zero(), Eigen::MatrixXd::Zero(3, state.dim()),
+                         Eigen::Matrix3d::Identity());
+    const int row = state.layout().landmarkRow(0);
+    for (int k = 0; k < 20; ++k) {
+      const Eigen::Vector3d z =
+          truth + 2.0 * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+      const Eigen::Vector3d r = z - state.landmark(0);
+      ASSERT_EQ(
+          state_helper::update(&state, {{{row, Eigen::Matrix3d::Identity()}}}, r, 0.25, false, 4.0)
+              .status,
+          UpdateStatus::kApplied);
+    }
+    const Eigen::Vector3d error = state.landmark(0) - truth;
+    scatter += error * error.transpose() / trials;
+    reported += state.covariance(1).block<3, 3>(row, row) / trials;
+    gains += state.covariance(0).block<3, 3>(row, row) / trials;
+  }
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(scatter(i, i) / reported(i, i), 1.0, 0.1) << i;
+    EXPECT_GT(scatter(i, i) / gains(i, i), 8.0) << i;
+  }
 }
 
 }  // namespace

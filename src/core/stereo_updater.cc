@@ -9,13 +9,20 @@
 
 namespace ekf_vislam {
 
+namespace {
+/// Residual pairs before the track correlation is used (a frame of the KITTI tracks has ~100).
+constexpr int kTrackCorrelationMinPairs = 100;
+}  // namespace
+
 StereoUpdater::StereoUpdater(const VislamOptions& options)
     : options_(&options),
       rows_per_observation_(options.noise.merge_stereo_rows ? 3 : 4),
       observation_selector_(stereoObservationSelector(options.noise.merge_stereo_rows)),
       gate_threshold_(
           chiSquareQuantile(options.landmarks.gating_probability, rows_per_observation_)),
-      restart_threshold_(chiSquareQuantile(0.9999, rows_per_observation_)) {}
+      restart_threshold_(chiSquareQuantile(0.9999, rows_per_observation_)),
+      track_correlation_(options.noise.track_correlation_window, kTrackCorrelationMinPairs,
+                         options.noise.track_correlation_max) {}
 
 bool StereoUpdater::predict(const StereoCamera& camera, const FilterState& state,
                             const Eigen::Matrix4d& imu_T_world, const Eigen::Vector3d& p_world,
@@ -157,7 +164,7 @@ SparseJacobian StereoUpdater::updateJacobian(const FilterState& state,
 StereoUpdateOutcome StereoUpdater::update(std::vector<StereoCandidate>* candidates, bool jump_test,
                                           const StereoCalibration& nominal, StereoCamera* camera,
                                           FilterState* state, LandmarkManager* landmarks,
-                                          EstimatorStats* stats, FeedResult* result) const {
+                                          EstimatorStats* stats, FeedResult* result) {
   StereoUpdateOutcome outcome;
   for (StereoCandidate& c : *candidates) {
     c.predicted = linearizeCandidate(*camera, *state, *landmarks, &c);
@@ -173,9 +180,12 @@ StereoUpdateOutcome StereoUpdater::update(std::vector<StereoCandidate>* candidat
   for (StereoCandidate& c : *candidates) {
     if (c.predicted && decide(&c, landmarks, &outcome, stats, result)) accepted.push_back(&c);
   }
-  if (!accepted.empty() && stackedUpdate(accepted, state, landmarks, stats, result) &&
-      state->layout().scale_dim > 0) {
-    *camera = scaledStereoCamera(nominal, state->baseline_scale_error);
+  if (!accepted.empty() && stackedUpdate(accepted, state, landmarks, stats, result)) {
+    if (state->layout().scale_dim > 0) {
+      *camera = scaledStereoCamera(nominal, state->baseline_scale_error);
+    }
+    if (state->covarianceCount() > 1)
+      recordPosteriorResiduals(*camera, *state, accepted, landmarks);
   }
   for (const StereoCandidate* c : accepted) {
     landmarks->setFlowReference(c->landmark, c->feature, *camera, *state);
@@ -254,8 +264,9 @@ bool StereoUpdater::stackedUpdate(const std::vector<StereoCandidate*>& accepted,
     residual.segment(k * r, r) = accepted[k]->residual;
   }
   const double pixel_var = options_->noise.pixel_sigma * options_->noise.pixel_sigma;
-  const UpdateOutcome outcome = state_helper::update(state, jacobians, residual, pixel_var,
-                                                     options_->mode == EstimatorMode::kSlam);
+  const UpdateOutcome outcome = state_helper::update(
+      state, jacobians, residual, pixel_var, options_->mode == EstimatorMode::kSlam,
+      pixel_var * track_correlation_.varianceFactor());
   if (outcome.status == UpdateStatus::kNotPositiveDefinite) {
     stats->increment(Counter::kUpdateNonFinite);
     result->message = "innovation covariance not positive definite: update skipped";
@@ -271,6 +282,21 @@ bool StereoUpdater::stackedUpdate(const std::vector<StereoCandidate*>& accepted,
   result->observations_updated += n;
   if (outcome.covariance_repaired) stats->increment(Counter::kCovarianceRepaired);
   return true;
+}
+
+void StereoUpdater::recordPosteriorResiduals(const StereoCamera& camera, const FilterState& state,
+                                             const std::vector<StereoCandidate*>& accepted,
+                                             LandmarkManager* landmarks) {
+  for (const StereoCandidate* c : accepted) {
+    StereoCandidate posterior = *c;
+    if (!linearize(camera, state, &posterior)) continue;
+    LandmarkTrack& track = landmarks->track(c->landmark);
+    if (track.posterior_frame == landmarks->frame() - 1) {
+      track_correlation_.add(posterior.residual, track.posterior_residual);
+    }
+    track.posterior_residual = posterior.residual;
+    track.posterior_frame = landmarks->frame();
+  }
 }
 
 void StereoUpdater::detectJumps(const FilterState& state, const LandmarkManager& landmarks,

@@ -29,6 +29,8 @@ StateLayout layoutFor(const VislamOptions& options) {
   const bool clone = options.limits.repeated_frames == RepeatedFramePolicy::kShift ||
                      options.noise.pixel_correlation > 0.0;
   layout.clone_dim = clone && options.mode == EstimatorMode::kSlam ? StateLayout::kPoseDim : 0;
+  layout.reported_covariance =
+      options.noise.report_track_correlation && options.mode != EstimatorMode::kDeadReckoning;
   return layout;
 }
 
@@ -388,7 +390,7 @@ Matrix6d VislamEstimator::poseCovarianceWorld() const {
   const Eigen::Vector3d p = worldTImu().translation();
   Matrix6d M = Matrix6d::Identity();
   M.topRightCorner<3, 3>() = -se3::hat(p);
-  const Matrix6d pose = state_.covariance().topLeftCorner<6, 6>();
+  const Matrix6d pose = state_.reportedCovariance().topLeftCorner<6, 6>();
   return M * pose * M.transpose();
 }
 

@@ -44,7 +44,7 @@ Vector6d worldAxesError(const Eigen::Matrix4d& world_T_imu_true,
 }
 
 RunResult run(const Scenario& s, const VislamOptions& options, int first_frames = -1,
-              Eigen::Vector3d* track_drift_rate = nullptr) {
+              Eigen::Vector3d* track_drift_rate = nullptr, double* track_correlation = nullptr) {
   VislamEstimator estimator(options);
   EXPECT_TRUE(estimator.setCalibration(s.calibration));
   RunResult r;
@@ -67,6 +67,7 @@ RunResult run(const Scenario& s, const VislamOptions& options, int first_frames 
   r.mean_nees = nees / (n - 1);
   r.stats = estimator.stats();
   if (track_drift_rate != nullptr) *track_drift_rate = estimator.trackDriftRate();
+  if (track_correlation != nullptr) *track_correlation = estimator.trackCorrelation();
   return r;
 }
 
@@ -773,7 +774,9 @@ TEST(VislamEstimator, DriftingTracksModelledAsCorrelatedAreConsistentAndNoWorse)
     so.frames = 400;
     so.pixel_correlation = 0.85;
     const Scenario s = makeScenario(so);
-    VislamOptions correlated = testing::matchedOptions(so), white = correlated;
+    VislamOptions correlated = testing::matchedOptions(so);
+    correlated.noise.report_track_correlation = false;  // the gains' own covariance
+    VislamOptions white = correlated;
     white.noise.pixel_correlation = 0.0;
     VislamOptions dr = correlated;
     dr.mode = EstimatorMode::kDeadReckoning;
@@ -794,6 +797,52 @@ TEST(VislamEstimator, DriftingTracksModelledAsCorrelatedAreConsistentAndNoWorse)
   EXPECT_LT(nees_correlated, 0.3 * nees_white);
   EXPECT_LT(nees_correlated, 30.0);
   EXPECT_LE(ate_correlated, ate_white);
+}
+
+TEST(VislamEstimator, DriftingTracksAreReportedHonestlyWithTheWhiteGains) {
+  // The same drifting tracks (AR(1), 0.85) with the white-noise gains (the default): the
+  // reported covariance takes the tracks' correlation, estimated online, into account. The
+  // estimate is the one of the white filter; only the covariance changes: consistent where the
+  // gains' own covariance is not, and the estimate stays far better than dead reckoning.
+  double nees_gains = 0.0, nees_reported = 0.0, rho = 0.0;
+  const int seeds = 3;
+  for (int seed = 1; seed <= seeds; ++seed) {
+    ScenarioOptions so;
+    so.seed = seed;
+    so.frames = 400;
+    so.pixel_correlation = 0.85;
+    const Scenario s = makeScenario(so);
+    VislamOptions reported = testing::matchedOptions(so);
+    reported.noise.pixel_correlation = 0.0;  // white gains
+    VislamOptions gains = reported;
+    gains.noise.report_track_correlation = false;
+    VislamOptions dr = reported;
+    dr.mode = EstimatorMode::kDeadReckoning;
+    double correlation = 0.0;
+    const RunResult a = run(s, gains), dead = run(s, dr);
+    const RunResult b = run(s, reported, -1, nullptr, &correlation);
+    std::printf(
+        "seed %d: ATE %.3f m (dead reckoning %.3f m), NEES gains' covariance %.2f, reported %.2f, "
+        "track correlation %.3f\n",
+        seed, b.ate_m, dead.ate_m, a.mean_nees, b.mean_nees, correlation);
+    EXPECT_DOUBLE_EQ(a.ate_m, b.ate_m) << "seed " << seed;  // the estimate does not change
+    EXPECT_LT(b.ate_m, 0.5 * dead.ate_m) << "seed " << seed;
+    nees_gains += a.mean_nees / seeds;
+    nees_reported += b.mean_nees / seeds;
+    rho += correlation / seeds;
+  }
+  std::printf("mean pose NEES: gains' covariance %.2f, reported %.2f; track correlation %.3f\n",
+              nees_gains, nees_reported, rho);
+  // Measured at its introduction: gains' covariance 114.13, reported 15.42, correlation 0.805.
+  // The posterior residuals read 0.80 for a true 0.85 (each landmark's estimate takes up part of
+  // its track's slow error), so the noise factor is 9.3 where 12.3 would be exact and the
+  // reported covariance is still somewhat too small.
+  EXPECT_GT(rho, 0.7);
+  EXPECT_LT(rho, 0.9);
+  EXPECT_GT(nees_gains, 50.0);
+  EXPECT_LT(nees_reported, 0.2 * nees_gains);
+  EXPECT_GT(nees_reported, 3.0);
+  EXPECT_LT(nees_reported, 20.0);
 }
 
 TEST(VislamEstimator, TracksTurningAwayFromTheirPointsAreExplainedByTheDriftRate) {

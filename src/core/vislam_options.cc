@@ -35,6 +35,9 @@ void visitVislamOptions(Options& o, Visitor& v) {
   v.flag("noise/estimate_twist_noise", noise.estimate_twist_noise);
   v.integer("noise/twist_noise_window", noise.twist_noise_window, Bound::kAtLeastOne);
   v.integer("noise/twist_noise_min_samples", noise.twist_noise_min_samples, Bound::kAtLeastOne);
+  v.flag("noise/report_track_correlation", noise.report_track_correlation);
+  v.integer("noise/track_correlation_window", noise.track_correlation_window, Bound::kAtLeastOne);
+  v.number("noise/track_correlation_max", noise.track_correlation_max, Bound::kOpenUnit);
 
   v.number("prior/position_sigma", o.prior.position_sigma, Bound::kPositive);
   v.number("prior/rotation_sigma", o.prior.rotation_sigma, Bound::kPositive);

@@ -6,16 +6,19 @@
 //
 // Feeds the estimator through the same conversions, MeasurementSequencer and EstimatorRunner as
 // the nodelet, so the nodelet's trajectory on the same bag is the same.
+#include "ekf_vislam/core/estimator_runner.h"
 #include "ekf_vislam/core/yaml_parameter_source.h"
 #include "ekf_vislam/ros/bag_reader.h"
 #include "ekf_vislam/ros/conversions.h"
-#include "ekf_vislam/core/estimator_runner.h"
+#include "ekf_vislam/ros/heap_allocation.h"
 #include "ekf_vislam/ros/vislam_ros_options.h"
 
 #ifdef EKF_VISLAM_HAVE_ROSLIB
 #include <ros/package.h>
 #endif
 
+#include <sys/stat.h>
+#include <unistd.h>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -28,8 +31,6 @@
 #include <string>
 #include <utility>
 #include <vector>
-#include <sys/stat.h>
-#include <unistd.h>
 
 namespace {
 
@@ -76,7 +77,8 @@ class Progress {
   Progress() : enabled_(::isatty(STDERR_FILENO) == 1) {}
   void update(double fraction) {
     if (!enabled_) return;
-    const int percent = static_cast<int>(std::floor(100.0 * std::min(1.0, std::max(0.0, fraction))));
+    const int percent =
+        static_cast<int>(std::floor(100.0 * std::min(1.0, std::max(0.0, fraction))));
     if (percent == last_) return;
     last_ = percent;
     const int width = 40;
@@ -99,10 +101,16 @@ using Arguments = std::map<std::string, std::string>;
 /// Parses the command line into *args; an exit code when the program must stop (help: 0,
 /// usage errors: 2).
 std::optional<int> parseArguments(int argc, char** argv, Arguments* args) {
-  static const std::set<std::string> known = {
-      "--bag",      "--out",           "--mode",           "--config",
-      "--imu-frame", "--twist-topic",  "--features-topic", "--left-info-topic",
-      "--right-info-topic", "--tf-static-topic"};
+  static const std::set<std::string> known = {"--bag",
+                                              "--out",
+                                              "--mode",
+                                              "--config",
+                                              "--imu-frame",
+                                              "--twist-topic",
+                                              "--features-topic",
+                                              "--left-info-topic",
+                                              "--right-info-topic",
+                                              "--tf-static-topic"};
   for (int i = 1; i < argc; ++i) {
     std::string flag = argv[i];
     if (flag == "-h" || flag == "--help") {
@@ -232,8 +240,8 @@ CalibrationStatus calibrationFromBag(const BagCalibrationData& data, const BagTo
     }
   }
   if (builder.build(calibration, error)) return CalibrationStatus::kBuilt;
-  *error += " (bag topics " + topics.left_info + ", " + topics.right_info + ", " +
-            topics.tf_static + ")";
+  *error +=
+      " (bag topics " + topics.left_info + ", " + topics.right_info + ", " + topics.tf_static + ")";
   return builder.complete() ? CalibrationStatus::kInvalid : CalibrationStatus::kMissing;
 }
 
@@ -309,6 +317,7 @@ int run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  ekf_vislam::keepLargeAllocationsOnHeap();
   try {
     return run(argc, argv);
   } catch (const std::exception& e) {

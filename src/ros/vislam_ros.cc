@@ -1,6 +1,7 @@
 #include "ekf_vislam/ros/vislam_ros.h"
 
 #include "ekf_vislam/ros/conversions.h"
+#include "ekf_vislam/ros/heap_allocation.h"
 #include "ekf_vislam/ros/landmark_markers.h"
 #include "ekf_vislam/ros/ros_parameter_source.h"
 
@@ -15,6 +16,7 @@ namespace ekf_vislam {
 
 VislamRos::VislamRos(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string& name)
     : nh_(nh), pnh_(pnh), name_(name) {
+  keepLargeAllocationsOnHeap();
   RosParameterSource source(pnh_);
   std::string error;
   if (!parseVislamOptions(source, &options_, &error) ||
@@ -491,6 +493,7 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
   status.add("disparity_offset_px", estimator.disparityOffset());
   status.add("baseline_scale", estimator.baselineScale());
   status.add("track_drift_rate_rad_s", estimator.trackDriftRate().norm());
+  status.add("track_correlation", estimator.trackCorrelation());
   status.add("observations_rejected", stats.observationsRejected());
   for (int i = 0; i < static_cast<int>(Counter::kCount); ++i) {
     status.add(counterName(static_cast<Counter>(i)), stats.get(static_cast<Counter>(i)));

@@ -29,6 +29,10 @@ struct StateLayout {
   int scale_dim = 0;      ///< 1 when the baseline scale is estimated
   int drift_dim = 0;      ///< 3 when the track drift rate is estimated
   int clone_dim = 0;      ///< 6 when the pose clone has rows (repeated frames, SLAM mode)
+  /// A second covariance, the reported one, is carried beside the one the gains use
+  /// (noise/report_track_correlation): same propagation, augmentation and marginalization; its
+  /// updates use the gains of the first with a larger observation noise (Joseph form).
+  bool reported_covariance = false;
 
   int biasDim() const { return static_cast<int>(bias_components.size()); }
   int biasRow() const { return kPoseDim; }
@@ -67,10 +71,20 @@ class FilterState {
   int dim() const { return dim_; }
   size_t landmarkCount() const { return static_cast<size_t>(dim_ - layout_.headDim()) / 3; }
 
-  /// Live covariance block (dim x dim) of the capacity-sized storage.
-  Eigen::Block<Eigen::MatrixXd> covariance() { return sigma_.topLeftCorner(dim_, dim_); }
-  Eigen::Block<const Eigen::MatrixXd> covariance() const {
-    return sigma_.topLeftCorner(dim_, dim_);
+  /// Covariances carried: 1, or 2 with layout().reported_covariance (0: the gains' covariance,
+  /// 1: the reported one).
+  int covarianceCount() const { return layout_.reported_covariance ? 2 : 1; }
+  /// Live covariance block (dim x dim) of the capacity-sized storage: `which` 0 is the one the
+  /// gains use, 1 the reported one (when carried).
+  Eigen::Block<Eigen::MatrixXd> covariance(int which = 0) {
+    return storage(which).topLeftCorner(dim_, dim_);
+  }
+  Eigen::Block<const Eigen::MatrixXd> covariance(int which = 0) const {
+    return storage(which).topLeftCorner(dim_, dim_);
+  }
+  /// The covariance the outputs report: the reported one when carried, else the gains' one.
+  Eigen::Block<const Eigen::MatrixXd> reportedCovariance() const {
+    return covariance(covarianceCount() - 1);
   }
 
   // Means.
@@ -102,9 +116,13 @@ class FilterState {
   void clonePose();
 
   /// Adds one landmark at the end: mean, covariance with the rest of the state (3 x dim) and its
-  /// own (3 x 3).
+  /// own (3 x 3), the same in every covariance carried.
   void appendLandmark(const Eigen::Vector3d& p_world, const Eigen::MatrixXd& cross_covariance,
                       const Eigen::Matrix3d& own_covariance);
+  /// The same with one cross and own covariance per covariance carried (covarianceCount()).
+  void appendLandmark(const Eigen::Vector3d& p_world,
+                      const std::vector<Eigen::MatrixXd>& cross_covariances,
+                      const std::vector<Eigen::Matrix3d>& own_covariances);
   /// Keeps only these rows (ascending, the head included), in place; capacity shrinks after a
   /// burst.
   void keepRows(const std::vector<int>& rows);
@@ -114,11 +132,14 @@ class FilterState {
 
  private:
   void ensureCapacity(int dim);
+  Eigen::MatrixXd& storage(int which) { return which == 0 ? sigma_ : sigma_reported_; }
+  const Eigen::MatrixXd& storage(int which) const { return which == 0 ? sigma_ : sigma_reported_; }
 
   StateLayout layout_;
   int dim_ = 0;
   Eigen::VectorXd landmark_means_;  ///< landmark means at their state rows (capacity sized)
   Eigen::MatrixXd sigma_;           ///< capacity >= dim_; only the top-left dim_ block is live
+  Eigen::MatrixXd sigma_reported_;  ///< the same size, when layout_.reported_covariance
 };
 
 }  // namespace ekf_vislam

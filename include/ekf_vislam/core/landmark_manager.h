@@ -45,6 +45,10 @@ struct LandmarkTrack {
   /// Stamp (s) of the frame that started this landmark: the age of an observation, over which
   /// the track has drifted (track_drift/), counts from it.
   double anchor_stamp = 0.0;
+  /// Residual [rows of the observation] left after the last update that used this landmark, and
+  /// its frame: the previous value of the track-correlation estimate (noise/).
+  Eigen::VectorXd posterior_residual;
+  int posterior_frame = -1;
 
   /// Age (s, never negative) of an observation of this landmark taken at `stamp`.
   double ageAt(double stamp) const { return std::max(0.0, stamp - anchor_stamp); }

@@ -56,6 +56,7 @@ class Propagator {
   Eigen::MatrixXd twistJacobian(const FilterState& state, const TwistData& twist,
                                 const Vector6d& u) const;
   void addRandomWalks(double dt, FilterState* state) const;
+  void addRandomWalks(double dt, const StateLayout& layout, Eigen::Block<Eigen::MatrixXd> S) const;
   double period() const { return std::max(1e-3, sample_period_); }
 
   bool usesEstimatedNoise() const;

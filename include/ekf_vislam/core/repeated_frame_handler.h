@@ -15,6 +15,7 @@
 #include "ekf_vislam/core/vislam_options.h"
 
 #include <unordered_set>
+#include <utility>
 #include <vector>
 
 namespace ekf_vislam {
@@ -41,7 +42,13 @@ class RepeatedFrameHandler {
                            LandmarkManager* landmarks, EstimatorStats* stats, FeedResult* result);
 
  private:
-  const VislamOptions* options_;  ///< not owned (the estimator keeps it alive)
+  /// The covariance part of shiftCrossingTracks for one covariance: Sigma <- J Sigma J^T over
+  /// the moved landmark rows (landmark row, R_D p^ of the old mean), plus the ray term.
+  void shiftCovariance(const FilterState& state, const Eigen::Matrix3d& R,
+                       const Eigen::Vector3d& p_camera_world,
+                       const std::vector<std::pair<int, Eigen::Matrix3d>>& moved,
+                       Eigen::Block<Eigen::MatrixXd> S) const;
+  const VislamOptions* options_;               ///< not owned (the estimator keeps it alive)
   std::unordered_set<uint32_t> crossing_ids_;  ///< tracks through the last repeated frame
 };
 

@@ -38,8 +38,12 @@ double mahalanobis2(const FilterState& state, const SparseJacobian& jacobian,
 /// observation's rows equal to its blocks' rows), noise noise_var I. Covariance through the
 /// Cholesky factor of the innovation covariance (symmetric by construction), then
 /// FilterState::applyCorrection(dx, correct_pose). Nothing changes unless kApplied.
+/// With a reported covariance (FilterState::covarianceCount() 2), that one is updated with the
+/// same gain in the Joseph form for observation noise reported_noise_var I (negative: noise_var):
+/// the covariance of this gain's error when the noise is that large.
 UpdateOutcome update(FilterState* state, const std::vector<SparseJacobian>& jacobians,
-                     const Eigen::VectorXd& residual, double noise_var, bool correct_pose);
+                     const Eigen::VectorXd& residual, double noise_var, bool correct_pose,
+                     double reported_noise_var = -1.0);
 
 /// Appends a landmark whose error is x_new = A x_head + n (A: 3 x head dim, only pose and
 /// auxiliary columns non-zero; n: independent, covariance own_covariance).

@@ -9,6 +9,7 @@
 #include "ekf_vislam/core/landmark_manager.h"
 #include "ekf_vislam/core/state_helper.h"
 #include "ekf_vislam/core/stereo_camera.h"
+#include "ekf_vislam/core/track_correlation_estimator.h"
 #include "ekf_vislam/core/vislam_options.h"
 
 #include <Eigen/Core>
@@ -75,7 +76,10 @@ class StereoUpdater {
   StereoUpdateOutcome update(std::vector<StereoCandidate>* candidates, bool jump_test,
                              const StereoCalibration& nominal, StereoCamera* camera,
                              FilterState* state, LandmarkManager* landmarks, EstimatorStats* stats,
-                             FeedResult* result) const;
+                             FeedResult* result);
+
+  /// The online estimate of the tracks' frame-to-frame residual correlation.
+  const TrackCorrelationEstimator& trackCorrelation() const { return track_correlation_; }
 
  private:
   /// Residual and Jacobians (landmark, calibration, track drift rate) of observation z, of age
@@ -104,6 +108,11 @@ class StereoUpdater {
   /// Gate, restart and split policy for one linearized candidate: true when it is accepted.
   bool decide(StereoCandidate* c, LandmarkManager* landmarks, StereoUpdateOutcome* outcome,
               EstimatorStats* stats, FeedResult* result) const;
+  /// Feeds the accepted observations' residuals after the update to the track-correlation
+  /// estimate (noise/report_track_correlation).
+  void recordPosteriorResiduals(const StereoCamera& camera, const FilterState& state,
+                                const std::vector<StereoCandidate*>& accepted,
+                                LandmarkManager* landmarks);
   /// True when the state was corrected.
   bool stackedUpdate(const std::vector<StereoCandidate*>& accepted, FilterState* state,
                      LandmarkManager* landmarks, EstimatorStats* stats, FeedResult* result) const;
@@ -113,6 +122,7 @@ class StereoUpdater {
   Eigen::MatrixXd observation_selector_;  ///< rows x 4
   double gate_threshold_ = 0.0;
   double restart_threshold_ = 0.0;  ///< chi-square 0.9999: gross disagreement (track jumped)
+  TrackCorrelationEstimator track_correlation_;
 };
 
 }  // namespace ekf_vislam

@@ -95,6 +95,11 @@ class VislamEstimator {
   /// zero when not estimated).
   const Eigen::Vector3d& trackDriftRate() const { return state_.track_drift_rate_imu; }
   double baselineScaleSigma() const;
+  /// Frame-to-frame correlation of the tracks' residuals (noise/report_track_correlation; 0
+  /// until enough tracks were seen twice) and the factor (1 + rho) / (1 - rho) on the pixel
+  /// variance of the reported covariance.
+  double trackCorrelation() const { return updater_.trackCorrelation().correlation(); }
+  double trackVarianceFactor() const { return updater_.trackCorrelation().varianceFactor(); }
 
   /// Every landmark ever initialized (active ones carry their current estimate).
   const std::vector<LandmarkEstimate>& landmarks() const { return landmarks_.map(); }

@@ -62,6 +62,13 @@ struct NoiseOptions {
   bool estimate_twist_noise = true;
   int twist_noise_window = 300;      ///< samples
   int twist_noise_min_samples = 20;  ///< samples
+  /// Report a covariance that counts a track's observations at their effective number: the
+  /// correlation rho of the tracks' residuals from frame to frame is estimated online
+  /// (track_correlation_estimator.h), and the reported covariance (not the gains) takes the
+  /// observation noise pixel_sigma^2 (1 + rho) / (1 - rho) (state_helper::update).
+  bool report_track_correlation = true;
+  int track_correlation_window = 2000;  ///< residual pairs the estimate covers
+  double track_correlation_max = 0.98;  ///< cap of the estimate (variance factor <= 99)
 };
 
 /// prior/: initial pose uncertainty (the world is the first IMU pose).

@@ -199,6 +199,7 @@ TEST(VislamEstimator, TwistMessageCovarianceSuppliesTheProcessNoise) {
   options.bias.estimate_gyro_bias = false;
   options.extrinsic.estimate_twist_rotation = false;
   options.vehicle.lateral_velocity_sigma = options.vehicle.vertical_velocity_sigma = 0.0;
+  options.noise.estimate_twist_noise = false;  // all-zero covariances: the configured densities
   auto run = [&](const VislamOptions& o, const Matrix6d& covariance) {
     VislamEstimator e(o);
     for (int k = 0; k <= 10; ++k) {

@@ -122,7 +122,7 @@ class SyntheticDriveTest(unittest.TestCase):
 @unittest.skipUnless(paths.data_dir(), 'course datasets not found (../shared/data or EKF_VISLAM_DATA)')
 class KittiRegressionTest(unittest.TestCase):
     # Measured with config/default.yaml (scripts/benchmark.sh): 0027 2.360 m / 1.33 %, mean
-    # position NEES 2.36; 0034 6.585 m / 2.76 %, NEES 4.29 (README). The run is deterministic; the
+    # position NEES 2.34; 0034 6.590 m / 2.76 %, NEES 4.08 (README). The run is deterministic; the
     # bounds guard the accuracy with a margin (the 0034 ATE target of 6.0 m is not met yet). The
     # NEES must lie in the consistency band 1.5-6 (3 is exact).
     BOUNDS = {'0027': (2.6, 2.0), '0034': (7.0, 3.5)}  # (ATE m, RPE %)
@@ -156,7 +156,7 @@ class KittiRegressionTest(unittest.TestCase):
     def test_accurate_twist_0027_does_no_harm(self):
         # A twist as good as a decent wheel odometry (make_variant.py --twist accurate, seed 1):
         # SLAM 1.316 m against dead reckoning 3.965 m (0.33x); the bound is 0.9x.
-        # (0034 with the same twist: 4.604 against 4.661 m, 0.99x: not asserted.)
+        # (0034 with the same twist: 4.606 against 4.661 m, 0.99x: not asserted.)
         data = paths.data_dir()
         tmp = paths.make_temp_dir(self)
         gt = os.path.join(data, 'groundtruth', '0027_imu_gt.tum')

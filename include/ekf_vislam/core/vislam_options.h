@@ -61,7 +61,7 @@ struct NoiseOptions {
   /// densities above are used until twist_noise_min_samples have arrived.
   bool estimate_twist_noise = true;
   int twist_noise_window = 300;      ///< samples
-  int twist_noise_min_samples = 20;  ///< samples
+  int twist_noise_min_samples = 5;   ///< samples
   /// Report a covariance that counts a track's observations at their effective number: the
   /// correlation rho of the tracks' residuals from frame to frame is estimated online
   /// (track_correlation_estimator.h), and the reported covariance (not the gains) takes the

@@ -21,9 +21,9 @@
 
 #include <chrono>
 #include <deque>
-#include <utility>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace ekf_vislam {
@@ -35,7 +35,7 @@ class EstimatorRunner {
     bool is_frame = false;
     double stamp = 0.0;
     FeedResult result;
-    double processing_ms = 0.0;  ///< feedFeatures time (frames only)
+    double processing_ms = 0.0;        ///< feedFeatures time (frames only)
     bool without_calibration = false;  ///< frame reached the estimator before the calibration
   };
   using Observer = std::function<void(const Processed&)>;
@@ -46,7 +46,7 @@ class EstimatorRunner {
     double stamp = 0.0;
     Eigen::Isometry3d world_T_imu = Eigen::Isometry3d::Identity();
     Matrix6d pose_covariance_world = Matrix6d::Zero();  ///< as VislamEstimator::poseCovarianceWorld
-    TwistData twist;                                   ///< bias-corrected, IMU frame
+    TwistData twist;                                    ///< bias-corrected, IMU frame
     Matrix6d twist_covariance = Matrix6d::Zero();
   };
 

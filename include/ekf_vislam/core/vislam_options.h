@@ -60,8 +60,8 @@ struct NoiseOptions {
   /// differences, twist_noise_estimator.h) over the last twist_noise_window samples; the two
   /// densities above are used until twist_noise_min_samples have arrived.
   bool estimate_twist_noise = true;
-  int twist_noise_window = 300;      ///< samples
-  int twist_noise_min_samples = 5;   ///< samples
+  int twist_noise_window = 300;     ///< samples
+  int twist_noise_min_samples = 5;  ///< samples
   /// Report a covariance that counts a track's observations at their effective number: the
   /// correlation rho of the tracks' residuals from frame to frame is estimated online
   /// (track_correlation_estimator.h), and the reported covariance (not the gains) takes the

@@ -19,7 +19,8 @@ void forEachBlock(const std::vector<SparseJacobian>& jacobians, Visit visit) {
   }
 }
 
-/// P H^T (dim x m) of a covariance, from the touched columns only (adding to zero first is exact).
+/// P H^T (dim x m) of a covariance, from the touched columns only, then H P H^T + R (m x m),
+/// block by block in the order the blocks are listed (adding to zero first is exact).
 Eigen::MatrixXd covarianceTimesHt(const std::vector<SparseJacobian>& jacobians,
                                   const Eigen::Block<Eigen::MatrixXd>& S, int m) {
   Eigen::MatrixXd PHt = Eigen::MatrixXd::Zero(S.rows(), m);
@@ -30,20 +31,31 @@ Eigen::MatrixXd covarianceTimesHt(const std::vector<SparseJacobian>& jacobians,
   return PHt;
 }
 
-/// The reported covariance after an update with the gain K of the other one (Joseph form):
-/// P <- (I - K H) P (I - K H)^T + K R K^T = P + K C^T + C K^T with C = K S / 2 - P H^T and
-/// S = H P H^T + R: the covariance of that gain's error when the noise is R = noise_var I.
-void updateReported(const std::vector<SparseJacobian>& jacobians, const Eigen::MatrixXd& K,
-                    double noise_var, Eigen::Block<Eigen::MatrixXd> P) {
-  const int m = static_cast<int>(K.cols());
-  const Eigen::MatrixXd PHt = covarianceTimesHt(jacobians, P, m);
+Eigen::MatrixXd innovationCovariance(const std::vector<SparseJacobian>& jacobians,
+                                     const Eigen::MatrixXd& PHt, double noise_var) {
+  const auto m = PHt.cols();
   Eigen::MatrixXd innovation_cov = Eigen::MatrixXd::Zero(m, m);
   forEachBlock(jacobians, [&](int row, int rows, const JacobianBlock& block) {
     innovation_cov.middleRows(row, rows).noalias() +=
         block.H * PHt.middleRows(block.first_row, block.H.cols());
   });
   innovation_cov.diagonal().array() += noise_var;
-  const Eigen::MatrixXd C = 0.5 * K * innovation_cov - PHt;
+  return innovation_cov;
+}
+
+/// Copies the lower triangle (the one the rank updates maintain) into the upper.
+void mirrorLowerTriangle(Eigen::Block<Eigen::MatrixXd> P) {
+  const int dim = static_cast<int>(P.rows());
+  for (int j = 1; j < dim; ++j) P.col(j).head(j) = P.row(j).head(j).transpose();
+}
+
+/// The reported covariance after an update with the gain K of the other one (Joseph form):
+/// P <- (I - K H) P (I - K H)^T + K R K^T = P + K C^T + C K^T with C = K S / 2 - P H^T and
+/// S = H P H^T + R: the covariance of that gain's error when the noise is R = noise_var I.
+void updateReported(const std::vector<SparseJacobian>& jacobians, const Eigen::MatrixXd& K,
+                    double noise_var, Eigen::Block<Eigen::MatrixXd> P) {
+  const Eigen::MatrixXd PHt = covarianceTimesHt(jacobians, P, static_cast<int>(K.cols()));
+  const Eigen::MatrixXd C = 0.5 * K * innovationCovariance(jacobians, PHt, noise_var) - PHt;
   // K C^T + C K^T = (u + v)(u + v)^T / 2 - (u - v)(u - v)^T / 2 with u = a K, v = C / a: two
   // symmetric rank-m updates of the lower triangle; a balances the two factors' scales.
   const double k_norm = K.norm();
@@ -53,8 +65,7 @@ void updateReported(const std::vector<SparseJacobian>& jacobians, const Eigen::M
   const Eigen::MatrixXd v = C / a;
   P.selfadjointView<Eigen::Lower>().rankUpdate(u + v, 0.5);
   P.selfadjointView<Eigen::Lower>().rankUpdate(u - v, -0.5);
-  const int dim = static_cast<int>(P.rows());
-  for (int j = 1; j < dim; ++j) P.col(j).head(j) = P.row(j).head(j).transpose();
+  mirrorLowerTriangle(P);
 }
 
 }  // namespace
@@ -88,22 +99,8 @@ UpdateOutcome update(FilterState* state, const std::vector<SparseJacobian>& jaco
                      double reported_noise_var) {
   UpdateOutcome outcome;
   auto S = state->covariance();
-  const int dim = state->dim();
-  const int m = static_cast<int>(residual.size());
-  // P H^T (dim x m) from the touched columns only, then H P H^T + R (m x m), block by block
-  // in the order the blocks are listed (adding to zero first is exact).
-  Eigen::MatrixXd PHt = Eigen::MatrixXd::Zero(dim, m);
-  forEachBlock(jacobians, [&](int row, int rows, const JacobianBlock& block) {
-    PHt.middleCols(row, rows).noalias() +=
-        S.middleCols(block.first_row, block.H.cols()) * block.H.transpose();
-  });
-  Eigen::MatrixXd innovation_cov = Eigen::MatrixXd::Zero(m, m);
-  forEachBlock(jacobians, [&](int row, int rows, const JacobianBlock& block) {
-    innovation_cov.middleRows(row, rows).noalias() +=
-        block.H * PHt.middleRows(block.first_row, block.H.cols());
-  });
-  innovation_cov.diagonal().array() += noise_var;
-  Eigen::LLT<Eigen::MatrixXd> llt(innovation_cov);
+  const Eigen::MatrixXd PHt = covarianceTimesHt(jacobians, S, static_cast<int>(residual.size()));
+  Eigen::LLT<Eigen::MatrixXd> llt(innovationCovariance(jacobians, PHt, noise_var));
   if (llt.info() != Eigen::Success) {
     outcome.status = UpdateStatus::kNotPositiveDefinite;
     return outcome;
@@ -123,7 +120,7 @@ UpdateOutcome update(FilterState* state, const std::vector<SparseJacobian>& jaco
                    state->covariance(1));
   }
   S.selfadjointView<Eigen::Lower>().rankUpdate(B.transpose(), -1.0);
-  for (int j = 1; j < dim; ++j) S.col(j).head(j) = S.row(j).head(j).transpose();
+  mirrorLowerTriangle(S);
   state->applyCorrection(dx, correct_pose);
   // Guard: the diagonal must stay positive.
   for (int which = 0; which < state->covarianceCount(); ++which) {

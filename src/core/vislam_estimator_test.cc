@@ -762,6 +762,15 @@ TEST(VislamEstimator, SlamOnSyntheticDrivesMeetsAccuracyAndConsistency) {
   EXPECT_LT(nees, 12.0);
 }
 
+// 400 frames whose tracks drift: AR(1) pixel error, correlation 0.85 from frame to frame.
+ScenarioOptions driftingTracks(int seed) {
+  ScenarioOptions so;
+  so.seed = seed;
+  so.frames = 400;
+  so.pixel_correlation = 0.85;
+  return so;
+}
+
 TEST(VislamEstimator, DriftingTracksModelledAsCorrelatedAreConsistentAndNoWorse) {
   // Tracks whose pixel error drifts (AR(1), correlation 0.85 from frame to frame, as measured on
   // the KITTI course tracks). A filter told white noise of the same std counts every
@@ -770,10 +779,7 @@ TEST(VislamEstimator, DriftingTracksModelledAsCorrelatedAreConsistentAndNoWorse)
   double nees_white = 0.0, nees_correlated = 0.0, ate_white = 0.0, ate_correlated = 0.0;
   const int seeds = 3;
   for (int seed = 1; seed <= seeds; ++seed) {
-    ScenarioOptions so;
-    so.seed = seed;
-    so.frames = 400;
-    so.pixel_correlation = 0.85;
+    const ScenarioOptions so = driftingTracks(seed);
     const Scenario s = makeScenario(so);
     VislamOptions correlated = testing::matchedOptions(so);
     correlated.noise.report_track_correlation = false;  // the gains' own covariance
@@ -808,10 +814,7 @@ TEST(VislamEstimator, DriftingTracksAreReportedHonestlyWithTheWhiteGains) {
   double nees_gains = 0.0, nees_reported = 0.0, rho = 0.0;
   const int seeds = 3;
   for (int seed = 1; seed <= seeds; ++seed) {
-    ScenarioOptions so;
-    so.seed = seed;
-    so.frames = 400;
-    so.pixel_correlation = 0.85;
+    const ScenarioOptions so = driftingTracks(seed);
     const Scenario s = makeScenario(so);
     VislamOptions reported = testing::matchedOptions(so);
     reported.noise.pixel_correlation = 0.0;  // white gains

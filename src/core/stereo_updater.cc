@@ -34,23 +34,28 @@ bool StereoUpdater::predict(const StereoCamera& camera, const FilterState& state
   // Track drift: the track shows the point turned by exp(age w^) about the IMU origin.
   Eigen::Vector4d z_pred;
   Matrix43d H, H_angle = Matrix43d::Zero();
-  const bool drift = layout.drift_dim > 0;
-  if (!camera.projectTurned(imu_T_world, p_world, age * state.track_drift_rate_imu, &z_pred, &H,
-                            drift ? &H_angle : nullptr, options_->landmarks.min_depth * 0.5)) {
+  const bool jacobians = H_landmark != nullptr;
+  const bool drift = jacobians && layout.drift_dim > 0;
+  if (!camera.projectTurned(imu_T_world, p_world, age * state.track_drift_rate_imu, &z_pred,
+                            jacobians ? &H : nullptr, drift ? &H_angle : nullptr,
+                            options_->landmarks.min_depth * 0.5)) {
     return false;
   }
-  *H_drift = age * M * H_angle.leftCols(layout.drift_dim);
-  // d z / d calibration: the uR row only. Offset: measured uR = true uR - offset. Baseline
-  // scale: uR = fx (x - b0 (1 + beta)) / z + cx, d uR / d beta = -fx b0 / z.
-  Eigen::Matrix<double, 4, 2> H_cal = Eigen::Matrix<double, 4, 2>::Zero();
-  if (layout.disparity_dim > 0) H_cal(2, 0) = -1.0;
-  if (layout.scale_dim > 0) {
-    H_cal(2, layout.disparity_dim) = -(z_pred(0) - z_pred(2)) / (1.0 + state.baseline_scale_error);
+  if (jacobians) {
+    *H_drift = age * M * H_angle.leftCols(layout.drift_dim);
+    // d z / d calibration: the uR row only. Offset: measured uR = true uR - offset. Baseline
+    // scale: uR = fx (x - b0 (1 + beta)) / z + cx, d uR / d beta = -fx b0 / z.
+    Eigen::Matrix<double, 4, 2> H_cal = Eigen::Matrix<double, 4, 2>::Zero();
+    if (layout.disparity_dim > 0) H_cal(2, 0) = -1.0;
+    if (layout.scale_dim > 0) {
+      H_cal(2, layout.disparity_dim) =
+          -(z_pred(0) - z_pred(2)) / (1.0 + state.baseline_scale_error);
+    }
+    *H_calibration = M * H_cal.leftCols(layout.calibrationDim());
+    *H_landmark = M * H;
   }
-  *H_calibration = M * H_cal.leftCols(layout.calibrationDim());
   z_pred(2) -= state.disparity_offset;
   *residual = M * (z - z_pred);
-  *H_landmark = M * H;
   return true;
 }
 
@@ -287,14 +292,20 @@ bool StereoUpdater::stackedUpdate(const std::vector<StereoCandidate*>& accepted,
 void StereoUpdater::recordPosteriorResiduals(const StereoCamera& camera, const FilterState& state,
                                              const std::vector<StereoCandidate*>& accepted,
                                              LandmarkManager* landmarks) {
+  Eigen::VectorXd residual;
   for (const StereoCandidate* c : accepted) {
-    StereoCandidate posterior = *c;
-    if (!linearize(camera, state, &posterior)) continue;
+    const Eigen::Vector4d z(c->feature.u_left, c->feature.v_left, c->feature.u_right,
+                            c->feature.v_right);
+    const Eigen::Matrix4d& imu_T_world = c->via_clone ? state.imu_T_world_clone : state.imu_T_world;
+    if (!predict(camera, state, imu_T_world, state.landmark(c->landmark), z, c->track_age,
+                 &residual)) {
+      continue;
+    }
     LandmarkTrack& track = landmarks->track(c->landmark);
     if (track.posterior_frame == landmarks->frame() - 1) {
-      track_correlation_.add(posterior.residual, track.posterior_residual);
+      track_correlation_.add(residual, track.posterior_residual);
     }
-    track.posterior_residual = posterior.residual;
+    track.posterior_residual = residual;
     track.posterior_frame = landmarks->frame();
   }
 }

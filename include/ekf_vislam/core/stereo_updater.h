@@ -84,11 +84,12 @@ class StereoUpdater {
  private:
   /// Residual and Jacobians (landmark, calibration, track drift rate) of observation z, of age
   /// `age` (s), of p_world from a pose; false when the point is not in front of the camera.
+  /// Without H_landmark (nullptr), the residual only.
   bool predict(const StereoCamera& camera, const FilterState& state,
                const Eigen::Matrix4d& imu_T_world, const Eigen::Vector3d& p_world,
                const Eigen::Vector4d& z, double age, Eigen::VectorXd* residual,
-               Eigen::MatrixXd* H_landmark, Eigen::MatrixXd* H_calibration,
-               Eigen::MatrixXd* H_drift) const;
+               Eigen::MatrixXd* H_landmark = nullptr, Eigen::MatrixXd* H_calibration = nullptr,
+               Eigen::MatrixXd* H_drift = nullptr) const;
   /// Adds `weight` times the pose and clone Jacobians of a view from the clone.
   static void setCloneView(const Eigen::Vector3d& p_world, double weight, StereoCandidate* c,
                            const Eigen::MatrixXd& H_landmark_clone);

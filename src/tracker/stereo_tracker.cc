@@ -41,7 +41,10 @@ template <typename T>
 void keepSelected(const std::vector<uint8_t>& keep, std::vector<T>* items) {
   size_t out = 0;
   for (size_t i = 0; i < items->size(); ++i) {
-    if (keep[i]) (*items)[out++] = std::move((*items)[i]);
+    if (!keep[i]) continue;
+    // No self-move: a moved-onto-itself std::vector may come out empty.
+    if (out != i) (*items)[out] = std::move((*items)[i]);
+    ++out;
   }
   items->resize(out);
 }

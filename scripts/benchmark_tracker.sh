@@ -2,17 +2,19 @@
 # Speed of the stereo tracker: runs track_stereo_images over a KITTI-layout folder (default: the
 # 1241x376 highway clip ../shared/data/kitti_clips/odometry_01_000000-000050) and prints the
 # median and p99 milliseconds per stereo pair (tracking only: image decoding excluded) and the
-# frame rate they mean, for each of --repeat runs.
-#   scripts/benchmark_tracker.sh [FOLDER] [--repeat N]
+# frame rate they mean, for each of --repeat runs. --config: tracker options (default: built-in).
+#   scripts/benchmark_tracker.sh [FOLDER] [--repeat N] [--config tracker.yaml]
 set -eo pipefail
 export PATH=/usr/bin:/bin:${PATH}
 REPO=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 FOLDER=""
 REPEAT=3
+CONFIG=()
 while (($#)); do
   case "$1" in
     --repeat) REPEAT=$2; shift 2 ;;
-    -h|--help) sed -n 2,6p "$0"; exit 0 ;;
+    --config) CONFIG=(--config "$2"); shift 2 ;;
+    -h|--help) sed -n 2,7p "$0"; exit 0 ;;
     *) FOLDER=$1; shift ;;
   esac
 done
@@ -26,7 +28,7 @@ TMP=$(mktemp -d)
 trap 'rm -rf "${TMP}"' EXIT
 for run in $(seq 1 "${REPEAT}"); do
   "${TOOL}" --left "${FOLDER}/image_left" --right "${FOLDER}/image_right" --calib "${FOLDER}/calib.txt" \
-    --times "${FOLDER}/times.txt" --out "${TMP}/tracks.npz" --stats "${TMP}/stats.csv" --quiet
+    --times "${FOLDER}/times.txt" --out "${TMP}/tracks.npz" --stats "${TMP}/stats.csv" --quiet "${CONFIG[@]}"
   /usr/bin/python3 - "${TMP}/stats.csv" "${run}" "${FOLDER}" <<'PY'
 import csv, sys
 import numpy as np

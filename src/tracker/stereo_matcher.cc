@@ -1,5 +1,7 @@
 #include "ekf_vislam/tracker/stereo_matcher.h"
 
+#include "ekf_vislam/tracker/patch_refiner.h"
+
 #include <opencv2/video/tracking.hpp>
 
 #include <cmath>
@@ -10,8 +12,8 @@ std::vector<cv::Point2f> matchStereo(const std::vector<cv::Mat>& left_pyramid,
                                      const std::vector<cv::Mat>& right_pyramid,
                                      const std::vector<cv::Point2f>& left,
                                      const std::vector<float>& seed_disparity,
-                                     const TrackerOptions& options, std::vector<uint8_t>* ok,
-                                     StereoMatchCounts* counts) {
+                                     const TrackerOptions& options, bool refine,
+                                     std::vector<uint8_t>* ok, StereoMatchCounts* counts) {
   const size_t n = left.size();
   ok->assign(n, 0);
   std::vector<cv::Point2f> right(n);
@@ -33,8 +35,11 @@ std::vector<cv::Point2f> matchStereo(const std::vector<cv::Mat>& left_pyramid,
                            cv::OPTFLOW_USE_INITIAL_FLOW);
 
   const cv::Size size = left_pyramid[0].size();
+  PatchRefinerOptions refiner;
+  refiner.max_iterations = options.refine_max_iterations;
+  refiner.epsilon = options.refine_epsilon;
   for (size_t i = 0; i < n; ++i) {
-    const cv::Point2f& r = right[i];
+    const cv::Point2f r = right[i];
     if (!status[i] || r.x < 0 || r.y < 0 || r.x > size.width - 1 || r.y > size.height - 1) {
       ++counts->klt_failed;
       continue;
@@ -54,6 +59,26 @@ std::vector<cv::Point2f> matchStereo(const std::vector<cv::Mat>& left_pyramid,
     }
     (*ok)[i] = 1;
     ++counts->matched;
+    if (refine && options.refine && options.refine_stereo) {
+      // The current left patch aligned to the right image from the KLT match.
+      ReferencePatch patch;
+      if (!patch.create(left_pyramid[0], left[i], options.refine_patch_size, WarpModel::kStereo)) {
+        continue;
+      }
+      AffineWarp warp;
+      warp.t = Eigen::Vector2f(r.x, r.y);
+      const RefineResult result = patch.align(right_pyramid[0], refiner, &warp);
+      const cv::Point2f refined(warp.t.x(), warp.t.y());
+      const double refined_disparity = left[i].x - refined.x;
+      if (result.inside && result.converged && result.zncc >= options.refine_min_zncc &&
+          cv::norm(refined - r) <= options.refine_max_shift_px &&
+          std::abs(refined.y - left[i].y) <= options.row_tolerance_px &&
+          refined_disparity >= options.min_disparity_px &&
+          refined_disparity <= options.max_disparity_px) {
+        right[i] = refined;
+        ++counts->refined;
+      }
+    }
   }
   return right;
 }

@@ -41,7 +41,10 @@ template <typename T>
 void keepSelected(const std::vector<uint8_t>& keep, std::vector<T>* items) {
   size_t out = 0;
   for (size_t i = 0; i < items->size(); ++i) {
-    if (keep[i]) (*items)[out++] = std::move((*items)[i]);
+    if (!keep[i]) continue;
+    // No self-move: a moved-onto-itself std::vector may come out empty.
+    if (out != i) (*items)[out] = std::move((*items)[i]);
+    ++out;
   }
   items->resize(out);
 }
@@ -199,6 +202,14 @@ std::vector<float> StereoTracker::trackTemporal(const std::vector<cv::Mat>& left
   keepSelected(keep, &prev);
   keepSelected(keep, &cur);
   stats->ms_temporal = msSince(t);
+  if (options_.refine) {
+    t = Clock::now();
+    const std::vector<uint8_t> aligned = refineLeft(left_pyramid[0], &cur, stats);
+    keepSelected(aligned, &tracks_);
+    keepSelected(aligned, &prev);
+    keepSelected(aligned, &cur);
+    stats->ms_refine = msSince(t);
+  }
 
   // RANSAC over the surviving matches, with each track's previous stereo point.
   t = Clock::now();
@@ -239,6 +250,55 @@ std::vector<float> StereoTracker::trackTemporal(const std::vector<cv::Mat>& left
   return predicted_disparity;
 }
 
+void StereoTracker::setReference(const cv::Mat& left, Track* track) const {
+  track->warp = AffineWarp();
+  track->warp.t = Eigen::Vector2f(track->left.x, track->left.y);
+  track->reference.create(left, track->left, options_.refine_patch_size, WarpModel::kAffine);
+}
+
+std::vector<uint8_t> StereoTracker::refineLeft(const cv::Mat& left, std::vector<cv::Point2f>* cur,
+                                               TrackerFrameStats* stats) {
+  PatchRefinerOptions refiner;
+  refiner.max_iterations = options_.refine_max_iterations;
+  refiner.epsilon = options_.refine_epsilon;
+  const double max_scale = options_.refine_max_scale_change;
+  std::vector<uint8_t> keep(tracks_.size(), 1);
+  for (size_t i = 0; i < tracks_.size(); ++i) {
+    Track& track = tracks_[i];
+    cv::Point2f& p = (*cur)[i];
+    bool aligned = false;
+    if (track.reference.valid()) {
+      AffineWarp warp = track.warp;
+      warp.t = Eigen::Vector2f(p.x, p.y);
+      const RefineResult result = track.reference.align(left, refiner, &warp);
+      const cv::Point2f refined(warp.t.x(), warp.t.y());
+      if (result.inside && result.converged && result.zncc >= options_.refine_min_zncc &&
+          cv::norm(refined - p) <= options_.refine_max_shift_px) {
+        p = refined;
+        track.warp = warp;
+        aligned = true;
+        ++stats->refined;
+      } else {
+        ++stats->refine_failed;
+        if (options_.refine_end_failed) {
+          keep[i] = 0;
+          continue;
+        }
+      }
+    }
+    const double scale = std::sqrt(std::abs(track.warp.A.determinant()));
+    if (!aligned || !(scale <= max_scale && scale >= 1.0 / max_scale)) {
+      // A new reference where the track now is.
+      Track anchored;
+      anchored.left = p;
+      setReference(left, &anchored);
+      track.reference = std::move(anchored.reference);
+      track.warp = anchored.warp;
+    }
+  }
+  return keep;
+}
+
 void StereoTracker::matchTracksInRight(const std::vector<cv::Mat>& left_pyramid,
                                        const std::vector<cv::Mat>& right_pyramid,
                                        const std::vector<float>& predicted_disparity,
@@ -248,8 +308,8 @@ void StereoTracker::matchTracksInRight(const std::vector<cv::Mat>& left_pyramid,
   for (size_t i = 0; i < tracks_.size(); ++i) left[i] = tracks_[i].left;
   std::vector<uint8_t> ok;
   StereoMatchCounts counts;
-  const std::vector<cv::Point2f> right = matchStereo(left_pyramid, right_pyramid, left,
-                                                     predicted_disparity, options_, &ok, &counts);
+  const std::vector<cv::Point2f> right = matchStereo(
+      left_pyramid, right_pyramid, left, predicted_disparity, options_, true, &ok, &counts);
   const bool check_disparity =
       has_last_motion_ && (options_.disparity_check_px > 0 || options_.disparity_check_relative > 0);
   for (size_t i = 0; i < tracks_.size(); ++i) {
@@ -285,9 +345,12 @@ void StereoTracker::addNewTracks(const cv::Mat& left, const std::vector<cv::Mat>
   const std::vector<float> seed(corners.size(), 0.f);
   std::vector<uint8_t> ok;
   StereoMatchCounts counts;
-  const std::vector<cv::Point2f> right =
-      matchStereo(left_pyramid, right_pyramid, corners, seed, options_, &ok, &counts);
   const size_t tracks_in_frame = tracks_.size();
+  // New features wait confirm_frames before they are published, and are matched anew then: their
+  // stereo match is refined only when they are published at once.
+  const bool refine = tracks_in_frame == 0 || options_.confirm_frames == 0;
+  const std::vector<cv::Point2f> right =
+      matchStereo(left_pyramid, right_pyramid, corners, seed, options_, refine, &ok, &counts);
   for (size_t i = 0; i < corners.size(); ++i) {
     if (!ok[i]) continue;
     Track track;
@@ -295,6 +358,7 @@ void StereoTracker::addNewTracks(const cv::Mat& left, const std::vector<cv::Mat>
     if (tracks_in_frame == 0) track.age = options_.confirm_frames;
     track.left = corners[i];
     track.right = right[i];
+    if (options_.refine) setReference(left, &track);
     tracks_.push_back(std::move(track));
     ++stats->new_tracks;
   }

@@ -5,7 +5,9 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <random>
 
@@ -117,6 +119,44 @@ TEST(StereoTracker, IdsPersistAndPositionsFollowTheTrueMotion) {
   EXPECT_LT(position_errors[position_errors.size() / 2], 0.25);
   EXPECT_LT(max_position_error, 2.0);
   EXPECT_LT(max_disparity_error, 1.0);
+}
+
+// Median left-image error of the tracks of age >= 3 (frames since publication) over 12 frames
+// of the slanted plane, each track against the true image of the point it was published on.
+double medianDriftOverTwelveFrames(const TrackerOptions& options) {
+  SlantedPlaneScene scene;
+  StereoTracker tracker(options, scene.calibration());
+  std::map<uint32_t, cv::Vec3d> first_point;
+  std::vector<double> errors;
+  for (int k = 0; k < 12; ++k) {
+    const cv::Vec3d c = positionAt(k);
+    StereoFrame frame;
+    std::string why;
+    EXPECT_TRUE(
+        tracker.process(scene.render(c, 0), scene.render(c, 0.5), 0.1 * k, nullptr, &frame, &why));
+    for (const TrackedFeature& f : frame.features) {
+      auto it = first_point.find(f.id);
+      if (it == first_point.end()) {
+        first_point[f.id] = scene.pointAt(c, f.left.x, f.left.y);
+      } else if (f.age >= 3) {
+        const cv::Point2d truth = scene.project(c, it->second);
+        errors.push_back(std::hypot(truth.x - f.left.x, truth.y - f.left.y));
+      }
+    }
+  }
+  EXPECT_GE(errors.size(), 500u);
+  std::sort(errors.begin(), errors.end());
+  return errors.empty() ? 1e9 : errors[errors.size() / 2];
+}
+
+TEST(StereoTracker, RefinementAgainstTheFirstPatchRemovesTheKltDrift) {
+  TrackerOptions plain;
+  plain.refine = false;
+  const double klt = medianDriftOverTwelveFrames(plain);
+  const double refined = medianDriftOverTwelveFrames(TrackerOptions());
+  std::printf("median drift at ages >= 3: KLT only %.4f px, refined %.4f px\n", klt, refined);
+  EXPECT_LT(refined, 0.5 * klt);
+  EXPECT_LT(refined, 0.05);
 }
 
 TEST(StereoTracker, DisparityMatchesDepth) {

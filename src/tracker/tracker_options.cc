@@ -32,6 +32,15 @@ void visitTrackerOptions(Options& o, Visitor& v) {
   v.number("klt/epsilon", o.epsilon, Bound::kPositive);
   v.number("klt/forward_backward_px", o.forward_backward_px, Bound::kPositive);
   v.flag("klt/predict_with_last_motion", o.predict_with_last_motion);
+  v.flag("refine/enabled", o.refine);
+  v.integer("refine/patch_size", o.refine_patch_size, Bound::kAtLeastOne);
+  v.integer("refine/max_iterations", o.refine_max_iterations, Bound::kAtLeastOne);
+  v.number("refine/epsilon", o.refine_epsilon, Bound::kPositive);
+  v.number("refine/max_shift_px", o.refine_max_shift_px, Bound::kPositive);
+  v.number("refine/min_zncc", o.refine_min_zncc, Bound::kNonNegative);
+  v.number("refine/max_scale_change", o.refine_max_scale_change, Bound::kPositive);
+  v.flag("refine/end_failed_tracks", o.refine_end_failed);
+  v.flag("refine/stereo", o.refine_stereo);
   v.integer("stereo/window_size", o.stereo_window_size, Bound::kAtLeastOne);
   v.integer("stereo/pyramid_levels", o.stereo_pyramid_levels, Bound::kNonNegative);
   v.number("stereo/row_tolerance_px", o.row_tolerance_px, Bound::kPositive);
@@ -69,6 +78,11 @@ std::string TrackerOptions::validate() const {
     validator.fail("'klt/window_size' must be odd and >= 5");
   }
   if (pyramid_levels > 8) validator.fail("'klt/pyramid_levels' must be 0..8");
+  if (refine_patch_size < 5 || refine_patch_size % 2 == 0) {
+    validator.fail("'refine/patch_size' must be odd and >= 5");
+  }
+  if (refine_min_zncc > 1) validator.fail("'refine/min_zncc' must be 0..1");
+  if (refine_max_scale_change <= 1) validator.fail("'refine/max_scale_change' must exceed 1");
   if (stereo_window_size < 5 || stereo_window_size % 2 == 0) {
     validator.fail("'stereo/window_size' must be odd and >= 5");
   }

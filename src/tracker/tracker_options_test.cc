@@ -10,7 +10,7 @@ TEST(TrackerOptions, ShippedFileEqualsTheDefaults) {
   YamlParameterSource source(std::string(EKF_VISLAM_SOURCE_DIR) + "/config/tracker.yaml");
   ASSERT_TRUE(source.ok()) << source.error();
   const std::vector<OptionKeyList::Key> keys = trackerOptionKeys();
-  EXPECT_EQ(keys.size(), 29u);
+  EXPECT_EQ(keys.size(), 38u);
   for (const OptionKeyList::Key& key : keys) {
     EXPECT_TRUE(source.has(key.name)) << key.name << " is not documented in config/tracker.yaml";
   }
@@ -44,16 +44,17 @@ TEST(TrackerOptions, ParsesAndRejects) {
     void (*spoil)(TrackerOptions*);
     const char* key;
   };
-  for (const Case& c : {Case{[](TrackerOptions* o) { o->window_size = 20; }, "klt/window_size"},
-                        Case{[](TrackerOptions* o) { o->min_disparity_px = 0; },
-                             "stereo/min_disparity_px"},
-                        Case{[](TrackerOptions* o) { o->max_disparity_px = 0.4; },
-                             "stereo/max_disparity_px"},
-                        Case{[](TrackerOptions* o) { o->fast_threshold = 300; },
-                             "detector/fast_threshold"},
-                        Case{[](TrackerOptions* o) { o->min_ransac_points = 5; }, "ransac/min_points"},
-                        Case{[](TrackerOptions* o) { o->ransac_confidence = 1.0; },
-                             "ransac/confidence"}}) {
+  for (const Case& c :
+       {Case{[](TrackerOptions* o) { o->window_size = 20; }, "klt/window_size"},
+        Case{[](TrackerOptions* o) { o->min_disparity_px = 0; }, "stereo/min_disparity_px"},
+        Case{[](TrackerOptions* o) { o->max_disparity_px = 0.4; }, "stereo/max_disparity_px"},
+        Case{[](TrackerOptions* o) { o->fast_threshold = 300; }, "detector/fast_threshold"},
+        Case{[](TrackerOptions* o) { o->min_ransac_points = 5; }, "ransac/min_points"},
+        Case{[](TrackerOptions* o) { o->ransac_confidence = 1.0; }, "ransac/confidence"},
+        Case{[](TrackerOptions* o) { o->refine_patch_size = 14; }, "refine/patch_size"},
+        Case{[](TrackerOptions* o) { o->refine_min_zncc = 1.5; }, "refine/min_zncc"},
+        Case{[](TrackerOptions* o) { o->refine_max_scale_change = 1.0; },
+             "refine/max_scale_change"}}) {
     TrackerOptions bad;
     c.spoil(&bad);
     EXPECT_NE(bad.validate().find(c.key), std::string::npos) << c.key << ": " << bad.validate();

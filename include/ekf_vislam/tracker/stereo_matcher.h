@@ -17,16 +17,19 @@ struct StereoMatchCounts {
   int row_failed = 0;
   int disparity_failed = 0;
   int matched = 0;
+  int refined = 0;  ///< of the matched, aligned by refine/stereo
 };
 
 /// Pyramids from cv::buildOpticalFlowPyramid (with derivatives) of the rectified left and right
 /// images; `seed_disparity[i]` is the initial guess of u_left - u_right for left[i] (0 without
-/// one). Returns the right points; ok[i] says whether left[i] was matched.
+/// one). Returns the right points; ok[i] says whether left[i] was matched. With `refine`,
+/// refine/enabled and refine/stereo, each match is then aligned: the left patch to the right image
+/// (patch_refiner.h, WarpModel::kStereo); a refused alignment leaves the KLT match.
 std::vector<cv::Point2f> matchStereo(const std::vector<cv::Mat>& left_pyramid,
                                      const std::vector<cv::Mat>& right_pyramid,
                                      const std::vector<cv::Point2f>& left,
                                      const std::vector<float>& seed_disparity,
-                                     const TrackerOptions& options, std::vector<uint8_t>* ok,
-                                     StereoMatchCounts* counts);
+                                     const TrackerOptions& options, bool refine,
+                                     std::vector<uint8_t>* ok, StereoMatchCounts* counts);
 
 }  // namespace ekf_vislam

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "ekf_vislam/tracker/feature_detector.h"
+#include "ekf_vislam/tracker/patch_refiner.h"
 #include "ekf_vislam/tracker/tracker_options.h"
 #include "ekf_vislam/tracker/tracker_types.h"
 
@@ -39,6 +40,8 @@ class StereoTracker {
     cv::Point2f left, right;
     int age = 0;
     std::vector<cv::Point2f> trail;
+    ReferencePatch reference;  ///< left patch the track is aligned to (refine/enabled)
+    AffineWarp warp;           ///< the reference's warp into the last left image
   };
 
   std::vector<cv::Point2f> predictLeft(const CameraMotionPrior* prior, double dt,
@@ -48,6 +51,13 @@ class StereoTracker {
   std::vector<float> trackTemporal(const std::vector<cv::Mat>& left_pyramid,
                                    const CameraMotionPrior* prior, double dt,
                                    TrackerFrameStats* stats);
+  // Aligns each track's reference patch to `left` from its KLT position in *cur and moves it
+  // there. Where that fails, the KLT position stands and the reference is taken anew (also when
+  // the warp scaled it too much), or with refine/end_failed_tracks the track is to end: returns
+  // which tracks to keep.
+  std::vector<uint8_t> refineLeft(const cv::Mat& left, std::vector<cv::Point2f>* cur,
+                                  TrackerFrameStats* stats);
+  void setReference(const cv::Mat& left, Track* track) const;
   void matchTracksInRight(const std::vector<cv::Mat>& left_pyramid,
                           const std::vector<cv::Mat>& right_pyramid,
                           const std::vector<float>& predicted_disparity, TrackerFrameStats* stats);

@@ -46,6 +46,21 @@ struct TrackerOptions {
   bool predict_with_last_motion = true;  ///< KLT initial guess from the last frame's estimated
                                          ///< motion (for points with a stereo depth)
 
+  // refine/
+  bool refine = true;                ///< align each track's first left patch (affine warp, gain and
+                                     ///< bias) to every new left image after the KLT
+  int refine_patch_size = 15;        ///< px, odd: side of the reference patch
+  int refine_max_iterations = 10;    ///< inverse-compositional iterations
+  double refine_epsilon = 0.03;      ///< px, stop when an iteration moves the point by less
+  double refine_max_shift_px = 1.0;  ///< a refined position further from the KLT one is refused
+  double refine_min_zncc = 0.8;      ///< a refined patch correlating less is refused
+  double refine_max_scale_change = 2.0;  ///< the reference is taken anew when the warp scales it
+                                         ///< by more than this (or less than its inverse)
+  bool refine_end_failed = false;  ///< end a track whose alignment is refused (false: keep the
+                                   ///< KLT position and take the reference anew there)
+  bool refine_stereo = true;       ///< also align the current left patch to the right image
+                                   ///< (affine in u, rows kept) after the left-right KLT
+
   // stereo/
   int stereo_window_size = 21;      ///< KLT window of the left-right match
   int stereo_pyramid_levels = 4;    ///< pyramid levels of the left-right match

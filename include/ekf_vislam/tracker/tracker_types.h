@@ -46,8 +46,11 @@ struct TrackerFrameStats {
   int detected = 0;             ///< new corners found
   int new_tracks = 0;           ///< of them, matched in the right image (new ids)
   int published = 0;            ///< features of the frame
+  int refined = 0;              ///< tracks aligned to their reference patch (refine/enabled)
+  int refine_failed = 0;        ///< alignments refused (the KLT position stands)
   bool motion_estimated = false;  ///< PnP gave the camera motion of this frame
-  double ms_pyramids = 0, ms_temporal = 0, ms_ransac = 0, ms_stereo = 0, ms_detect = 0;
+  double ms_pyramids = 0, ms_temporal = 0, ms_ransac = 0, ms_stereo = 0, ms_detect = 0,
+         ms_refine = 0;
   double ms_total = 0;
 };
 

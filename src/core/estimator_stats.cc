@@ -30,6 +30,7 @@ const char* counterName(Counter counter) {
     case Counter::kObsJumpHeld: return "observation_jump_held";
     case Counter::kObsBehindCamera: return "observation_behind_camera";
     case Counter::kObsIgnoredDeadReckoning: return "observation_ignored_deadreckoning";
+    case Counter::kObsWaiting: return "observation_waiting";
     case Counter::kLandmarkInitialized: return "landmark_initialized";
     case Counter::kLandmarkReinitialized: return "landmark_reinitialized";
     case Counter::kLandmarkSplit: return "landmark_split";

@@ -24,6 +24,16 @@ std::optional<size_t> LandmarkManager::find(uint32_t id) const {
 bool LandmarkManager::initialize(const StereoObservation& f, double stamp, size_t reuse_map_index,
                                  const StereoCamera& camera, FilterState* state,
                                  EstimatorStats* stats, FeedResult* result) {
+  const int max_active = options_->landmarks.max_active;
+  // Landmarks kept after their track ended (keep_all_in_state) do not count: that mode grows the
+  // state on purpose.
+  if (max_active > 0 &&
+      std::count_if(tracks_.begin(), tracks_.end(), [](const LandmarkTrack& t) {
+        return t.tracking;
+      }) >= max_active) {
+    stats->increment(Counter::kObsWaiting);  // not bad input: not counted as rejected
+    return false;
+  }
   const double v = options_->noise.merge_stereo_rows ? 0.5 * (f.v_left + f.v_right) : f.v_left;
   Eigen::Vector3d p_cam;
   Eigen::Matrix3d J_uvu;

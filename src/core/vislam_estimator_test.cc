@@ -9,6 +9,7 @@
 #include <algorithm>
 
 #include <map>
+#include <set>
 
 #include <cmath>
 #include <cstdio>
@@ -627,6 +628,51 @@ TEST(VislamEstimator, LandmarkLifeCycleAugmentMarginalizeKeepInMap) {
   for (const LandmarkEstimate& l : estimator.landmarks()) entries += (l.id == gone);
   EXPECT_EQ(entries, 2u);
   EXPECT_LT((estimator.landmarks()[0].p_world - before.p_world).norm(), 1e-12);
+}
+
+TEST(VislamEstimator, MaxActiveBoundsTheStateAndNewTracksWaitForRoom) {
+  ScenarioOptions so;
+  so.frames = 60;
+  const Scenario s = makeScenario(so);
+  VislamOptions options = defaultOptions();
+  options.landmarks.max_active = 0;
+  const RunResult unbounded = run(s, options);
+  options.landmarks.max_active = 25;
+  VislamEstimator estimator(options);
+  ASSERT_TRUE(estimator.setCalibration(s.calibration));
+  size_t peak = 0;
+  std::set<uint32_t> started_in_frame0;
+  for (size_t k = 0; k < s.frames.size(); ++k) {
+    estimator.feedTwist(s.twists[k]);
+    estimator.feedFeatures(s.frames[k]);
+    if (k == 0) {
+      for (const LandmarkEstimate& l : estimator.landmarks()) started_in_frame0.insert(l.id);
+    }
+    peak = std::max(peak, estimator.activeLandmarkCount());
+    ASSERT_LE(estimator.activeLandmarkCount(), 25u) << "frame " << k;
+  }
+  EXPECT_EQ(peak, 25u);
+  const EstimatorStats& stats = estimator.stats();
+  // Tracks waited (not counted as rejected input) and started when landmarks left.
+  EXPECT_GT(stats.get(Counter::kObsWaiting), 0u);
+  EXPECT_LT(stats.observationsRejected(), stats.get(Counter::kObsWaiting));
+  EXPECT_GT(stats.get(Counter::kLandmarkInitialized), 3u * 25u);
+  EXPECT_EQ(started_in_frame0.size(), 25u);
+  // A track that waited in frame 0 started later, from a later observation.
+  size_t started_later = 0;
+  for (const StereoObservation& f : s.frames[0].features) {
+    if (started_in_frame0.count(f.id)) continue;
+    for (const LandmarkEstimate& l : estimator.landmarks()) started_later += (l.id == f.id);
+  }
+  EXPECT_GT(started_later, 0u);
+  EXPECT_LT(estimator.landmarks().size(), unbounded.stats.get(Counter::kLandmarkInitialized));
+  // Fewer landmarks, still a working filter: the error stays within 2x of the unbounded run's.
+  const Eigen::Vector3d p_end = estimator.worldTImu().translation();
+  const double final_error = (p_end - s.world_T_imu.back().topRightCorner<3, 1>()).norm();
+  std::printf("    max_active 25: final error %.3f m (unbounded %.3f m), %lu observations waited\n",
+              final_error, unbounded.final_error_m,
+              static_cast<unsigned long>(stats.get(Counter::kObsWaiting)));
+  EXPECT_LT(final_error, 2.0 * unbounded.final_error_m + 0.05);
 }
 
 TEST(VislamEstimator, TracksSurviveEmptyMessagesAndGapsUpToMaxTrackGap) {

@@ -39,6 +39,7 @@ enum class Counter : int {
   kObsJumpHeld,              ///< flagged by the flow test once: not used, the landmark stays
   kObsBehindCamera,          ///< predicted point not in front of the camera
   kObsIgnoredDeadReckoning,  ///< dead reckoning mode: observations not used
+  kObsWaiting,               ///< new track not started: landmarks/max_active in the state
   // Landmark life cycle
   kLandmarkInitialized,
   kLandmarkReinitialized,    ///< a landmark whose first observation was gated out restarted

@@ -155,6 +155,11 @@ struct LandmarkOptions {
   /// A track absent from up to this many consecutive non-empty frames keeps its landmark in the
   /// state and resumes when its id returns; after that it ends. An empty message ends no track.
   int max_track_gap = 2;
+  /// At most this many tracked landmarks in the state (kept ones of ended tracks, with
+  /// keep_all_in_state, do not count): a new track waits (observation_waiting) until one leaves,
+  /// then starts from its observation of that frame. The update costs O(N^2 m) for N
+  /// state rows and m observation rows, so this bounds the time per frame. 0 = no bound.
+  int max_active = 100;
 };
 
 /// limits/: input sanity, twist gaps and repeated frames.

@@ -1,0 +1,107 @@
+#!/usr/bin/env bash
+# Tracker and estimator live, faster than real time: a KITTI-layout folder (images, calib.txt,
+# times.txt, poses.txt for the twist) is written as a bag (play_stereo_images.py), played with
+# `rosbag play --clock -r RATE` into launch/stereo_vislam.launch (one nodelet manager), and the
+# features, twist and odometry are recorded. Prints the pairs received, tracked and dropped, the
+# frames the estimator used, its update time and latency (diagnostics), the time the estimator
+# finished after the last pair, and whether vislam_offline on the recorded features reproduces
+# the live trajectory bit for bit (live = offline).
+#   scripts/benchmark_live.sh FOLDER [--rate R] [--config estimator.yaml] [--out DIR]
+# Needs no roscore running on port 11399 (it starts its own there).
+set -eo pipefail
+export PATH=/usr/bin:/bin:${PATH}
+REPO=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+FOLDER=""
+RATE=3
+CONFIG=""
+OUT=""
+while (($#)); do
+  case "$1" in
+    --rate) RATE=$2; shift 2 ;;
+    --config) CONFIG=$(readlink -f "$2"); shift 2 ;;
+    --out) OUT=$2; shift 2 ;;
+    -h|--help) sed -n 2,10p "$0"; exit 0 ;;
+    *) FOLDER=$1; shift ;;
+  esac
+done
+[[ -f "${FOLDER}/poses.txt" ]] || { echo "benchmark_live: FOLDER with poses.txt needed"; exit 2; }
+source "${REPO}/scripts/env.sh" >/dev/null
+export ROS_MASTER_URI=http://localhost:11399
+OUT=${OUT:-$(mktemp -d)}
+mkdir -p "${OUT}"
+OUT=$(readlink -f "${OUT}")
+/usr/bin/python3 "${REPO}/scripts/play_stereo_images.py" "${FOLDER}" --bag "${OUT}/images.bag" >/dev/null
+roscore -p 11399 >"${OUT}/roscore.log" 2>&1 &
+CORE=$!
+trap 'kill -INT ${CORE} 2>/dev/null || true' EXIT
+until rostopic list >/dev/null 2>&1; do sleep 0.5; done
+ARGS=(use_sim_time:=true output_dir:="${OUT}/live")
+[[ -n "${CONFIG}" ]] && ARGS+=(config:="${CONFIG}")
+roslaunch ekf_vislam stereo_vislam.launch "${ARGS[@]}" >"${OUT}/launch.log" 2>&1 &
+LAUNCH=$!
+rosbag record -O "${OUT}/live.bag" /stereo/features /imu/twist /stereo/left/camera_info \
+  /stereo/right/camera_info /tf_static /vislam/odometry_update /diagnostics \
+  >"${OUT}/record.log" 2>&1 &
+RECORD=$!
+until rosservice list 2>/dev/null | grep -q /vislam/save; do sleep 0.5; done
+# Counts the estimator's per-frame outputs as they come; ends when every pair has one, or when
+# none has come for 20 s, and writes the count and the wall time of the last one.
+PAIRS=$(/usr/bin/python3 -c "import rosbag, sys; print(rosbag.Bag(sys.argv[1]).get_message_count('/stereo/left/image_rect'))" "${OUT}/images.bag")
+/usr/bin/python3 - "${PAIRS}" "${OUT}/outputs.txt" <<'PY' &
+import sys, time
+import rospy
+from nav_msgs.msg import Odometry
+pairs, path = int(sys.argv[1]), sys.argv[2]
+seen = {'count': 0, 'last': time.time()}
+def on_odometry(_):
+    seen['count'] += 1
+    seen['last'] = time.time()
+rospy.init_node('benchmark_live_count', anonymous=True)
+rospy.Subscriber('/vislam/odometry_update', Odometry, on_odometry, queue_size=100000)
+while seen['count'] < pairs and time.time() - seen['last'] < 20.0:
+    time.sleep(0.05)
+open(path, 'w').write('%d %.6f\n' % (seen['count'], seen['last']))
+PY
+COUNTER=$!
+sleep 2
+rosbag play --clock -r "${RATE}" "${OUT}/images.bag" >"${OUT}/play.log" 2>&1
+PLAY_END=$(date +%s.%N)
+wait "${COUNTER}"
+rosservice call /vislam/save >/dev/null
+sleep 1
+kill -INT "${RECORD}"; wait "${RECORD}" || true
+kill -INT "${LAUNCH}"; wait "${LAUNCH}" || true
+TOOL=$(catkin_find --first-only --libexec ekf_vislam)/vislam_offline
+OFFLINE_ARGS=(--bag "${OUT}/live.bag" --mode slam --out "${OUT}/offline")
+[[ -n "${CONFIG}" ]] && OFFLINE_ARGS+=(--config "${CONFIG}")
+"${TOOL}" "${OFFLINE_ARGS[@]}" >"${OUT}/offline.log" 2>&1
+/usr/bin/python3 - "${OUT}" "${RATE}" "${PLAY_END}" <<'PY'
+import json, sys
+import numpy as np
+import rosbag
+out, rate, play_end = sys.argv[1], sys.argv[2], float(sys.argv[3])
+outputs, done_end = open(out + '/outputs.txt').read().split()
+last = {}
+with rosbag.Bag(out + '/images.bag') as bag:
+    pairs = bag.get_message_count('/stereo/left/image_rect')
+with rosbag.Bag(out + '/live.bag') as bag:
+    for _, msg, _ in bag.read_messages(topics=['/diagnostics']):
+        for status in msg.status:
+            last[status.name.split(':')[0]] = {kv.key: kv.value for kv in status.values}
+tracker, estimator = last.get('stereo_tracker', {}), last.get('vislam', {})
+live = np.loadtxt(out + '/live/trajectory.tum', ndmin=2)
+offline = np.loadtxt(out + '/offline/trajectory.tum', ndmin=2)
+same = live.shape == offline.shape and np.array_equal(live, offline)
+diff = np.abs(live[:, 1:] - offline[:, 1:]).max() if live.shape == offline.shape else float('nan')
+stats = json.load(open(out + '/live/stats.json'))
+print('pairs played %d at %sx; tracker: received %s, tracked %s, dropped waiting %s, '
+      'out of order %s' % (pairs, rate, tracker.get('pairs_received'), tracker.get('pairs_tracked'),
+                           tracker.get('pairs_dropped_waiting'), tracker.get('pairs_out_of_order')))
+print('estimator: frames used %s of %s, update ms p99 %s, latency ms p50 %.2f, p99 %.2f, '
+      'peak active landmarks %s; its last output %.2f s after the player ended (%s outputs)'
+      % (stats['counters'].get('frame_used'), stats['frames'],
+         estimator.get('update_ms_p99'), stats['latency_ms_p50'], stats['latency_ms_p99'],
+         stats['peak_active_landmarks'], float(done_end) - play_end, outputs))
+print('live = offline (vislam_offline on the recorded features): %s (%d poses, max |difference| %g)'
+      % ('yes, bit for bit' if same else 'NO', len(live), diff))
+PY

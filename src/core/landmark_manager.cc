@@ -27,10 +27,7 @@ bool LandmarkManager::initialize(const StereoObservation& f, double stamp, size_
   const int max_active = options_->landmarks.max_active;
   // Landmarks kept after their track ended (keep_all_in_state) do not count: that mode grows the
   // state on purpose.
-  if (max_active > 0 &&
-      std::count_if(tracks_.begin(), tracks_.end(), [](const LandmarkTrack& t) {
-        return t.tracking;
-      }) >= max_active) {
+  if (max_active > 0 && tracking_.size() >= static_cast<size_t>(max_active)) {
     stats->increment(Counter::kObsWaiting);  // not bad input: not counted as rejected
     return false;
   }

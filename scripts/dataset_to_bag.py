@@ -2,6 +2,7 @@
 """Convert a course dataset (npz) into a ROS bag for the estimator, or play it live.
 
     dataset_to_bag.py DATASET.npz OUT.bag [--groundtruth FILE] [--no-fix-extrinsic]
+                      [--no-fix-twist-axes]
     dataset_to_bag.py DATASET.npz --play [--rate R] [--loop] [--groundtruth FILE]
 
 The dataset is validated first (ekf_vislam_tools.dataset); a bad file ends with exit code 2 and
@@ -19,7 +20,8 @@ import numpy as np
 import rospy
 
 from ekf_vislam_tools import bag_writer
-from ekf_vislam_tools.dataset import DatasetError, extrinsic_fix_notice, load_dataset
+from ekf_vislam_tools.dataset import (DatasetError, extrinsic_fix_notice, load_dataset,
+                                      twist_axes_notice)
 from ekf_vislam_tools.trajectory import TrajectoryError
 
 PROG = 'dataset_to_bag.py'
@@ -48,6 +50,10 @@ def parse_args(argv):
     parser.add_argument('--no-fix-extrinsic', dest='fix_extrinsic', action='store_false',
                         help='2019 layout: keep the stored (wrong) cam_T_imu translation instead '
                              'of correcting it to -R t')
+    parser.add_argument('--no-fix-twist-axes', dest='fix_twist_axes', action='store_false',
+                        help='keep the stored twist even when it turns the other way than the '
+                             'images (by default such a twist is turned by a half turn about x '
+                             'into the extrinsic\'s axes)')
     parser.add_argument('--twist-type', choices=sorted(bag_writer.TWIST_TYPES),
                         default='twist_stamped',
                         help='message type of /imu/twist (default %(default)s; the estimator\'s '
@@ -155,7 +161,8 @@ def play(dataset, groundtruth, rate, loop, delay):
 
 
 def run(args):
-    dataset = load_dataset(args.dataset, fix_extrinsic=args.fix_extrinsic)
+    dataset = load_dataset(args.dataset, fix_extrinsic=args.fix_extrinsic,
+                           fix_twist_axes=args.fix_twist_axes)
     groundtruth = None
     if args.groundtruth:
         groundtruth = bag_writer.load_groundtruth(args.groundtruth, dataset)
@@ -164,10 +171,10 @@ def run(args):
         if not os.path.isdir(out_dir):
             raise ToolFailure('%s: cannot write the bag (no directory %s)' % (args.out, out_dir))
     # Everything is checked: now the notice, so that a failing run prints only its error.
-    notice = extrinsic_fix_notice(dataset)
-    if notice:
-        print('%s: note: %s; --no-fix-extrinsic keeps it as stored' % (PROG, notice),
-              file=sys.stderr)
+    for notice, flag in ((extrinsic_fix_notice(dataset), '--no-fix-extrinsic'),
+                         (twist_axes_notice(dataset), '--no-fix-twist-axes')):
+        if notice:
+            print('%s: note: %s; %s keeps it as stored' % (PROG, notice, flag), file=sys.stderr)
 
     if args.play:
         if args.twist_type != 'twist_stamped' or args.twist_covariance:

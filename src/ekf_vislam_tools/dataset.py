@@ -12,6 +12,11 @@ Two layouts exist (see the data README):
 
 Optional extra key: ``image_size`` = [width, height].
 
+The twist and the extrinsic must use the same IMU axes. A file whose twist turns the other way
+than its images (its y and z axes against the extrinsic's: a half turn about x, as in the
+KITTI-360 course file) is found by `twist_axes.check` and its twist turned into the extrinsic's
+axes (`Dataset.twist_axes_turned`).
+
 Every problem is reported as a `DatasetError` whose message starts with the file name and names the
 field, e.g. ``data.npz: field 'linear_velocity': non-finite value at frame 17``. Files are read
 with ``allow_pickle=False``: object arrays are refused, never unpickled.
@@ -22,7 +27,7 @@ import zlib
 
 import numpy as np
 
-from ekf_vislam_tools import se3
+from ekf_vislam_tools import se3, twist_axes
 
 #: Marker key written by our simulator: the stored cam_T_imu translation is already correct.
 TRANSLATION_CORRECT_KEY = 'cam_T_imu_translation_correct'
@@ -47,12 +52,18 @@ _DATASET_FIELDS = [
     'cam_T_imu',        # (4, 4) float64 IMU frame -> left camera optical frame (as used)
     'image_size',       # (width, height) ints, or None when the file does not say
     'extrinsic_fixed',  # True when the 2019 translation was corrected on loading
+    'twist_axes',       # twist_axes.Verdict of the twist against the images, or None (not checked)
 ]
 
 
 class Dataset(collections.namedtuple('Dataset', _DATASET_FIELDS)):
     """A validated dataset; see the field comments in dataset.py for units and frames."""
     __slots__ = ()
+
+    @property
+    def twist_axes_turned(self):
+        """True when the twist was turned into the extrinsic's axes on loading."""
+        return self.twist_axes is not None and self.twist_axes.turn
 
     @property
     def num_frames(self):
@@ -76,17 +87,27 @@ def observed_mask(features):
     return ~np.all(features == UNOBSERVED, axis=0)
 
 
-def load_dataset(path, fix_extrinsic=True):
+def load_dataset(path, fix_extrinsic=True, fix_twist_axes=True):
     """Read and validate a course npz file -> `Dataset`; raises `DatasetError` on any problem.
 
     fix_extrinsic: for the 2019 layout without the simulator's marker key, replace the stored
     cam_T_imu translation t by the correct -R @ t (`Dataset.extrinsic_fixed` says whether it did).
+    fix_twist_axes: check the twist's axes against the tracks (`twist_axes.check`, about a second)
+    and turn a twist that turns the other way into the extrinsic's axes (`Dataset.twist_axes`).
     """
     archive = _open_npz(path)
     try:
-        return _load_from_archive(path, archive, fix_extrinsic)
+        dataset = _load_from_archive(path, archive, fix_extrinsic)
     finally:
         archive.close()
+    if not fix_twist_axes:
+        return dataset
+    verdict = twist_axes.check(dataset)
+    if verdict.turn:
+        dataset = dataset._replace(v=twist_axes.HALF_TURN_X @ dataset.v,
+                                   w=twist_axes.HALF_TURN_X @ dataset.w)
+    return dataset._replace(twist_axes=verdict)
+
 
 
 # ---------------------------------------------------------------------------------------------
@@ -312,7 +333,8 @@ def _load_from_archive(path, archive, fix_extrinsic):
             extrinsic_fixed = True
 
     return Dataset(path=path, layout=layout, t=t, features=features, v=v, w=w, K=K, b=b,
-                   cam_T_imu=cam_T_imu, image_size=image_size, extrinsic_fixed=extrinsic_fixed)
+                   cam_T_imu=cam_T_imu, image_size=image_size, extrinsic_fixed=extrinsic_fixed,
+                   twist_axes=None)
 
 
 def extrinsic_fix_notice(dataset):
@@ -322,3 +344,14 @@ def extrinsic_fix_notice(dataset):
     t = dataset.cam_T_imu[:3, 3]
     return ('%s: 2019 layout: cam_T_imu translation corrected to -R t = (%.4f, %.4f, %.4f) m '
             '(the stored one is imu_T_cam\'s)' % (dataset.path, t[0], t[1], t[2]))
+
+
+def twist_axes_notice(dataset):
+    """One line explaining a turned twist, or None when the twist was kept."""
+    if not dataset.twist_axes_turned:
+        return None
+    verdict = dataset.twist_axes
+    return ('%s: the twist turns the other way than the images (its y and z axes against the '
+            'extrinsic\'s): turned by a half turn about x (tracks predicted by the twist: median '
+            'error %.2f px as stored, %.2f px turned, %d track pairs)'
+            % (dataset.path, verdict.median_stored_px, verdict.median_turned_px, verdict.pairs))

@@ -704,15 +704,20 @@ class RealDataTest(ConverterTestCase):
             self.skipTest('03.npz absent')
         proc, bag = self.convert(npz)
         self.assert_converted(proc, bag)
-        self.assertEqual(proc.stderr, '')
+        # Its twist turns against its extrinsic (test_twist_axes): turned, and said once.
+        self.assertEqual(len(proc.stderr.strip().splitlines()), 1, proc.stderr)
+        self.assertIn('half turn about x', proc.stderr)
         messages, _, _ = read_bag(bag)
         for topic in SENSOR_TOPICS:
             self.assertEqual(len(messages[topic]), 1010, topic)
         with np.load(npz) as raw:
             imu_T_cam = raw['imu_T_cam']
+            w = raw['angular_velocity'][:, 0]
         np.testing.assert_allclose(
             transform_matrix(tf_by_child(messages)['camera_left'].transform), imu_T_cam,
             atol=1e-6)
+        a = messages[bag_writer.TOPIC_TWIST][0][0].twist.angular
+        np.testing.assert_allclose([a.x, a.y, a.z], [w[0], -w[1], -w[2]], atol=1e-9)
 
 
 if __name__ == '__main__':

@@ -20,11 +20,10 @@ bool stereoIntrinsicsFromProjections(const PinholeProjection& l, const PinholePr
   } else if (std::abs(l.fx - r.fx) > tolerance_px || std::abs(l.fy - r.fy) > tolerance_px ||
              std::abs(l.cx - r.cx) > tolerance_px || std::abs(l.cy - r.cy) > tolerance_px) {
     why << "left and right camera_info intrinsics disagree (left fx fy cx cy = " << l.fx << " "
-        << l.fy << " " << l.cx << " " << l.cy << ", right = " << r.fx << " " << r.fy << " "
-        << r.cx << " " << r.cy << "): the stereo pair must be rectified";
+        << l.fy << " " << l.cx << " " << l.cy << ", right = " << r.fx << " " << r.fy << " " << r.cx
+        << " " << r.cy << "): the stereo pair must be rectified";
   } else if (!(-r.tx / r.fx > 0.0)) {
-    why << "stereo baseline -P_right[0,3]/fx_right must be positive (P_right[0,3]=" << r.tx
-        << ")";
+    why << "stereo baseline -P_right[0,3]/fx_right must be positive (P_right[0,3]=" << r.tx << ")";
   }
   if (!why.str().empty()) {
     if (error) *error = why.str();

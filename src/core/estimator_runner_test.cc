@@ -5,12 +5,12 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+#include <unistd.h>
 #include <cstdlib>
 #include <fstream>
 #include <limits>
 #include <string>
-#include <sys/stat.h>
-#include <unistd.h>
 
 namespace ekf_vislam {
 namespace {
@@ -104,7 +104,6 @@ TEST(EstimatorRunner, FeedsInStampOrderAndRecordsTheTrajectory) {
   std::system(("rm -rf " + dir).c_str());
 }
 
-
 // A short synthetic drive (twist k and frame k share stamp k).
 const testing::Scenario& shortDrive() {
   static const testing::Scenario drive = [] {
@@ -127,7 +126,8 @@ double maxPositionDifference(const std::vector<StampedPose>& a, const std::vecto
   double worst = 0.0;
   for (size_t i = 0; i < a.size(); ++i) {
     if (a[i].stamp != b[i].stamp) return std::numeric_limits<double>::infinity();
-    worst = std::max(worst, (a[i].world_T_imu.translation() - b[i].world_T_imu.translation()).norm());
+    worst =
+        std::max(worst, (a[i].world_T_imu.translation() - b[i].world_T_imu.translation()).norm());
   }
   return worst;
 }

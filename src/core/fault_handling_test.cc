@@ -657,8 +657,8 @@ TEST_F(ObservationFault, TenThousandFeaturesAreCappedWithoutStalling) {
   for (int k = 1; k <= o.landmarks.max_track_gap + 1; ++k) step(e_.get(), kFault + k);
   const double next_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - next).count();
-  std::printf("    next %d frames: %.3f s, state dimension %d\n", o.landmarks.max_track_gap + 1, next_s,
-              e_->stateDimension());
+  std::printf("    next %d frames: %.3f s, state dimension %d\n", o.landmarks.max_track_gap + 1,
+              next_s, e_->stateDimension());
   EXPECT_LT(next_s, 2.0 * (o.landmarks.max_track_gap + 1));
   EXPECT_LT(e_->activeLandmarkCount(), 200u);
   expectRecovers(e_.get(), kFault + o.landmarks.max_track_gap + 2, o);

@@ -14,9 +14,9 @@ std::optional<Counter> InputScreening::checkTwist(const TwistData& twist, std::s
       twist.w_imu.norm() > options_->limits.max_angular_speed) {
     std::ostringstream text;
     text << "implausible twist rejected (|v| = " << twist.v_imu.norm()
-         << " m/s, |w| = " << twist.w_imu.norm() << " rad/s; limits/max_linear_speed = "
-         << options_->limits.max_linear_speed << ", limits/max_angular_speed = "
-         << options_->limits.max_angular_speed << ")";
+         << " m/s, |w| = " << twist.w_imu.norm()
+         << " rad/s; limits/max_linear_speed = " << options_->limits.max_linear_speed
+         << ", limits/max_angular_speed = " << options_->limits.max_angular_speed << ")";
     *why = text.str();
     return Counter::kTwistImplausible;
   }

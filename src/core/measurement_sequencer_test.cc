@@ -18,7 +18,8 @@ FeatureFrame frame(double t) {
 std::string describe(const std::vector<Measurement>& ms) {
   std::string s;
   for (const Measurement& m : ms) {
-    s += (std::holds_alternative<TwistData>(m) ? "T" : "F") + std::to_string(static_cast<int>(stampOf(m) * 10)) + " ";
+    s += (std::holds_alternative<TwistData>(m) ? "T" : "F") +
+         std::to_string(static_cast<int>(stampOf(m) * 10)) + " ";
   }
   return s;
 }
@@ -56,7 +57,7 @@ TEST(MeasurementSequencer, OneStreamStoppingReleasesAfterMaxDelay) {
   seq.push(frame(0.0));
   EXPECT_EQ(describe(seq.popReady()), "T0 F0 ");
   for (int k = 1; k <= 5; ++k) seq.push(twist(0.1 * k));  // no more frames
-  EXPECT_EQ(describe(seq.popReady()), "T1 T2 ");  // older than newest - 0.25
+  EXPECT_EQ(describe(seq.popReady()), "T1 T2 ");          // older than newest - 0.25
   EXPECT_EQ(describe(seq.flush()), "T3 T4 T5 ");
 }
 

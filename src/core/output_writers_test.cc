@@ -13,7 +13,8 @@ TEST(OutputWriters, TumLineHasTimePositionQuaternion) {
   StampedPose pose;
   pose.stamp = 1317386425.5625024;
   pose.world_T_imu.translation() = Eigen::Vector3d(1.5, -2.0, 0.25);
-  pose.world_T_imu.linear() = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  pose.world_T_imu.linear() =
+      Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   std::ostringstream out;
   writeTumLine(out, pose);
   std::istringstream in(out.str());
@@ -66,7 +67,7 @@ TEST(OutputWriters, TrajectoryCovarianceRowMajorOneLinePerPose) {
   ASSERT_EQ(rows[0].size(), 37u);
   EXPECT_DOUBLE_EQ(rows[0][0], a.stamp);
   for (int i = 0; i < 36; ++i) EXPECT_DOUBLE_EQ(rows[0][1 + i], 0.001 * i) << i;  // row-major
-  EXPECT_DOUBLE_EQ(rows[1][1 + 7], 1.0);  // (1, 1)
+  EXPECT_DOUBLE_EQ(rows[1][1 + 7], 1.0);                                          // (1, 1)
   EXPECT_DOUBLE_EQ(rows[1][1 + 1], 0.0);
   EXPECT_FALSE(writeTrajectoryCovariance(path, {a, b}, {covariance_a}, &error));
 }

@@ -19,7 +19,8 @@ TEST(Se3, HatVeeRoundTrip) {
   const Vector6d xi = randomTwist(&rng, 1.0);
   EXPECT_LT((se3::vee(se3::hat(xi)) - xi).norm(), 1e-15);
   const Eigen::Vector3d w = xi.head<3>();
-  EXPECT_LT((se3::hat(w) * Eigen::Vector3d(1, 2, 3) - w.cross(Eigen::Vector3d(1, 2, 3))).norm(), 1e-14);
+  EXPECT_LT((se3::hat(w) * Eigen::Vector3d(1, 2, 3) - w.cross(Eigen::Vector3d(1, 2, 3))).norm(),
+            1e-14);
 }
 
 TEST(Se3, ExpLogRoundTripIncludingSmallAndLargeAngles) {
@@ -31,7 +32,9 @@ TEST(Se3, ExpLogRoundTripIncludingSmallAndLargeAngles) {
       const Eigen::Matrix4d T = se3::exp(xi);
       EXPECT_LT((se3::log(T) - xi).norm(), 1e-9 * std::max(1.0, xi.norm())) << "scale " << scale;
       EXPECT_LT((T.topLeftCorner<3, 3>().transpose() * T.topLeftCorner<3, 3>() -
-                 Eigen::Matrix3d::Identity()).norm(), 1e-12);
+                 Eigen::Matrix3d::Identity())
+                    .norm(),
+                1e-12);
     }
   }
 }
@@ -86,7 +89,8 @@ TEST(Se3, LeftJacobianAgainstCentralDifferences) {
     for (int i = 0; i < 6; ++i) {
       Vector6d d = Vector6d::Zero();
       d(i) = h;
-      numeric.col(i) = (se3::log(se3::exp(xi + d) * T0_inv) - se3::log(se3::exp(xi - d) * T0_inv)) / (2 * h);
+      numeric.col(i) =
+          (se3::log(se3::exp(xi + d) * T0_inv) - se3::log(se3::exp(xi - d) * T0_inv)) / (2 * h);
     }
     EXPECT_LT((J - numeric).norm(), 1e-7) << "scale " << scale;
   }

@@ -14,7 +14,8 @@ class StereoCameraTest : public ::testing::Test {
  protected:
   StereoCamera camera_{testing::kittiLikeCalibration()};
   // Pose with a point ~15 m in front of the camera.
-  Eigen::Matrix4d imu_T_world_ = se3::exp((Vector6d() << 1.0, -2.0, 0.5, 0.05, -0.1, 0.3).finished());
+  Eigen::Matrix4d imu_T_world_ =
+      se3::exp((Vector6d() << 1.0, -2.0, 0.5, 0.05, -0.1, 0.3).finished());
   Eigen::Vector3d p_world() const {
     const Eigen::Vector4d p_imu(15.0, 2.0, 0.5, 1.0);
     return (se3::inverse(imu_T_world_) * p_imu).head<3>();

@@ -72,7 +72,8 @@ TEST(VislamOptions, NestedKeysEnumsAndMissingKeys) {
   EXPECT_DOUBLE_EQ(o.noise.pixel_sigma, 3.5);
   EXPECT_EQ(o.limits.gap_policy, GapPolicy::kReset);
   EXPECT_TRUE(o.landmarks.keep_all_in_state);
-  EXPECT_DOUBLE_EQ(o.landmarks.max_depth, VislamOptions().landmarks.max_depth);  // absent: default kept
+  EXPECT_DOUBLE_EQ(o.landmarks.max_depth,
+                   VislamOptions().landmarks.max_depth);  // absent: default kept
 }
 
 TEST(VislamOptions, ErrorsNameTheKey) {
@@ -80,13 +81,13 @@ TEST(VislamOptions, ErrorsNameTheKey) {
     const char* yaml;
     const char* key;
   };
-  for (const Case& c : {Case{"mode: fast\n", "mode"},
-                        Case{"noise:\n  pixel_sigma: abc\n", "noise/pixel_sigma"},
-                        Case{"noise:\n  pixel_sigma: -1\n", "noise/pixel_sigma"},
-                        Case{"landmarks:\n  gating_probability: 1.5\n", "landmarks/gating_probability"},
-                        Case{"limits:\n  max_features_per_frame: 2.5\n", "limits/max_features_per_frame"},
-                        Case{"landmarks:\n  min_depth: 50\n  max_depth: 10\n", "landmarks/max_depth"},
-                        Case{"health:\n  divergence_policy: panic\n", "health/divergence_policy"}}) {
+  for (const Case& c :
+       {Case{"mode: fast\n", "mode"}, Case{"noise:\n  pixel_sigma: abc\n", "noise/pixel_sigma"},
+        Case{"noise:\n  pixel_sigma: -1\n", "noise/pixel_sigma"},
+        Case{"landmarks:\n  gating_probability: 1.5\n", "landmarks/gating_probability"},
+        Case{"limits:\n  max_features_per_frame: 2.5\n", "limits/max_features_per_frame"},
+        Case{"landmarks:\n  min_depth: 50\n  max_depth: 10\n", "landmarks/max_depth"},
+        Case{"health:\n  divergence_policy: panic\n", "health/divergence_policy"}}) {
     const YamlParameterSource source = YamlParameterSource::fromString(c.yaml);
     VislamOptions o;
     std::string error;
@@ -95,8 +96,8 @@ TEST(VislamOptions, ErrorsNameTheKey) {
     // A refused file changes nothing, not even the keys before the bad one.
     EXPECT_EQ(describeOptions(o), describeOptions(VislamOptions())) << c.yaml;
   }
-  const YamlParameterSource partly_good =
-      YamlParameterSource::fromString("noise:\n  pixel_sigma: 3.0\nhealth:\n  divergence_policy: panic\n");
+  const YamlParameterSource partly_good = YamlParameterSource::fromString(
+      "noise:\n  pixel_sigma: 3.0\nhealth:\n  divergence_policy: panic\n");
   VislamOptions o;
   std::string error;
   EXPECT_FALSE(parseVislamOptions(partly_good, &o, &error));
@@ -104,7 +105,8 @@ TEST(VislamOptions, ErrorsNameTheKey) {
 }
 
 TEST(VislamOptions, ModeNamesRoundTrip) {
-  for (EstimatorMode m : {EstimatorMode::kDeadReckoning, EstimatorMode::kMapping, EstimatorMode::kSlam}) {
+  for (EstimatorMode m :
+       {EstimatorMode::kDeadReckoning, EstimatorMode::kMapping, EstimatorMode::kSlam}) {
     EstimatorMode parsed;
     ASSERT_TRUE(parseMode(modeName(m), &parsed));
     EXPECT_EQ(parsed, m);

@@ -48,8 +48,8 @@ bool BagReader::readCalibrationData(BagCalibrationData* data, std::string* error
   *data = BagCalibrationData();
   try {
     {
-      rosbag::View view(*bag_, rosbag::TopicQuery(std::vector<std::string>{
-                                   topics_.left_info, topics_.right_info}));
+      rosbag::View view(*bag_, rosbag::TopicQuery(std::vector<std::string>{topics_.left_info,
+                                                                           topics_.right_info}));
       for (const rosbag::MessageInstance& m : view) {
         auto info = m.instantiate<sensor_msgs::CameraInfo>();
         if (!info) {
@@ -119,8 +119,8 @@ bool BagReader::convertTwist(const rosbag::MessageInstance& m, TwistData* twist,
     if (error) *error = topics_.twist + " holds " + m.getDataType() + ", not a twist type";
     return false;
   }
-  const std::string child = odometry->child_frame_id.empty() ? imu_frame_
-                                                             : odometry->child_frame_id;
+  const std::string child =
+      odometry->child_frame_id.empty() ? imu_frame_ : odometry->child_frame_id;
   if (child != imu_T_child_frame_) {
     imu_T_child_.setIdentity();
     if (child != imu_frame_ &&
@@ -135,8 +135,8 @@ bool BagReader::convertTwist(const rosbag::MessageInstance& m, TwistData* twist,
 
 bool BagReader::forEachMeasurement(const Callback& callback, std::string* error) {
   try {
-    rosbag::View view(*bag_, rosbag::TopicQuery(std::vector<std::string>{topics_.twist,
-                                                                         topics_.features}));
+    rosbag::View view(
+        *bag_, rosbag::TopicQuery(std::vector<std::string>{topics_.twist, topics_.features}));
     const double begin = view.getBeginTime().toSec();
     const double span = std::max(1e-9, view.getEndTime().toSec() - begin);
     for (const rosbag::MessageInstance& m : view) {
@@ -177,7 +177,8 @@ bool lookupStaticTransform(const std::vector<geometry_msgs::TransformStamped>& t
         buffer.lookupTransform(target_frame, source_frame, ros::Time(0));
     *target_T_source = ros_conversions::toIsometry(t.transform);
   } catch (const tf2::TransformException& e) {
-    if (error) *error = "no static transform " + target_frame + " -> " + source_frame + ": " + e.what();
+    if (error)
+      *error = "no static transform " + target_frame + " -> " + source_frame + ": " + e.what();
     return false;
   }
   return true;

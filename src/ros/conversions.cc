@@ -70,8 +70,8 @@ TwistData toTwistData(const geometry_msgs::TwistWithCovarianceStamped& msg,
 
 TwistData toTwistData(const nav_msgs::Odometry& msg, const Eigen::Isometry3d& imu_T_child,
                       bool* covariance_invalid) {
-  TwistData child = fromTwistWithCovariance(msg.header.stamp.toSec(), msg.twist,
-                                            covariance_invalid);
+  TwistData child =
+      fromTwistWithCovariance(msg.header.stamp.toSec(), msg.twist, covariance_invalid);
   const Eigen::Matrix3d R = imu_T_child.linear();
   const Eigen::Vector3d p = imu_T_child.translation();
   Eigen::Matrix3d p_hat;
@@ -135,26 +135,35 @@ ekf_vislam::StereoFeatureArray toFeatureArrayMsg(const FeatureFrame& frame,
 }
 
 bool calibrationFromCameraInfo(const sensor_msgs::CameraInfo& left,
-                               const sensor_msgs::CameraInfo& right,
-                               StereoCalibration* calibration, std::string* error,
-                               double tolerance_px) {
+                               const sensor_msgs::CameraInfo& right, StereoCalibration* calibration,
+                               std::string* error, double tolerance_px) {
   return stereoIntrinsicsFromProjections(projectionOf(left), projectionOf(right), calibration,
                                          error, tolerance_px);
 }
 
-void cameraInfoFromCalibration(const StereoCalibration& calibration,
-                               sensor_msgs::CameraInfo* left, sensor_msgs::CameraInfo* right) {
+void cameraInfoFromCalibration(const StereoCalibration& calibration, sensor_msgs::CameraInfo* left,
+                               sensor_msgs::CameraInfo* right) {
   for (sensor_msgs::CameraInfo* info : {left, right}) {
     *info = sensor_msgs::CameraInfo();
     info->width = static_cast<uint32_t>(std::max(0, calibration.image_width));
     info->height = static_cast<uint32_t>(std::max(0, calibration.image_height));
     info->distortion_model = "plumb_bob";
     info->D.assign(5, 0.0);
-    info->K = {calibration.fx, 0.0, calibration.cx, 0.0, calibration.fy, calibration.cy,
-               0.0, 0.0, 1.0};
+    info->K = {
+        calibration.fx, 0.0, calibration.cx, 0.0, calibration.fy, calibration.cy, 0.0, 0.0, 1.0};
     info->R = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0};
-    info->P = {calibration.fx, 0.0, calibration.cx, 0.0, 0.0, calibration.fy, calibration.cy,
-               0.0, 0.0, 0.0, 1.0, 0.0};
+    info->P = {calibration.fx,
+               0.0,
+               calibration.cx,
+               0.0,
+               0.0,
+               calibration.fy,
+               calibration.cy,
+               0.0,
+               0.0,
+               0.0,
+               1.0,
+               0.0};
   }
   right->P[3] = -calibration.fx * calibration.baseline;
 }
@@ -177,12 +186,9 @@ geometry_msgs::Transform toTransformMsg(const Eigen::Isometry3d& transform) {
   return tf2::eigenToTransform(transform).transform;
 }
 
-geometry_msgs::Pose toPoseMsg(const Eigen::Isometry3d& transform) {
-  return tf2::toMsg(transform);
-}
+geometry_msgs::Pose toPoseMsg(const Eigen::Isometry3d& transform) { return tf2::toMsg(transform); }
 
-void toCovarianceMsg(const Eigen::Matrix<double, 6, 6>& covariance,
-                     boost::array<double, 36>* out) {
+void toCovarianceMsg(const Eigen::Matrix<double, 6, 6>& covariance, boost::array<double, 36>* out) {
   for (int r = 0; r < 6; ++r) {
     for (int c = 0; c < 6; ++c) (*out)[6 * r + c] = covariance(r, c);
   }

@@ -1,19 +1,19 @@
 // Unit tests of the ROS message conversions, the ROS-layer options and the shared runner (no
 // roscore).
+#include "ekf_vislam/ros/conversions.h"
 #include "ekf_vislam/core/se3.h"
 #include "ekf_vislam/core/yaml_parameter_source.h"
 #include "ekf_vislam/ros/bag_reader.h"
-#include "ekf_vislam/ros/conversions.h"
 #include "ekf_vislam/ros/vislam_ros_options.h"
 
 #include <gtest/gtest.h>
 
-#include <cmath>
-#include <fstream>
-#include <sstream>
 #include <sys/stat.h>
 #include <unistd.h>
+#include <cmath>
+#include <fstream>
 #include <limits>
+#include <sstream>
 
 namespace ekf_vislam {
 namespace {
@@ -35,7 +35,8 @@ StereoCalibration kittiLike() {
 
 Eigen::Isometry3d somePose() {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.3, -0.5, 0.8).normalized()).toRotationMatrix();
+  T.linear() =
+      Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.3, -0.5, 0.8).normalized()).toRotationMatrix();
   T.translation() << 1.5, -2.25, 0.75;
   return T;
 }
@@ -295,8 +296,8 @@ TEST(Conversions, Odometry) {
   twist.v_imu << 8.0, 0.1, 0.0;
   twist.w_imu << 0.0, 0.0, 0.2;
   nav_msgs::Odometry odom;
-  ASSERT_TRUE(rc::toOdometryMsg(12.5, "world", "imu", somePose(), pose_cov, twist, twist_cov,
-                                &odom));
+  ASSERT_TRUE(
+      rc::toOdometryMsg(12.5, "world", "imu", somePose(), pose_cov, twist, twist_cov, &odom));
   EXPECT_EQ(odom.header.frame_id, "world");
   EXPECT_EQ(odom.child_frame_id, "imu");
   EXPECT_EQ(odom.header.stamp, ros::Time(12, 500000000));
@@ -309,10 +310,9 @@ TEST(Conversions, Odometry) {
   EXPECT_EQ(odom.twist.twist.angular.z, 0.2);
   EXPECT_EQ(odom.twist.covariance[7], 0.5);
   const Eigen::Quaterniond q(somePose().linear());
-  EXPECT_NEAR(std::abs(q.dot(Eigen::Quaterniond(odom.pose.pose.orientation.w,
-                                                odom.pose.pose.orientation.x,
-                                                odom.pose.pose.orientation.y,
-                                                odom.pose.pose.orientation.z))),
+  EXPECT_NEAR(std::abs(q.dot(
+                  Eigen::Quaterniond(odom.pose.pose.orientation.w, odom.pose.pose.orientation.x,
+                                     odom.pose.pose.orientation.y, odom.pose.pose.orientation.z))),
               1.0, 1e-12);
 }
 
@@ -426,8 +426,8 @@ TEST(RosOptions, ShippedConfigHasEveryKeyAndEveryBoundedKeyIsChecked) {
 TEST(RosOptions, ErrorsNameTheKey) {
   VislamRosOptions o;
   std::string error;
-  EXPECT_FALSE(parseVislamRosOptions(
-      YamlParameterSource::fromString("ros:\n  publish_tf: maybe\n"), &o, &error));
+  EXPECT_FALSE(parseVislamRosOptions(YamlParameterSource::fromString("ros:\n  publish_tf: maybe\n"),
+                                     &o, &error));
   EXPECT_NE(error.find("ros/publish_tf"), std::string::npos) << error;
   EXPECT_FALSE(parseVislamRosOptions(
       YamlParameterSource::fromString("ros:\n  calibration:\n    fx: 700\n"), &o, &error));
@@ -436,8 +436,8 @@ TEST(RosOptions, ErrorsNameTheKey) {
       YamlParameterSource::fromString("ros:\n  calibration:\n    cam_T_imu: \"1 0 0\"\n"), &o,
       &error));
   EXPECT_NE(error.find("16 numbers"), std::string::npos) << error;
-  EXPECT_FALSE(parseVislamRosOptions(
-      YamlParameterSource::fromString("ros:\n  world_frame: imu\n"), &o, &error));
+  EXPECT_FALSE(parseVislamRosOptions(YamlParameterSource::fromString("ros:\n  world_frame: imu\n"),
+                                     &o, &error));
   EXPECT_EQ(o.world_frame, "world");  // untouched on failure
 }
 

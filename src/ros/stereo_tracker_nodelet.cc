@@ -11,7 +11,8 @@ namespace ekf_vislam {
 class StereoTrackerNodelet : public nodelet::Nodelet {
  private:
   void onInit() override {
-    tracker_ = std::make_unique<StereoTrackerRos>(getNodeHandle(), getPrivateNodeHandle(), getName());
+    tracker_ =
+        std::make_unique<StereoTrackerRos>(getNodeHandle(), getPrivateNodeHandle(), getName());
   }
   std::unique_ptr<StereoTrackerRos> tracker_;
 };

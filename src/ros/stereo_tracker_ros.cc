@@ -6,9 +6,9 @@
 
 #include <cv_bridge/cv_bridge.h>
 #include <ekf_vislam/StereoFeatureArray.h>
-#include <opencv2/imgproc.hpp>
 #include <sensor_msgs/image_encodings.h>
 #include <tf2_eigen/tf2_eigen.h>
+#include <opencv2/imgproc.hpp>
 
 #include <cmath>
 #include <stdexcept>
@@ -17,8 +17,9 @@ namespace ekf_vislam {
 
 namespace {
 
-constexpr double kWarnPeriod = 5.0;  // s, throttle of the bad-input warnings
-constexpr double kTwistHistory = 5.0;  // s of twists kept for the motion prior
+constexpr double kWarnPeriod = 5.0;          // s, throttle of the bad-input warnings
+constexpr double kTwistHistory = 5.0;        // s of twists kept for the motion prior
+constexpr double kCameraInfoPatience = 1.0;  // s of image time pairs wait before a warning
 
 bool readRosOptions(const ros::NodeHandle& pnh, StereoTrackerRosOptions* o, std::string* why) {
   pnh.param("ros/queue_size", o->queue_size, o->queue_size);
@@ -39,8 +40,8 @@ StereoTrackerRos::StereoTrackerRos(ros::NodeHandle nh, ros::NodeHandle pnh, cons
     : nh_(nh), pnh_(pnh), name_(name), image_transport_(nh) {
   RosParameterSource source(pnh_);
   std::string error;
-  if (!parseTrackerOptions(source, &options_, &error) ||
-      !(error = options_.validate()).empty() || !readRosOptions(pnh_, &ros_options_, &error)) {
+  if (!parseTrackerOptions(source, &options_, &error) || !(error = options_.validate()).empty() ||
+      !readRosOptions(pnh_, &ros_options_, &error)) {
     ROS_FATAL("%s: invalid parameters: %s", name_.c_str(), error.c_str());
     throw std::runtime_error("invalid parameters: " + error);
   }
@@ -54,10 +55,9 @@ StereoTrackerRos::StereoTrackerRos(ros::NodeHandle nh, ros::NodeHandle pnh, cons
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
   diagnostics_->setHardwareID("ekf_vislam");
   diagnostics_->add("stereo tracker", this, &StereoTrackerRos::produceDiagnostics);
-  diagnostics_timer_ = nh_.createWallTimer(ros::WallDuration(ros_options_.diagnostic_period),
-                                           [this](const ros::WallTimerEvent&) {
-                                             diagnostics_->force_update();
-                                           });
+  diagnostics_timer_ =
+      nh_.createWallTimer(ros::WallDuration(ros_options_.diagnostic_period),
+                          [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
 
   const int queue = ros_options_.queue_size;
   left_info_sub_ =
@@ -116,13 +116,24 @@ void StereoTrackerRos::processReadyPairs() {
     waiting_pairs_.pop_front();
     ++pairs_dropped_waiting_;
     if (!left_info_ || !right_info_) ++missing_camera_info_;
-    ROS_WARN_THROTTLE(kWarnPeriod, "%s: %s: oldest waiting pair dropped (%lu so far)",
-                      name_.c_str(),
-                      (!left_info_ || !right_info_)
-                          ? "no camera_info yet on stereo/left/camera_info and "
-                            "stereo/right/camera_info"
-                          : "ros/queue_size pairs wait for the twist stream",
-                      pairs_dropped_waiting_);
+    ROS_WARN_THROTTLE(
+        kWarnPeriod, "%s: %s: oldest waiting pair dropped (%lu so far)", name_.c_str(),
+        (!left_info_ || !right_info_) ? "no camera_info yet on stereo/left/camera_info and "
+                                        "stereo/right/camera_info"
+                                      : "ros/queue_size pairs wait for the twist stream",
+        pairs_dropped_waiting_);
+  }
+  if ((!left_info_ || !right_info_) && !waiting_pairs_.empty()) {
+    const double waited =
+        (waiting_pairs_.back().first->header.stamp - waiting_pairs_.front().first->header.stamp)
+            .toSec();
+    if (waited >= kCameraInfoPatience) {
+      ROS_WARN_THROTTLE(kWarnPeriod,
+                        "%s: %lu pairs wait for camera_info on stereo/left/camera_info and "
+                        "stereo/right/camera_info (the oldest for %.1f s of image time); more "
+                        "than ros/queue_size are dropped",
+                        name_.c_str(), waiting_pairs_.size(), waited);
+    }
   }
 }
 
@@ -165,8 +176,9 @@ bool StereoTrackerRos::calibrationFor(const sensor_msgs::Image& left, RectifiedS
   if (!s.valid() || !std::isfinite(s.baseline) || std::abs(pr[0] - pl[0]) > 1e-3 * pl[0] ||
       std::abs(pr[2] - pl[2]) > 1.0 || std::abs(pr[6] - pl[6]) > 1.0) {
     ++bad_camera_info_;
-    *why = "camera_info is not a rectified pair (P: fx, fy > 0, equal in both, right P[0,3] = "
-           "-fx * baseline < 0)";
+    *why =
+        "camera_info is not a rectified pair (P: fx, fy > 0, equal in both, right P[0,3] = "
+        "-fx * baseline < 0)";
     return false;
   }
   if ((left_info_->width != 0 && left_info_->width != left.width) ||
@@ -180,7 +192,7 @@ bool StereoTrackerRos::calibrationFor(const sensor_msgs::Image& left, RectifiedS
 }
 
 std::optional<CameraMotionPrior> StereoTrackerRos::motionPrior(const std::string& camera_frame,
-                                                              double from, double to) {
+                                                               double from, double to) {
   if (twists_.empty() || from <= 0 || to <= from) return std::nullopt;
   Eigen::Isometry3d cam_T_imu;
   try {
@@ -197,8 +209,8 @@ std::optional<CameraMotionPrior> StereoTrackerRos::motionPrior(const std::string
     if (stamp <= t) continue;
     const double end = std::min(stamp, to);
     Vector6d xi;
-    xi << twist.twist.linear.x, twist.twist.linear.y, twist.twist.linear.z,
-        twist.twist.angular.x, twist.twist.angular.y, twist.twist.angular.z;
+    xi << twist.twist.linear.x, twist.twist.linear.y, twist.twist.linear.z, twist.twist.angular.x,
+        twist.twist.angular.y, twist.twist.angular.z;
     prev_T_cur = prev_T_cur * se3::exp(xi * (end - t));
     t = end;
     if (t >= to) break;
@@ -218,11 +230,13 @@ void StereoTrackerRos::imageCallback(const sensor_msgs::ImageConstPtr& left_msg,
                                      const sensor_msgs::ImageConstPtr& right_msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   ++pairs_received_;
-  if (!waiting_pairs_.empty() && left_msg->header.stamp <= waiting_pairs_.back().first->header.stamp) {
+  if (!waiting_pairs_.empty() &&
+      left_msg->header.stamp <= waiting_pairs_.back().first->header.stamp) {
     ++pairs_out_of_order_;
-    ROS_WARN_THROTTLE(kWarnPeriod, "%s: pair stamp %.4f not after the last one: pair skipped "
-                      "(%lu so far)", name_.c_str(), left_msg->header.stamp.toSec(),
-                      pairs_out_of_order_);
+    ROS_WARN_THROTTLE(kWarnPeriod,
+                      "%s: pair stamp %.4f not after the last one: pair skipped "
+                      "(%lu so far)",
+                      name_.c_str(), left_msg->header.stamp.toSec(), pairs_out_of_order_);
     return;
   }
   waiting_pairs_.emplace_back(left_msg, right_msg);
@@ -235,23 +249,27 @@ void StereoTrackerRos::trackPair(const ImagePair& pair) {
   const double stamp = left_msg->header.stamp.toSec();
   if (prev_stamp_ > 0 && stamp <= prev_stamp_) {
     ++pairs_out_of_order_;
-    ROS_WARN_THROTTLE(kWarnPeriod, "%s: pair stamp %.4f not after the last tracked one: pair "
-                      "skipped (%lu so far)", name_.c_str(), stamp, pairs_out_of_order_);
+    ROS_WARN_THROTTLE(kWarnPeriod,
+                      "%s: pair stamp %.4f not after the last tracked one: pair "
+                      "skipped (%lu so far)",
+                      name_.c_str(), stamp, pairs_out_of_order_);
     return;
   }
   if (std::abs(stamp - right_msg->header.stamp.toSec()) > ros_options_.max_stamp_difference) {
     ++unsynchronized_;
-    ROS_WARN_THROTTLE(kWarnPeriod, "%s: left and right images %.4f s apart (more than "
-                      "ros/max_stamp_difference): pair skipped (%lu so far)", name_.c_str(),
-                      std::abs(stamp - right_msg->header.stamp.toSec()), unsynchronized_);
+    ROS_WARN_THROTTLE(kWarnPeriod,
+                      "%s: left and right images %.4f s apart (more than "
+                      "ros/max_stamp_difference): pair skipped (%lu so far)",
+                      name_.c_str(), std::abs(stamp - right_msg->header.stamp.toSec()),
+                      unsynchronized_);
     return;
   }
   cv::Mat left, right;
   std::string why;
   if (!toGray(left_msg, &left, &why) || !toGray(right_msg, &right, &why)) {
     ++bad_encoding_;
-    ROS_WARN_THROTTLE(kWarnPeriod, "%s: %s: pair skipped (%lu so far)", name_.c_str(),
-                      why.c_str(), bad_encoding_);
+    ROS_WARN_THROTTLE(kWarnPeriod, "%s: %s: pair skipped (%lu so far)", name_.c_str(), why.c_str(),
+                      bad_encoding_);
     return;
   }
   if (left.size() != right.size()) {
@@ -277,8 +295,8 @@ void StereoTrackerRos::trackPair(const ImagePair& pair) {
   StereoFrame frame;
   if (!tracker_->process(left, right, stamp, prior ? &*prior : nullptr, &frame, &why)) {
     ++tracker_refused_;
-    ROS_WARN_THROTTLE(kWarnPeriod, "%s: %s: pair skipped (%lu so far)", name_.c_str(),
-                      why.c_str(), tracker_refused_);
+    ROS_WARN_THROTTLE(kWarnPeriod, "%s: %s: pair skipped (%lu so far)", name_.c_str(), why.c_str(),
+                      tracker_refused_);
     return;
   }
   prev_stamp_ = stamp;
@@ -292,7 +310,8 @@ void StereoTrackerRos::publish(const sensor_msgs::Image& left_msg, const cv::Mat
                                const cv::Mat& right, const StereoFrame& frame) {
   ekf_vislam::StereoFeatureArrayPtr msg = boost::make_shared<ekf_vislam::StereoFeatureArray>();
   msg->header = left_msg.header;
-  if (msg->header.frame_id.empty() && left_info_) msg->header.frame_id = left_info_->header.frame_id;
+  if (msg->header.frame_id.empty() && left_info_)
+    msg->header.frame_id = left_info_->header.frame_id;
   msg->features.resize(frame.features.size());
   for (size_t i = 0; i < frame.features.size(); ++i) {
     const TrackedFeature& f = frame.features[i];
@@ -318,6 +337,10 @@ void StereoTrackerRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWr
                        pairs_dropped_waiting_;
   if (pairs_received_ == 0) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no synchronized stereo pair yet");
+  } else if (!left_info_ || !right_info_) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR,
+                   "no camera_info on stereo/left/camera_info and stereo/right/camera_info: "
+                   "pairs wait");
   } else if (pairs_tracked_ == 0) {
     status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "no pair tracked (see counters)");
   } else if (bad > 0) {

@@ -57,7 +57,8 @@ void readCalibrationOverride(OptionReader* r, CalibrationOverride* c) {
     if (r->has(key)) ++given;
     r->number(key, intrinsic_values[i]);
   }
-  if (given != 0 && given != 5) r->fail("ros/calibration", "all of fx, fy, cx, cy, baseline or none");
+  if (given != 0 && given != 5)
+    r->fail("ros/calibration", "all of fx, fy, cx, cy, baseline or none");
   c->has_intrinsics = given == 5;
   r->integer("ros/calibration/image_width", &c->calibration.image_width);
   r->integer("ros/calibration/image_height", &c->calibration.image_height);
@@ -88,8 +89,10 @@ std::string VislamRosOptions::validate() const {
   }
   if (twist_type != "twist_stamped" && twist_type != "twist_with_covariance" &&
       twist_type != "odometry") {
-    validator.fail("'ros/twist_type' must be one of twist_stamped | twist_with_covariance | "
-                   "odometry, not '" + twist_type + "'");
+    validator.fail(
+        "'ros/twist_type' must be one of twist_stamped | twist_with_covariance | "
+        "odometry, not '" +
+        twist_type + "'");
   }
   if (!(landmark_sigma_bad > landmark_sigma_good)) {
     validator.fail("'ros/landmark_sigma_bad' must exceed 'ros/landmark_sigma_good'");

@@ -44,13 +44,14 @@ cv::Mat drawStereoTracks(const cv::Mat& left, const cv::Mat& right, const Stereo
     cv::circle(canvas, f.right + down, 3, color, 1, cv::LINE_AA);
   }
   char text[160];
-  std::snprintf(text, sizeof(text), "t=%.3f s  features %d  new %d  lost: klt %d fb %d ransac %d "
+  std::snprintf(text, sizeof(text),
+                "t=%.3f s  features %d  new %d  lost: klt %d fb %d ransac %d "
                 "stereo %d disparity %d",
                 frame.stamp, frame.stats.published, frame.stats.new_tracks, frame.stats.klt_lost,
                 frame.stats.forward_backward_rejected, frame.stats.ransac_rejected,
                 frame.stats.stereo_lost, frame.stats.disparity_rejected);
-  cv::putText(canvas, text, cv::Point(8, 18), cv::FONT_HERSHEY_SIMPLEX, 0.5,
-              cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
+  cv::putText(canvas, text, cv::Point(8, 18), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 3,
+              cv::LINE_AA);
   cv::putText(canvas, text, cv::Point(8, 18), cv::FONT_HERSHEY_SIMPLEX, 0.5,
               cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
   cv::putText(canvas, "left: tracks (blue new, green young, red old)", cv::Point(8, left.rows - 8),

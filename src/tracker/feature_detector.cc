@@ -10,8 +10,8 @@ namespace ekf_vislam {
 
 int GridFeatureDetector::cellOf(const cv::Point2f& point, const cv::Size& size) const {
   if (point.x < 0 || point.y < 0 || point.x >= size.width || point.y >= size.height) return -1;
-  const int col = std::min(options_.grid_cols - 1,
-                           static_cast<int>(point.x * options_.grid_cols / size.width));
+  const int col =
+      std::min(options_.grid_cols - 1, static_cast<int>(point.x * options_.grid_cols / size.width));
   const int row = std::min(options_.grid_rows - 1,
                            static_cast<int>(point.y * options_.grid_rows / size.height));
   return row * options_.grid_cols + col;
@@ -46,8 +46,7 @@ std::vector<cv::Point2f> GridFeatureDetector::detect(
   cv::Mat free_mask(size, CV_8UC1, cv::Scalar(0));
   const int border = options_.border_px;
   if (size.width <= 2 * border || size.height <= 2 * border) return {};
-  free_mask(cv::Rect(border, border, size.width - 2 * border, size.height - 2 * border))
-      .setTo(255);
+  free_mask(cv::Rect(border, border, size.width - 2 * border, size.height - 2 * border)).setTo(255);
   const int radius = static_cast<int>(std::ceil(options_.min_feature_distance));
   for (const cv::Point2f& p : existing) {
     const int cell = cellOf(p, size);

@@ -53,8 +53,8 @@ TEST_P(KittiClips, TrackQualityAgainstGroundTruth) {
   KittiSequence sequence;
   std::string error;
   ASSERT_TRUE(loadKittiSequence(folder + "/image_left", folder + "/image_right",
-                                folder + "/calib.txt", folder + "/times.txt",
-                                folder + "/poses.txt", &sequence, &error))
+                                folder + "/calib.txt", folder + "/times.txt", folder + "/poses.txt",
+                                &sequence, &error))
       << error;
   TrackerOptions options;
   YamlParameterSource source(std::string(EKF_VISLAM_SOURCE_DIR) + "/config/tracker.yaml");

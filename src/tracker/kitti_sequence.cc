@@ -57,9 +57,12 @@ bool readKittiCalibration(const std::string& path, RectifiedStereo* calibration,
       return false;
     }
     if (numbers.empty()) continue;
-    if (label == "P0") p0 = numbers;
-    else if (label == "P1") p1 = numbers;
-    else if (label.empty()) unlabeled.push_back(numbers);
+    if (label == "P0")
+      p0 = numbers;
+    else if (label == "P1")
+      p1 = numbers;
+    else if (label.empty())
+      unlabeled.push_back(numbers);
   }
   if (p0.empty() && unlabeled.size() >= 1) p0 = unlabeled[0];
   if (p1.empty() && unlabeled.size() >= 2) p1 = unlabeled[1];
@@ -147,8 +150,7 @@ bool listImages(const std::string& folder, std::vector<std::string>* paths, std:
 
 bool loadKittiSequence(const std::string& left_folder, const std::string& right_folder,
                        const std::string& calib_path, const std::string& times_path,
-                       const std::string& poses_path, KittiSequence* sequence,
-                       std::string* error) {
+                       const std::string& poses_path, KittiSequence* sequence, std::string* error) {
   if (!listImages(left_folder, &sequence->left_images, error) ||
       !listImages(right_folder, &sequence->right_images, error) ||
       !readKittiCalibration(calib_path, &sequence->calibration, error) ||
@@ -162,10 +164,11 @@ bool loadKittiSequence(const std::string& left_folder, const std::string& right_
   const size_t n = sequence->left_images.size();
   if (sequence->right_images.size() != n || sequence->times.size() != n ||
       (!poses_path.empty() && sequence->world_T_cam.size() != n)) {
-    *error = "frame counts differ: " + std::to_string(n) + " left images, " +
-             std::to_string(sequence->right_images.size()) + " right images, " +
-             std::to_string(sequence->times.size()) + " times" +
-             (poses_path.empty() ? "" : ", " + std::to_string(sequence->world_T_cam.size()) + " poses");
+    *error =
+        "frame counts differ: " + std::to_string(n) + " left images, " +
+        std::to_string(sequence->right_images.size()) + " right images, " +
+        std::to_string(sequence->times.size()) + " times" +
+        (poses_path.empty() ? "" : ", " + std::to_string(sequence->world_T_cam.size()) + " poses");
     return false;
   }
   return true;

@@ -127,8 +127,8 @@ MotionCheckResult checkTemporalMatches(const std::vector<cv::Point3f>& prev_poin
       }
     }
     if (has_baseline) {
-      result.inlier[i] =
-          epipolarErrorPx(E, prev_pixels[i], cur_pixels[i], calibration) <= options.ransac_threshold_px;
+      result.inlier[i] = epipolarErrorPx(E, prev_pixels[i], cur_pixels[i], calibration) <=
+                         options.ransac_threshold_px;
     }
   }
   return result;

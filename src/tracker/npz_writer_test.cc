@@ -32,8 +32,7 @@ TEST(NpzWriter, WritesAZipOfNpyFiles) {
   EXPECT_NE(bytes.find("features.npy"), std::string::npos);
   EXPECT_NE(bytes.find("'shape': (4, 2, 3)"), std::string::npos);
   EXPECT_NE(bytes.find("'shape': ()"), std::string::npos);
-  EXPECT_NE(bytes.find("'descr': '<i8', 'fortran_order': False, 'shape': (2,)"),
-            std::string::npos);
+  EXPECT_NE(bytes.find("'descr': '<i8', 'fortran_order': False, 'shape': (2,)"), std::string::npos);
   // Each .npy header (magic + length + dict) is a multiple of 64 bytes.
   const size_t npy = bytes.find("\x93NUMPY");
   ASSERT_NE(npy, std::string::npos);

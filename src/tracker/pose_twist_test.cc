@@ -1,5 +1,5 @@
-#include "ekf_vislam/core/se3.h"
 #include "ekf_vislam/tracker/pose_twist.h"
+#include "ekf_vislam/core/se3.h"
 
 #include <gtest/gtest.h>
 

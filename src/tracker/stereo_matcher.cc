@@ -26,13 +26,11 @@ std::vector<cv::Point2f> matchStereo(const std::vector<cv::Mat>& left_pyramid,
   std::vector<uint8_t> status;
   std::vector<float> error;
   cv::calcOpticalFlowPyrLK(left_pyramid, right_pyramid, left, right, status, error, window,
-                           options.stereo_pyramid_levels, criteria,
-                           cv::OPTFLOW_USE_INITIAL_FLOW);
+                           options.stereo_pyramid_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
   std::vector<cv::Point2f> back = left;
   std::vector<uint8_t> back_status;
   cv::calcOpticalFlowPyrLK(right_pyramid, left_pyramid, right, back, back_status, error, window,
-                           options.stereo_pyramid_levels, criteria,
-                           cv::OPTFLOW_USE_INITIAL_FLOW);
+                           options.stereo_pyramid_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
 
   const cv::Size size = left_pyramid[0].size();
   PatchRefinerOptions refiner;

@@ -100,18 +100,18 @@ std::vector<cv::Point2f> StereoTracker::predictLeft(const CameraMotionPrior* pri
       predicted[i] = track.left;
       continue;
     }
-    predicted[i] = cv::Point2f(static_cast<float>(calibration_.fx * q.x() / q.z() + calibration_.cx),
-                               static_cast<float>(calibration_.fy * q.y() / q.z() + calibration_.cy));
+    predicted[i] =
+        cv::Point2f(static_cast<float>(calibration_.fx * q.x() / q.z() + calibration_.cx),
+                    static_cast<float>(calibration_.fy * q.y() / q.z() + calibration_.cy));
   }
   return predicted;
 }
 
 bool StereoTracker::process(const cv::Mat& left, const cv::Mat& right, double stamp,
-                            const CameraMotionPrior* prior, StereoFrame* frame,
-                            std::string* why) {
+                            const CameraMotionPrior* prior, StereoFrame* frame, std::string* why) {
   const auto start = Clock::now();
-  const int min_size = 2 * options_.border_px + std::max(options_.window_size,
-                                                         options_.stereo_window_size);
+  const int min_size =
+      2 * options_.border_px + std::max(options_.window_size, options_.stereo_window_size);
   if (left.empty() || right.empty()) {
     *why = "empty image";
     return false;
@@ -230,8 +230,8 @@ std::vector<float> StereoTracker::trackTemporal(const std::vector<cv::Mat>& left
     const cv::Point3f& p = prev_points[i];
     float disparity = tracks_[i].left.x - tracks_[i].right.x;
     if (motion.has_translation && p.z > 0) {
-      const Eigen::Vector3d q = motion.cur_R_prev * Eigen::Vector3d(p.x, p.y, p.z) +
-                                motion.cur_t_prev;
+      const Eigen::Vector3d q =
+          motion.cur_R_prev * Eigen::Vector3d(p.x, p.y, p.z) + motion.cur_t_prev;
       if (q.z() > 0.1) {
         disparity = static_cast<float>(calibration_.fx * calibration_.baseline / q.z());
       }
@@ -310,8 +310,8 @@ void StereoTracker::matchTracksInRight(const std::vector<cv::Mat>& left_pyramid,
   StereoMatchCounts counts;
   const std::vector<cv::Point2f> right = matchStereo(
       left_pyramid, right_pyramid, left, predicted_disparity, options_, true, &ok, &counts);
-  const bool check_disparity =
-      has_last_motion_ && (options_.disparity_check_px > 0 || options_.disparity_check_relative > 0);
+  const bool check_disparity = has_last_motion_ && (options_.disparity_check_px > 0 ||
+                                                    options_.disparity_check_relative > 0);
   for (size_t i = 0; i < tracks_.size(); ++i) {
     if (!ok[i]) {
       ++stats->stereo_lost;
@@ -319,9 +319,9 @@ void StereoTracker::matchTracksInRight(const std::vector<cv::Mat>& left_pyramid,
     }
     const double predicted = predicted_disparity[i];
     const double measured = left[i].x - right[i].x;
-    if (check_disparity && std::abs(measured - predicted) >
-                               options_.disparity_check_px +
-                                   options_.disparity_check_relative * predicted) {
+    if (check_disparity &&
+        std::abs(measured - predicted) >
+            options_.disparity_check_px + options_.disparity_check_relative * predicted) {
       ++stats->disparity_rejected;
       ok[i] = 0;
       continue;

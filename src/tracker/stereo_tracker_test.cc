@@ -1,8 +1,8 @@
-#include "ekf_vislam/tracker/motion_check.h"
 #include "ekf_vislam/tracker/stereo_tracker.h"
+#include "ekf_vislam/tracker/motion_check.h"
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -87,8 +87,8 @@ TEST(StereoTracker, IdsPersistAndPositionsFollowTheTrueMotion) {
     const cv::Vec3d c = positionAt(k);
     StereoFrame frame;
     std::string why;
-    ASSERT_TRUE(tracker.process(scene.render(c, 0), scene.render(c, 0.5), 0.1 * k, nullptr,
-                                &frame, &why))
+    ASSERT_TRUE(
+        tracker.process(scene.render(c, 0), scene.render(c, 0.5), 0.1 * k, nullptr, &frame, &why))
         << why;
     if (frame.features.size() >= 100) ++frames_with_many;
     for (const TrackedFeature& f : frame.features) {
@@ -188,7 +188,8 @@ TEST(StereoTracker, IdsAreNeverReusedAndLostTracksEnd) {
     // Frame 3 jumps far: the old tracks are lost, new ids start.
     const cv::Vec3d c = k < 3 ? positionAt(k) : positionAt(k) + cv::Vec3d(3.0, 0, 0);
     StereoFrame frame;
-    ASSERT_TRUE(tracker.process(scene.render(c, 0), scene.render(c, 0.5), k, nullptr, &frame, &why));
+    ASSERT_TRUE(
+        tracker.process(scene.render(c, 0), scene.render(c, 0.5), k, nullptr, &frame, &why));
     for (const TrackedFeature& f : frame.features) {
       if (last_frame.count(f.id)) {
         EXPECT_EQ(last_frame[f.id], k - 1) << "id " << f.id << " reused";
@@ -219,7 +220,8 @@ TEST(MotionCheck, RejectsAnInjectedWrongMatch) {
   }
   cur[17].x += 3.0f;  // a KLT match that slid 3 px
   cur[42].y -= 2.0f;
-  for (TemporalOutlierCheck type : {TemporalOutlierCheck::kPnp, TemporalOutlierCheck::kFundamental}) {
+  for (TemporalOutlierCheck type :
+       {TemporalOutlierCheck::kPnp, TemporalOutlierCheck::kFundamental}) {
     TrackerOptions options;
     options.outlier_check = type;
     const MotionCheckResult result = checkTemporalMatches(points, prev, cur, c, options);
@@ -276,15 +278,16 @@ TEST(StereoTracker, RefusesBadInputWithoutLosingTracks) {
   ASSERT_TRUE(tracker.process(left, right, 1.0, nullptr, &frame, &why));
   const size_t n = frame.features.size();
   StereoFrame bad;
-  EXPECT_FALSE(tracker.process(left, right(cv::Rect(0, 0, 320, 240)).clone(), 2.0, nullptr, &bad,
-                               &why));
+  EXPECT_FALSE(
+      tracker.process(left, right(cv::Rect(0, 0, 320, 240)).clone(), 2.0, nullptr, &bad, &why));
   cv::Mat color;
   cv::cvtColor(left, color, cv::COLOR_GRAY2BGR);
   EXPECT_FALSE(tracker.process(color, right, 2.0, nullptr, &bad, &why));
   EXPECT_FALSE(tracker.process(left, right, 1.0, nullptr, &bad, &why));  // not after 1.0
   EXPECT_FALSE(tracker.process(cv::Mat(), right, 2.0, nullptr, &bad, &why));
   const cv::Vec3d c = positionAt(1);
-  ASSERT_TRUE(tracker.process(scene.render(c, 0), scene.render(c, 0.5), 2.0, nullptr, &frame, &why));
+  ASSERT_TRUE(
+      tracker.process(scene.render(c, 0), scene.render(c, 0.5), 2.0, nullptr, &frame, &why));
   int old = 0;
   for (const TrackedFeature& f : frame.features) old += f.age == 1;
   EXPECT_GE(old, static_cast<int>(0.8 * n));

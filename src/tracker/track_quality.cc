@@ -38,7 +38,8 @@ TrackQuality evaluateTrackQuality(const std::vector<StereoFrame>& frames,
   std::unordered_map<uint32_t, int> lengths;
   std::map<int, std::vector<double>> errors;
   size_t total = 0;
-  quality.min_observations_per_frame = frames.empty() ? 0 : static_cast<int>(frames[0].features.size());
+  quality.min_observations_per_frame =
+      frames.empty() ? 0 : static_cast<int>(frames[0].features.size());
   for (size_t k = 0; k < frames.size() && k < world_T_cam.size(); ++k) {
     const Eigen::Matrix4d cam_T_world = world_T_cam[k].inverse();
     total += frames[k].features.size();
@@ -53,8 +54,8 @@ TrackQuality evaluateTrackQuality(const std::vector<StereoFrame>& frames,
         const double disparity = f.left.x - f.right.x;
         if (disparity > 0) {
           const double z = c.fx * c.baseline / disparity;
-          const Eigen::Vector4d p_cam((f.left.x - c.cx) * z / c.fx, (f.left.y - c.cy) * z / c.fy,
-                                      z, 1.0);
+          const Eigen::Vector4d p_cam((f.left.x - c.cx) * z / c.fx, (f.left.y - c.cy) * z / c.fy, z,
+                                      1.0);
           start.p_world = (world_T_cam[k] * p_cam).head<3>();
           start.valid = true;
         }

@@ -51,9 +51,11 @@ struct Arguments {
 
 bool parseArguments(int argc, char** argv, Arguments* args, std::string* error) {
   std::map<std::string, std::string*> paths = {
-      {"--left", &args->left},     {"--right", &args->right}, {"--calib", &args->calib},
-      {"--times", &args->times},   {"--out", &args->out},     {"--poses", &args->poses},
-      {"--config", &args->config}, {"--debug-dir", &args->debug_dir}, {"--stats", &args->stats}};
+      {"--left", &args->left},     {"--right", &args->right},
+      {"--calib", &args->calib},   {"--times", &args->times},
+      {"--out", &args->out},       {"--poses", &args->poses},
+      {"--config", &args->config}, {"--debug-dir", &args->debug_dir},
+      {"--stats", &args->stats}};
   auto number = [&](int i, double* value) {
     if (i >= argc) return false;
     char* end = nullptr;
@@ -221,7 +223,8 @@ bool writeStats(const std::string& path, const std::vector<StereoFrame>& frames,
 double percentile(std::vector<double> values, double p) {
   if (values.empty()) return 0.0;
   std::sort(values.begin(), values.end());
-  const size_t index = std::min(values.size() - 1, static_cast<size_t>(p * (values.size() - 1) + 0.5));
+  const size_t index =
+      std::min(values.size() - 1, static_cast<size_t>(p * (values.size() - 1) + 0.5));
   return values[index];
 }
 
@@ -236,8 +239,8 @@ int run(int argc, char** argv) {
     std::cerr << "track_stereo_images: " << error << "\n";
     return 2;
   }
-  const size_t T = args.max_frames > 0 ? std::min<size_t>(args.max_frames, sequence.size())
-                                       : sequence.size();
+  const size_t T =
+      args.max_frames > 0 ? std::min<size_t>(args.max_frames, sequence.size()) : sequence.size();
   StereoTracker tracker(options, sequence.calibration);
   std::vector<StereoFrame> frames;
   std::vector<double> ms;
@@ -249,9 +252,9 @@ int run(int argc, char** argv) {
     if (left.empty() || right.empty() ||
         !tracker.process(left, right, sequence.times[k] + args.time_offset, nullptr, &frame,
                          &error)) {
-      std::cerr << "track_stereo_images: frame " << k << " ("
-                << sequence.left_images[k] << "): "
-                << (left.empty() || right.empty() ? "cannot read the image" : error) << "\n";
+      std::cerr << "track_stereo_images: frame " << k << " (" << sequence.left_images[k]
+                << "): " << (left.empty() || right.empty() ? "cannot read the image" : error)
+                << "\n";
       return 1;
     }
     image_size = left.size();
@@ -269,10 +272,10 @@ int run(int argc, char** argv) {
     return 1;
   }
   if (!args.quiet) {
-    std::printf("track_stereo_images: %zu frames -> %s; tracker ms per frame: median %.2f, p99 "
-                "%.2f, max %.2f\n",
-                T, args.out.c_str(), percentile(ms, 0.5), percentile(ms, 0.99),
-                percentile(ms, 1.0));
+    std::printf(
+        "track_stereo_images: %zu frames -> %s; tracker ms per frame: median %.2f, p99 "
+        "%.2f, max %.2f\n",
+        T, args.out.c_str(), percentile(ms, 0.5), percentile(ms, 0.99), percentile(ms, 1.0));
     if (!sequence.world_T_cam.empty()) {
       std::vector<Eigen::Matrix4d> poses(sequence.world_T_cam.begin(),
                                          sequence.world_T_cam.begin() + T);

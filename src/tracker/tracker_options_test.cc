@@ -1,5 +1,5 @@
-#include "ekf_vislam/core/yaml_parameter_source.h"
 #include "ekf_vislam/tracker/tracker_options.h"
+#include "ekf_vislam/core/yaml_parameter_source.h"
 
 #include <gtest/gtest.h>
 

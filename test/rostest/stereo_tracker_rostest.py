@@ -159,6 +159,47 @@ class StereoTrackerPipelineTest(unittest.TestCase):
         log('tracker diagnostics: %s' % counters())
         self.assertTrue(ok)
 
+    def test_04_missing_camera_info_is_counted(self):
+        # The second tracker (stereo_tracker.test, namespace nocalib) never gets camera_info and
+        # holds 3 waiting pairs: of 6 pairs, the oldest 3 are dropped and counted.
+        left = rospy.Publisher('/nocalib/stereo/left/image_rect', Image, queue_size=10)
+        right = rospy.Publisher('/nocalib/stereo/right/image_rect', Image, queue_size=10)
+        wait_until(lambda: left.get_num_connections() > 0 and right.get_num_connections() > 0,
+                   10.0)
+        time.sleep(0.5)
+        for k in range(7):  # ApproximateTime emits a pair once a later one arrives
+            for publisher in (left, right):
+                msg = Image()
+                msg.header.stamp, msg.header.frame_id = rospy.Time(6000.0 + k), 'camera_left'
+                msg.width, msg.height, msg.encoding, msg.step = 640, 192, 'mono8', 640
+                msg.data = bytes(640 * 192)
+                publisher.publish(msg)
+            time.sleep(0.3)
+
+        def status():
+            with self.lock:
+                for msg in reversed(self.diagnostics):
+                    for s in msg.status:
+                        if 'without_camera_info' in s.name:
+                            return s
+            return None
+
+        def counted():
+            s = status()
+            values = {kv.key: kv.value for kv in s.values} if s else {}
+            return (int(values.get('missing_camera_info', 0)) >= 3
+                    and int(values.get('pairs_dropped_waiting', 0)) >= 3)
+        ok = wait_until(counted, 10.0)
+        s = status()
+        log('tracker without camera_info: %s, %s' % (
+            s.message if s else None, {kv.key: kv.value for kv in s.values} if s else {}))
+        self.assertTrue(ok)
+        self.assertIn('camera_info', s.message)
+        self.assertEqual(s.level, 2)  # ERROR: nothing can be tracked
+        values = {kv.key: kv.value for kv in s.values}
+        self.assertEqual(values['pairs_tracked'], '0')
+        self.assertEqual(values['pairs_waiting'], '3')
+
 
 if __name__ == '__main__':
     rostest.rosrun(PKG, 'stereo_tracker_pipeline', StereoTrackerPipelineTest)

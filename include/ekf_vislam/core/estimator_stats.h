@@ -12,20 +12,20 @@ namespace ekf_vislam {
 enum class Counter : int {
   // Twist messages
   kTwistUsed = 0,
-  kTwistNonFinite,           ///< NaN/Inf component: rejected
-  kTwistImplausible,         ///< speed beyond limits/max_linear_speed or max_angular_speed: rejected
-  kTwistNotIncreasing,       ///< stamp <= previous twist stamp (duplicate or backwards): rejected
-  kTwistLate,                ///< older than the filter time (a frame was processed after it): held, no predict
-  kTwistGap,                 ///< time gap beyond limits/max_twist_gap: handled per gap policy
+  kTwistNonFinite,      ///< NaN/Inf component: rejected
+  kTwistImplausible,    ///< speed beyond limits/max_linear_speed or max_angular_speed: rejected
+  kTwistNotIncreasing,  ///< stamp <= previous twist stamp (duplicate or backwards): rejected
+  kTwistLate,  ///< older than the filter time (a frame was processed after it): held, no predict
+  kTwistGap,   ///< time gap beyond limits/max_twist_gap: handled per gap policy
   // Feature messages
   kFrameUsed,
-  kFrameEmpty,               ///< no features (prediction still done)
-  kFrameStale,               ///< stamp older than the filter time: rejected
-  kFrameNoCalibration,       ///< calibration missing or invalid: rejected
-  kFrameBeforeTwist,         ///< no twist yet: rejected (the filter has no time origin)
-  kFrameRepeated,            ///< shared tracks all identical to the previous frame's
-  kFrameCapped,              ///< more than limits/max_features_per_frame: extra features dropped
-  kFrameNonFiniteStamp,      ///< stamp NaN/Inf: rejected
+  kFrameEmpty,           ///< no features (prediction still done)
+  kFrameStale,           ///< stamp older than the filter time: rejected
+  kFrameNoCalibration,   ///< calibration missing or invalid: rejected
+  kFrameBeforeTwist,     ///< no twist yet: rejected (the filter has no time origin)
+  kFrameRepeated,        ///< shared tracks all identical to the previous frame's
+  kFrameCapped,          ///< more than limits/max_features_per_frame: extra features dropped
+  kFrameNonFiniteStamp,  ///< stamp NaN/Inf: rejected
   // Observations (one feature of one frame)
   kObservationUpdate,        ///< used in an EKF update
   kObservationInitialized,   ///< started a new landmark
@@ -42,15 +42,15 @@ enum class Counter : int {
   kObsWaiting,               ///< new track not started: landmarks/max_active in the state
   // Landmark life cycle
   kLandmarkInitialized,
-  kLandmarkReinitialized,    ///< a landmark whose first observation was gated out restarted
+  kLandmarkReinitialized,  ///< a landmark whose first observation was gated out restarted
   kLandmarkMarginalized,
-  kLandmarkSplit,            ///< a track reached landmarks/max_track_length: continued as a new landmark
-  kLandmarkJump,             ///< a track jumped (flow test): continued as a new landmark
-  kLandmarkShifted,          ///< tracked through a repeated frame: moved by one frame of motion
+  kLandmarkSplit,    ///< a track reached landmarks/max_track_length: continued as a new landmark
+  kLandmarkJump,     ///< a track jumped (flow test): continued as a new landmark
+  kLandmarkShifted,  ///< tracked through a repeated frame: moved by one frame of motion
   // Filter health
-  kCovarianceRepaired,       ///< covariance lost symmetry/positivity and was repaired
-  kDivergenceRecovery,       ///< divergence detected; recovery policy applied
-  kUpdateNonFinite,          ///< an update produced non-finite numbers and was discarded
+  kCovarianceRepaired,  ///< covariance lost symmetry/positivity and was repaired
+  kDivergenceRecovery,  ///< divergence detected; recovery policy applied
+  kUpdateNonFinite,     ///< an update produced non-finite numbers and was discarded
   kCount
 };
 

@@ -73,7 +73,8 @@ class OptionReader {
       }
     }
     std::string expected;
-    for (const auto& [name, e] : names) expected += (expected.empty() ? "" : " | ") + std::string(name);
+    for (const auto& [name, e] : names)
+      expected += (expected.empty() ? "" : " | ") + std::string(name);
     fail(key, "one of " + expected);
   }
 

@@ -25,13 +25,13 @@ namespace ekf_vislam {
 
 /// The range a numeric option must lie in.
 enum class Bound {
-  kAny,          ///< any finite value
-  kPositive,     ///< > 0
-  kNonNegative,  ///< >= 0
-  kOpenUnit,     ///< in (0, 1)
-  kUnitFraction, ///< in (0, 1]
-  kCorrelation,  ///< in [0, 1)
-  kAtLeastOne,   ///< >= 1
+  kAny,           ///< any finite value
+  kPositive,      ///< > 0
+  kNonNegative,   ///< >= 0
+  kOpenUnit,      ///< in (0, 1)
+  kUnitFraction,  ///< in (0, 1]
+  kCorrelation,   ///< in [0, 1)
+  kAtLeastOne,    ///< >= 1
 };
 
 /// "must be positive", ... (empty for kAny).
@@ -81,7 +81,9 @@ class OptionDescriber {
   void number(const char* key, double value, Bound) { add(key, toText(value)); }
   void integer(const char* key, int value, Bound) { add(key, std::to_string(value)); }
   void flag(const char* key, bool value) { add(key, value ? "true" : "false"); }
-  void text(const char* key, const std::string& value) { add(key, value.empty() ? "(none)" : value); }
+  void text(const char* key, const std::string& value) {
+    add(key, value.empty() ? "(none)" : value);
+  }
   template <typename Enum, size_t N>
   void choice(const char* key, Enum value, const EnumNames<Enum, N>& names) {
     add(key, enumName(names, value));
@@ -106,7 +108,9 @@ class OptionKeyList {
     Kind kind;
     Bound bound;
   };
-  void number(const char* key, double, Bound bound) { keys_.push_back({key, Kind::kNumber, bound}); }
+  void number(const char* key, double, Bound bound) {
+    keys_.push_back({key, Kind::kNumber, bound});
+  }
   void integer(const char* key, int, Bound bound) { keys_.push_back({key, Kind::kInteger, bound}); }
   void flag(const char* key, bool) { keys_.push_back({key, Kind::kFlag, Bound::kAny}); }
   void text(const char* key, const std::string&) {

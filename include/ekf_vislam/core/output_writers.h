@@ -50,7 +50,7 @@ struct RunSummary {
   int peak_state_dimension = 0;
   size_t peak_active_landmarks = 0;
   double wall_s = 0.0;
-  double data_s = 0.0;  ///< time span of the input
+  double data_s = 0.0;                  ///< time span of the input
   std::map<std::string, double> extra;  ///< more figures (e.g. "sequencer_late")
 };
 

@@ -29,7 +29,7 @@ struct TrackJumpOptions {
 
 struct TrackJumpResult {
   std::vector<bool> jumped;  ///< per check
-  bool tested = false;  ///< false: too few checks (or off); nothing flagged
+  bool tested = false;       ///< false: too few checks (or off); nothing flagged
   Eigen::Matrix<double, 6, 1> common_pose_error = Eigen::Matrix<double, 6, 1>::Zero();
   double sigma_px = 0.0;  ///< robust standard deviation of the flow errors (MAD)
 };

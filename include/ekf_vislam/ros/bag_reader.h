@@ -5,9 +5,9 @@
 
 #include "ekf_vislam/core/measurement_sequencer.h"
 
-#include <Eigen/Geometry>
 #include <geometry_msgs/TransformStamped.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <Eigen/Geometry>
 
 #include <cstdint>
 #include <functional>
@@ -18,7 +18,7 @@
 namespace rosbag {
 class Bag;
 class MessageInstance;
-}
+}  // namespace rosbag
 
 namespace ekf_vislam {
 

@@ -2,19 +2,19 @@
 // Pure functions (no node handle, no clock), unit-tested in src/ros/conversions_test.cc.
 #pragma once
 
-#include "ekf_vislam/core/calibration_builder.h"
-#include "ekf_vislam/core/types.h"
 #include <ekf_vislam/StereoFeature.h>
 #include <ekf_vislam/StereoFeatureArray.h>
+#include "ekf_vislam/core/calibration_builder.h"
+#include "ekf_vislam/core/types.h"
 
-#include <Eigen/Core>
-#include <Eigen/Geometry>
-#include <boost/array.hpp>
 #include <geometry_msgs/Transform.h>
 #include <geometry_msgs/TwistStamped.h>
 #include <geometry_msgs/TwistWithCovarianceStamped.h>
 #include <nav_msgs/Odometry.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <boost/array.hpp>
 
 #include <string>
 
@@ -52,12 +52,11 @@ PinholeProjection projectionOf(const sensor_msgs::CameraInfo& info);
 /// (stereoIntrinsicsFromProjections of their projections). Leaves calibration->cam_T_imu
 /// unchanged (it comes from tf).
 bool calibrationFromCameraInfo(const sensor_msgs::CameraInfo& left,
-                               const sensor_msgs::CameraInfo& right,
-                               StereoCalibration* calibration, std::string* error,
-                               double tolerance_px = 1e-3);
+                               const sensor_msgs::CameraInfo& right, StereoCalibration* calibration,
+                               std::string* error, double tolerance_px = 1e-3);
 /// The camera_info pair describing `calibration` (for tests and tools).
-void cameraInfoFromCalibration(const StereoCalibration& calibration,
-                               sensor_msgs::CameraInfo* left, sensor_msgs::CameraInfo* right);
+void cameraInfoFromCalibration(const StereoCalibration& calibration, sensor_msgs::CameraInfo* left,
+                               sensor_msgs::CameraInfo* right);
 
 /// geometry_msgs/Transform <-> Eigen. The quaternion is normalized (an all-zero quaternion gives
 /// the identity rotation; a non-finite one a non-finite matrix, which StereoCalibration::validate

@@ -31,11 +31,11 @@ namespace ekf_vislam {
 
 /// ROS-only options, read from the private namespace under ros/ (see config/tracker.yaml).
 struct StereoTrackerRosOptions {
-  int queue_size = 200;               ///< image, synchronizer and waiting-pair queues
+  int queue_size = 200;                 ///< image, synchronizer and waiting-pair queues
   double max_stamp_difference = 0.002;  ///< s, left and right stamps further apart: unsynchronized
-  bool use_twist = true;              ///< predict KLT start points from imu/twist (needs tf)
-  double max_twist_wait = 0.5;        ///< s of message time a pair waits for the twist stream
-  double diagnostic_period = 1.0;     ///< s
+  bool use_twist = true;                ///< predict KLT start points from imu/twist (needs tf)
+  double max_twist_wait = 0.5;          ///< s of message time a pair waits for the twist stream
+  double diagnostic_period = 1.0;       ///< s
 };
 
 class StereoTrackerRos {
@@ -49,7 +49,8 @@ class StereoTrackerRos {
 
   using ImagePair = std::pair<sensor_msgs::ImageConstPtr, sensor_msgs::ImageConstPtr>;
 
-  void imageCallback(const sensor_msgs::ImageConstPtr& left, const sensor_msgs::ImageConstPtr& right);
+  void imageCallback(const sensor_msgs::ImageConstPtr& left,
+                     const sensor_msgs::ImageConstPtr& right);
   /// Tracks the waiting pairs that are ready, oldest first (caller holds mutex_).
   void processReadyPairs();
   /// A pair is tracked once both camera_infos are known and, with ros/use_twist, once the twist

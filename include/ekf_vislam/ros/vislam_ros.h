@@ -15,10 +15,10 @@
 // Parameters (private): the core options (config/default.yaml) and the ros/ section.
 #pragma once
 
-#include "ekf_vislam/core/types.h"
-#include "ekf_vislam/core/estimator_runner.h"
 #include <ekf_vislam/StereoFeature.h>
 #include <ekf_vislam/StereoFeatureArray.h>
+#include "ekf_vislam/core/estimator_runner.h"
+#include "ekf_vislam/core/types.h"
 #include "ekf_vislam/ros/vislam_ros_options.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -68,7 +68,7 @@ class VislamRos {
   bool lookUpImuTCam(CalibrationBuilder* builder);
   /// Status and one error log per distinct reason.
   void reportRefusedCalibration(const std::string& why);  // locked
-  bool holdForCalibration();  // locked
+  bool holdForCalibration();                              // locked
 
   // Outputs.
   /// Publishes on ~odometry (and on ~odometry_update when `after_update`).

@@ -35,7 +35,6 @@ bool listImages(const std::string& folder, std::vector<std::string>* paths, std:
 /// Everything together; checks that the counts agree (poses_path may be empty).
 bool loadKittiSequence(const std::string& left_folder, const std::string& right_folder,
                        const std::string& calib_path, const std::string& times_path,
-                       const std::string& poses_path, KittiSequence* sequence,
-                       std::string* error);
+                       const std::string& poses_path, KittiSequence* sequence, std::string* error);
 
 }  // namespace ekf_vislam

@@ -27,7 +27,7 @@ enum class TemporalOutlierCheck {
 struct TrackerOptions {
   // detector/
   FeatureDetectorType detector = FeatureDetectorType::kFast;
-  int grid_cols = 20;                 ///< detection grid over the left image
+  int grid_cols = 20;  ///< detection grid over the left image
   int grid_rows = 8;
   int max_features_per_cell = 4;      ///< new features only in cells below this count
   double min_feature_distance = 10;   ///< px between two features (new ones keep this from all)
@@ -38,10 +38,10 @@ struct TrackerOptions {
                            ///< many frames (0: from its first frame)
 
   // klt/
-  int window_size = 21;           ///< KLT window (px, odd)
-  int pyramid_levels = 3;         ///< pyramid levels above the full image (temporal)
-  int max_iterations = 30;        ///< KLT iterations per level
-  double epsilon = 0.01;          ///< KLT convergence threshold (px)
+  int window_size = 21;              ///< KLT window (px, odd)
+  int pyramid_levels = 3;            ///< pyramid levels above the full image (temporal)
+  int max_iterations = 30;           ///< KLT iterations per level
+  double epsilon = 0.01;             ///< KLT convergence threshold (px)
   double forward_backward_px = 0.5;  ///< max distance of the backward-tracked point to the start
   bool predict_with_last_motion = true;  ///< KLT initial guess from the last frame's estimated
                                          ///< motion (for points with a stereo depth)
@@ -62,23 +62,23 @@ struct TrackerOptions {
                                    ///< (affine in u, rows kept) after the left-right KLT
 
   // stereo/
-  int stereo_window_size = 21;      ///< KLT window of the left-right match
-  int stereo_pyramid_levels = 4;    ///< pyramid levels of the left-right match
-  double row_tolerance_px = 1.0;    ///< max |v_right - v_left| (rectified images)
-  double min_disparity_px = 0.5;    ///< smaller disparity: no stereo match
-  double max_disparity_px = 200.0;  ///< larger disparity: no stereo match
+  int stereo_window_size = 21;        ///< KLT window of the left-right match
+  int stereo_pyramid_levels = 4;      ///< pyramid levels of the left-right match
+  double row_tolerance_px = 1.0;      ///< max |v_right - v_left| (rectified images)
+  double min_disparity_px = 0.5;      ///< smaller disparity: no stereo match
+  double max_disparity_px = 200.0;    ///< larger disparity: no stereo match
   double stereo_back_check_px = 0.5;  ///< max distance of the right-to-left match to the start
-  double disparity_check_px = 2.0;  ///< a track's disparity may differ from the one its previous
-                                    ///< depth and the estimated motion predict by this much plus
+  double disparity_check_px = 2.0;    ///< a track's disparity may differ from the one its previous
+                                      ///< depth and the estimated motion predict by this much plus
   double disparity_check_relative = 0.05;  ///< this fraction of the prediction (0 and 0 = off)
 
   // ransac/
   TemporalOutlierCheck outlier_check = TemporalOutlierCheck::kPnp;
-  double ransac_threshold_px = 1.0;   ///< inlier threshold (reprojection / epipolar distance)
+  double ransac_threshold_px = 1.0;  ///< inlier threshold (reprojection / epipolar distance)
   double ransac_confidence = 0.99;
   int ransac_iterations = 200;
-  int min_ransac_points = 12;         ///< fewer matches: no outlier check this frame
-  double max_pnp_depth_m = 60.0;      ///< farther previous stereo points are not used by PnP
+  int min_ransac_points = 12;     ///< fewer matches: no outlier check this frame
+  double max_pnp_depth_m = 60.0;  ///< farther previous stereo points are not used by PnP
 
   /// Empty when every value is usable, else what is wrong (the first problem, naming its key).
   std::string validate() const;

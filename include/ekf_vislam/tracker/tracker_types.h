@@ -28,26 +28,26 @@ struct CameraMotionPrior {
 
 /// One feature of a frame, matched in both images.
 struct TrackedFeature {
-  uint32_t id = 0;      ///< persistent track id, never reused
-  cv::Point2f left;     ///< rectified left image, px (u right, v down)
-  cv::Point2f right;    ///< rectified right image, px
-  int age = 0;          ///< frames since the track was first published (0 in that frame)
+  uint32_t id = 0;                 ///< persistent track id, never reused
+  cv::Point2f left;                ///< rectified left image, px (u right, v down)
+  cv::Point2f right;               ///< rectified right image, px
+  int age = 0;                     ///< frames since the track was first published (0 in that frame)
   std::vector<cv::Point2f> trail;  ///< its last left positions, oldest first (for drawing)
 };
 
 /// Why features left or did not join, and where the time went, in one frame.
 struct TrackerFrameStats {
-  int tracks_in = 0;            ///< tracks of the previous frame
-  int klt_lost = 0;             ///< KLT failed or left the image
+  int tracks_in = 0;  ///< tracks of the previous frame
+  int klt_lost = 0;   ///< KLT failed or left the image
   int forward_backward_rejected = 0;
-  int ransac_rejected = 0;      ///< temporal outliers
-  int stereo_lost = 0;          ///< tracked, but no left-right match in this frame
-  int disparity_rejected = 0;   ///< left-right match disagrees with the predicted disparity
-  int detected = 0;             ///< new corners found
-  int new_tracks = 0;           ///< of them, matched in the right image (new ids)
-  int published = 0;            ///< features of the frame
-  int refined = 0;              ///< tracks aligned to their reference patch (refine/enabled)
-  int refine_failed = 0;        ///< alignments refused (the KLT position stands)
+  int ransac_rejected = 0;        ///< temporal outliers
+  int stereo_lost = 0;            ///< tracked, but no left-right match in this frame
+  int disparity_rejected = 0;     ///< left-right match disagrees with the predicted disparity
+  int detected = 0;               ///< new corners found
+  int new_tracks = 0;             ///< of them, matched in the right image (new ids)
+  int published = 0;              ///< features of the frame
+  int refined = 0;                ///< tracks aligned to their reference patch (refine/enabled)
+  int refine_failed = 0;          ///< alignments refused (the KLT position stands)
   bool motion_estimated = false;  ///< PnP gave the camera motion of this frame
   double ms_pyramids = 0, ms_temporal = 0, ms_ransac = 0, ms_stereo = 0, ms_detect = 0,
          ms_refine = 0;

@@ -18,12 +18,12 @@ import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
-from sensor_msgs.msg import CameraInfo, Image
+from sensor_msgs.msg import Image
 
 from ekf_vislam.msg import StereoFeatureArray
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import log, run, wait_until  # noqa: E402
+from vislam_rostest import log, play_bag, run, wait_until  # noqa: E402
 
 PKG = 'ekf_vislam'
 FRAMES = 80
@@ -59,28 +59,18 @@ class StereoTrackerPipelineTest(unittest.TestCase):
                          lambda m: cls.images.append(m.header.stamp), queue_size=1000)
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.keep(cls.diagnostics),
                          queue_size=100)
-        # The tracker subscribes to the images once it runs.
-        wait_until(lambda: rospy.get_published_topics() is not None and
-                   cls.subscribed('/stereo/left/image_rect'), 30.0, 0.2)
-        wait_until(lambda: cls.subscribed('/stereo/right/image_rect'), 30.0, 0.2)
-        time.sleep(2.0)
-        run(['rosbag', 'play', '--clock', '--quiet', '--queue', '100000', '--rate', str(PLAY_RATE),
-             cls.bag],
-            timeout=120)
+        # Played once the tracker and the estimator (one manager) and this test are connected.
+        manager = ('/stereo_vislam_manager',)
+        required = {topic: manager for topic in ('/stereo/right/image_rect', '/imu/twist',
+                                                 '/stereo/left/camera_info',
+                                                 '/stereo/right/camera_info')}
+        required['/stereo/left/image_rect'] = manager + (rospy.get_name(),)
+        play_bag(cls.bag, '/stereo_tracker_rostest_player', PLAY_RATE, required)
         # On a loaded machine the tracker and the estimator lag behind the bag: wait until the
         # estimator has reached the last image.
         wait_until(lambda: cls.images and cls.odometry and
                    cls.odometry[-1].header.stamp >= max(cls.images), 60.0)
         time.sleep(1.0)
-
-    @staticmethod
-    def subscribed(topic):
-        import rosgraph
-        try:
-            _, subscribers, _ = rosgraph.Master('/stereo_tracker_rostest').getSystemState()
-        except Exception:
-            return False
-        return any(t == topic and any('manager' in n for n in nodes) for t, nodes in subscribers)
 
     @classmethod
     def keep(cls, store):
@@ -88,6 +78,16 @@ class StereoTrackerPipelineTest(unittest.TestCase):
             with cls.lock:
                 store.append(msg)
         return callback
+
+    def latest_status(self, name_part):
+        """The newest diagnostic status whose name holds name_part, and its values as a dict
+        ((None, {}) when none has come)."""
+        with self.lock:
+            for msg in reversed(self.diagnostics):
+                for status in msg.status:
+                    if name_part in status.name:
+                        return status, {kv.key: kv.value for kv in status.values}
+        return None, {}
 
     @classmethod
     def tearDownClass(cls):
@@ -148,12 +148,7 @@ class StereoTrackerPipelineTest(unittest.TestCase):
             time.sleep(0.3)
 
         def counters():
-            with self.lock:
-                for msg in reversed(self.diagnostics):
-                    for status in msg.status:
-                        if 'stereo_tracker' in status.name:
-                            return {kv.key: kv.value for kv in status.values}
-            return {}
+            return self.latest_status('stereo_tracker')[1]
         ok = wait_until(lambda: all(int(counters().get(k, 0)) >= 1 for k in
                                     ('bad_encoding', 'size_mismatch', 'unsynchronized')), 10.0)
         log('tracker diagnostics: %s' % counters())
@@ -176,27 +171,16 @@ class StereoTrackerPipelineTest(unittest.TestCase):
                 publisher.publish(msg)
             time.sleep(0.3)
 
-        def status():
-            with self.lock:
-                for msg in reversed(self.diagnostics):
-                    for s in msg.status:
-                        if 'without_camera_info' in s.name:
-                            return s
-            return None
-
         def counted():
-            s = status()
-            values = {kv.key: kv.value for kv in s.values} if s else {}
+            values = self.latest_status('without_camera_info')[1]
             return (int(values.get('missing_camera_info', 0)) >= 3
                     and int(values.get('pairs_dropped_waiting', 0)) >= 3)
         ok = wait_until(counted, 10.0)
-        s = status()
-        log('tracker without camera_info: %s, %s' % (
-            s.message if s else None, {kv.key: kv.value for kv in s.values} if s else {}))
+        status, values = self.latest_status('without_camera_info')
+        log('tracker without camera_info: %s, %s' % (status.message if status else None, values))
         self.assertTrue(ok)
-        self.assertIn('camera_info', s.message)
-        self.assertEqual(s.level, 2)  # ERROR: nothing can be tracked
-        values = {kv.key: kv.value for kv in s.values}
+        self.assertIn('camera_info', status.message)
+        self.assertEqual(status.level, 2)  # ERROR: nothing can be tracked
         self.assertEqual(values['pairs_tracked'], '0')
         self.assertEqual(values['pairs_waiting'], '3')
 

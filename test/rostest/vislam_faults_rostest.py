@@ -4,13 +4,11 @@ import json
 import math
 import os
 import shutil
-import subprocess
 import sys
 import tempfile
 import time
 import unittest
 
-import rosbag
 import rospkg
 import rospy
 import rostest
@@ -18,7 +16,8 @@ from nav_msgs.msg import Odometry
 from std_srvs.srv import Trigger
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import VislamPipelineTest, log, read_tum, run, wait_until  # noqa: E402
+from vislam_rostest import (ESTIMATOR_INPUTS, PLAY_RATE, log, play_bag, run,  # noqa: E402
+                            wait_until)
 
 from ekf_vislam_tools import metrics, trajectory  # noqa: E402
 from ekf_vislam_tools.faults import inject_faults  # noqa: E402
@@ -30,9 +29,11 @@ ATE_TOLERANCE_M = 1.0
 
 
 class VislamFaultsTest(unittest.TestCase):
-    # rosbag play, started paused and resumed once the nodelet is connected (shared code).
-    play = classmethod(VislamPipelineTest.play.__func__)
-    connected = staticmethod(lambda player: _connected(player))
+    @classmethod
+    def play(cls):
+        """Plays the bag into the nodelet, resumed once it is connected."""
+        play_bag(cls.bag, '/vislam_faults_player', PLAY_RATE,
+                 {topic: ('/vislam_manager',) for topic in ESTIMATOR_INPUTS})
 
     @classmethod
     def setUpClass(cls):
@@ -50,7 +51,7 @@ class VislamFaultsTest(unittest.TestCase):
         cls.odometry = []
         rospy.Subscriber(NODELET + '/odometry', Odometry, cls.odometry.append, queue_size=10000)
         rospy.wait_for_service(NODELET + '/save', timeout=60.0)
-        cls.play([])
+        cls.play()
         last = [len(cls.odometry), time.time()]
 
         def settled():
@@ -92,24 +93,6 @@ class VislamFaultsTest(unittest.TestCase):
         ate = metrics.evaluate_trajectory(t, T, tg, Tg)['ate_rmse_m']
         log('ATE with faults: %.3f m' % ate)
         self.assertLess(ate, ATE_TOLERANCE_M)
-
-
-def _connected(player):
-    """The nodelet (its manager) has subscribed to every input topic of the player."""
-    import rosgraph
-    import xmlrpc.client
-    try:
-        uri = rosgraph.masterapi.Master('/vislam_faults_rostest').lookupNode(player)
-        _, _, connections = xmlrpc.client.ServerProxy(uri).getBusInfo('/vislam_faults_rostest')
-    except Exception:
-        return False
-    outbound = {}
-    for connection in connections:
-        if connection[2] == 'o':
-            outbound.setdefault(connection[4], set()).add(connection[1])
-    return all('/vislam_manager' in outbound.get(topic, set())
-               for topic in ('/imu/twist', '/stereo/features', '/stereo/left/camera_info',
-                             '/stereo/right/camera_info'))
 
 
 if __name__ == '__main__':

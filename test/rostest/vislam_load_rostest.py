@@ -4,7 +4,6 @@ import json
 import os
 import shutil
 import signal
-import subprocess
 import sys
 import tempfile
 import threading
@@ -17,10 +16,11 @@ import rosgraph
 import rospkg
 import rospy
 import rostest
-from std_srvs.srv import SetBool, Trigger
+from std_srvs.srv import Trigger
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import log, read_tum, run  # noqa: E402
+from vislam_rostest import (ESTIMATOR_INPUTS, log, read_tum, resume_when_connected,  # noqa: E402
+                            run, start_player)
 
 PKG = 'ekf_vislam'
 NODELET = '/vislam'
@@ -84,17 +84,11 @@ class LoadTest(unittest.TestCase):
         stop = threading.Event()
         pauser = threading.Thread(target=pause_repeatedly, args=(stop,))
         name = '/vislam_load_player'
-        cmd = ['rosbag', 'play', '--clock', '--quiet', '--queue', '100000', '--pause', '--rate',
-               str(RATE), cls.bag,
-               '__name:=' + name[1:]]
-        player = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                                  stderr=subprocess.DEVNULL)
+        player = start_player(cls.bag, name, RATE)
         try:
-            rospy.wait_for_service(name + '/pause_playback', timeout=30.0)
-            time.sleep(2.0)  # the manager subscribes to the player's topics
-            rospy.ServiceProxy(name + '/pause_playback', SetBool)(False)
+            resume_when_connected(name, {topic: ('/vislam_manager',) for topic in ESTIMATOR_INPUTS})
             pauser.start()
-            player.wait(timeout=240)
+            player.communicate(timeout=240)
         finally:
             stop.set()
             if pauser.is_alive():

@@ -77,6 +77,59 @@ def wait_until(predicate, timeout, period=0.05):
     return predicate()
 
 
+#: The estimator's input topics in the bags the tests play.
+ESTIMATOR_INPUTS = ('/imu/twist', '/stereo/features', '/stereo/left/camera_info',
+                    '/stereo/right/camera_info')
+
+
+def player_connected(player, required):
+    """True when the node `player` publishes every topic of `required` (topic -> node names) with
+    an open connection to each of its nodes (a nodelet counts as its manager)."""
+    try:
+        uri = rosgraph.masterapi.Master('/rostest_player_check').lookupNode(player)
+        _, _, connections = xmlrpc.client.ServerProxy(uri).getBusInfo('/rostest_player_check')
+    except Exception:  # not registered yet
+        return False
+    outbound = {}
+    for connection in connections:
+        if connection[2] == 'o':
+            outbound.setdefault(connection[4], set()).add(connection[1])
+    return all(set(nodes) <= outbound.get(topic, set()) for topic, nodes in required.items())
+
+
+def start_player(bag, name, rate, extra_args=()):
+    """`rosbag play --clock` of `bag` as node `name`, started paused; its outgoing queue holds the
+    whole bag, so a stalled subscriber loses nothing."""
+    cmd = ['rosbag', 'play', '--clock', '--quiet', '--queue', '100000', '--pause', '--rate',
+           str(rate)] + list(extra_args) + [bag, '__name:=' + name.lstrip('/')]
+    return subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, universal_newlines=True)
+
+
+def resume_when_connected(player_name, required, timeout=30.0):
+    """Waits until the paused player is connected as `required` says (player_connected: no
+    message is lost at the start, however slow the machine), then resumes it."""
+    if not wait_until(lambda: player_connected(player_name, required), timeout, period=0.1):
+        raise RuntimeError('%s: the nodes under test did not connect to the player' % player_name)
+    rospy.wait_for_service(player_name + '/pause_playback', timeout=10.0)
+    rospy.ServiceProxy(player_name + '/pause_playback', SetBool)(False)
+
+
+def play_bag(bag, name, rate, required, extra_args=(), timeout=120):
+    """Plays `bag` (start_player), resumed once connected as `required` says (topic -> node
+    names); returns when the player has ended."""
+    player = start_player(bag, name, rate, extra_args)
+    try:
+        resume_when_connected(name, required)
+        output, _ = player.communicate(timeout=timeout)
+    except BaseException:
+        player.kill()
+        player.communicate()
+        raise
+    if player.returncode != 0:
+        raise RuntimeError('rosbag play failed:\n' + output)
+
+
 class Recorder:
     """Everything the nodes publish, stamped with the wall time of arrival."""
 
@@ -188,45 +241,10 @@ class VislamPipelineTest(unittest.TestCase):
 
     @classmethod
     def play(cls, extra_args, timeout=120):
-        """Plays the bag with `rosbag play --clock`, started paused and resumed once both
-        estimators are connected to each input topic of the player (no message is lost at the
-        start, however slow the machine), then waits for its end."""
-        name = '/vislam_rostest_player'
-        # --queue: the player's outgoing queue holds the whole bag, so a stalled estimator loses nothing.
-        cmd = ['rosbag', 'play', '--clock', '--quiet', '--queue', '100000', '--pause', '--rate',
-               str(PLAY_RATE)] + \
-            extra_args + [cls.bag, '__name:=' + name[1:]]
-        player = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                                  stderr=subprocess.STDOUT, universal_newlines=True)
-        try:
-            if not wait_until(lambda: cls.connected(name), 30.0, period=0.1):
-                raise RuntimeError('the estimators did not connect to the player')
-            rospy.wait_for_service(name + '/pause_playback', timeout=10.0)
-            rospy.ServiceProxy(name + '/pause_playback', SetBool)(False)
-            output, _ = player.communicate(timeout=timeout)
-        except BaseException:
-            player.kill()
-            player.communicate()
-            raise
-        if player.returncode != 0:
-            raise RuntimeError('rosbag play failed:\n' + output)
-
-    @staticmethod
-    def connected(player):
-        """True when the player has outbound connections to the nodelet (its manager) and to
-        the node on every input topic."""
-        inputs = ['/imu/twist', '/stereo/features', '/stereo/left/camera_info',
-                  '/stereo/right/camera_info']
-        try:
-            uri = rosgraph.masterapi.Master('/vislam_rostest').lookupNode(player)
-            _, _, connections = xmlrpc.client.ServerProxy(uri).getBusInfo('/vislam_rostest')
-        except Exception:  # not registered yet
-            return False
-        outbound = {}
-        for connection in connections:
-            if connection[2] == 'o':
-                outbound.setdefault(connection[4], set()).add(connection[1])
-        return all({'/vislam_manager', NODE} <= outbound.get(topic, set()) for topic in inputs)
+        """Plays the bag into both estimators, resumed once they are connected."""
+        play_bag(cls.bag, '/vislam_rostest_player', PLAY_RATE,
+                 {topic: ('/vislam_manager', NODE) for topic in ESTIMATOR_INPUTS}, extra_args,
+                 timeout)
 
     @classmethod
     def save(cls, name, folder):

@@ -5,6 +5,21 @@
 
 namespace ekf_vislam {
 
+std::string disagreementHint(uint64_t gated, uint64_t updated) {
+  const uint64_t total = gated + updated;
+  if (total < kDisagreementMinObservations) return "";
+  const double fraction = static_cast<double>(gated) / static_cast<double>(total);
+  if (fraction <= kDisagreementFraction) return "";
+  std::ostringstream text;
+  text.precision(3);
+  text << 100.0 * fraction << " % of the re-observed landmarks (" << gated << " of " << total
+       << ") disagreed with the filter and were gated, where real data gives a few %: check that "
+          "the twist and the camera tf use the same axes (a twist in x forward, y left, z up "
+          "against a tf to x forward, y right, z down turns every yaw rate the wrong way), the "
+          "camera calibration and the time stamps";
+  return text.str();
+}
+
 bool HealthMonitor::diverged(int candidates, int disagreeing, double position_sigma,
                              std::string* why) {
   if (candidates >= 10 && disagreeing > options_->health.rejected_fraction * candidates) {

@@ -352,6 +352,6 @@ def twist_axes_notice(dataset):
         return None
     verdict = dataset.twist_axes
     return ('%s: the twist turns the other way than the images (its y and z axes against the '
-            'extrinsic\'s): turned by a half turn about x (tracks predicted by the twist: median '
-            'error %.2f px as stored, %.2f px turned, %d track pairs)'
-            % (dataset.path, verdict.median_stored_px, verdict.median_turned_px, verdict.pairs))
+            'extrinsic\'s): turned by a half turn about x (tracks predicted by the twist: '
+            'median error per frame %.2f px as stored, %.2f px turned, mean over %d frames)'
+            % (dataset.path, verdict.mean_stored_px, verdict.mean_turned_px, verdict.frames))

@@ -7,6 +7,7 @@
 // Feeds the estimator through the same conversions, MeasurementSequencer and EstimatorRunner as
 // the nodelet, so the nodelet's trajectory on the same bag is the same.
 #include "ekf_vislam/core/estimator_runner.h"
+#include "ekf_vislam/core/health_monitor.h"
 #include "ekf_vislam/core/yaml_parameter_source.h"
 #include "ekf_vislam/ros/bag_reader.h"
 #include "ekf_vislam/ros/conversions.h"
@@ -260,6 +261,9 @@ void printSummary(const EstimatorRunner& runner, const std::string& out_dir) {
                                           stats.get(Counter::kObservationInitialized)),
                static_cast<unsigned long>(stats.observationsRejected()), times.mean(),
                times.percentile(0.99), summary.wall_s, p.x(), p.y(), p.z(), out_dir.c_str());
+  const std::string hint =
+      disagreementHint(stats.get(Counter::kObsGated), stats.get(Counter::kObservationUpdate));
+  if (!hint.empty()) std::fprintf(stderr, "vislam_offline: warning: %s\n", hint.c_str());
 }
 
 int run(int argc, char** argv) {

@@ -1,5 +1,6 @@
 #include "ekf_vislam/ros/vislam_ros.h"
 
+#include "ekf_vislam/core/health_monitor.h"
 #include "ekf_vislam/ros/conversions.h"
 #include "ekf_vislam/ros/heap_allocation.h"
 #include "ekf_vislam/ros/landmark_markers.h"
@@ -455,6 +456,17 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
       stats.get(Counter::kDivergenceRecovery) + stats.get(Counter::kUpdateNonFinite);
   diverging_ = divergence > divergence_at_last_diag_;
   divergence_at_last_diag_ = divergence;
+  // Inputs that contradict each other (twist axes against the camera tf, calibration, stamps)
+  // show as many gated observations, period after period.
+  const uint64_t gated = stats.get(Counter::kObsGated);
+  const uint64_t updated = stats.get(Counter::kObservationUpdate);
+  const std::string disagreement =
+      disagreementHint(gated - gated_at_last_diag_, updated - updated_at_last_diag_);
+  gated_at_last_diag_ = gated;
+  updated_at_last_diag_ = updated;
+  if (!disagreement.empty()) {
+    ROS_WARN_THROTTLE(30.0, "%s: in the last %.1f s %s", name_.c_str(), dt, disagreement.c_str());
+  }
 
   const double since_twist = (now - last_twist_).toSec();
   const double since_features = (now - last_features_).toSec();
@@ -472,6 +484,10 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
   } else if (options_.mode != EstimatorMode::kDeadReckoning &&
              since_features > ros_options_.input_timeout) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "stereo/features stopped");
+  } else if (!disagreement.empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   "many observations gated: do the twist, the camera tf and the stamps agree? "
+                   "(see the log)");
   } else {
     status.summary(diagnostic_msgs::DiagnosticStatus::OK, "running");
   }

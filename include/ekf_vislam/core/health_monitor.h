@@ -4,9 +4,19 @@
 
 #include "ekf_vislam/core/vislam_options.h"
 
+#include <cstdint>
 #include <string>
 
 namespace ekf_vislam {
+
+/// A hint when many re-observed landmarks disagree with the filter: more than
+/// kDisagreementFraction of them gated (out of at least kDisagreementMinObservations), where real
+/// data gives a few percent. Such disagreement usually means the inputs contradict each other (a
+/// twist in other axes than the camera tf's, a wrong calibration, shifted time stamps) rather than
+/// a divergence. Empty when the fraction is ordinary.
+constexpr double kDisagreementFraction = 0.2;
+constexpr uint64_t kDisagreementMinObservations = 50;
+std::string disagreementHint(uint64_t gated, uint64_t updated);
 
 class HealthMonitor {
  public:

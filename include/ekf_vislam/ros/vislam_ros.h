@@ -124,6 +124,8 @@ class VislamRos {
   uint64_t odometry_non_finite_ = 0;
   uint64_t divergence_at_last_diag_ = 0;
   bool diverging_ = false;
+  uint64_t gated_at_last_diag_ = 0;    ///< observations gated, for the disagreement hint
+  uint64_t updated_at_last_diag_ = 0;  ///< observations used in updates, likewise
   double last_update_ms_ = 0.0;
   int last_processed_count_ = 0;
 

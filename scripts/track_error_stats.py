@@ -67,7 +67,7 @@ def main(argv):
     parser.add_argument('--json', metavar='OUT.json', help='also write the figures as JSON')
     args = parser.parse_args(argv)
     try:
-        data = dataset.load_dataset(args.dataset)
+        data = dataset.load_dataset(args.dataset, fix_twist_axes=False)  # the twist is not used
         residual, frame, track, z = track_errors.track_residuals(
             data.features, camera_poses(data, args.groundtruth), data.K, data.b)
         stats = track_errors.statistics(residual, frame, track, z)

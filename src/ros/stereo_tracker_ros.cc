@@ -20,6 +20,8 @@ namespace {
 constexpr double kWarnPeriod = 5.0;          // s, throttle of the bad-input warnings
 constexpr double kTwistHistory = 5.0;        // s of twists kept for the motion prior
 constexpr double kCameraInfoPatience = 1.0;  // s of image time pairs wait before a warning
+constexpr const char* kNoCameraInfo =
+    "no camera_info yet on stereo/left/camera_info and stereo/right/camera_info";
 
 bool readRosOptions(const ros::NodeHandle& pnh, StereoTrackerRosOptions* o, std::string* why) {
   pnh.param("ros/queue_size", o->queue_size, o->queue_size);
@@ -98,7 +100,7 @@ void StereoTrackerRos::twistCallback(const geometry_msgs::TwistStampedConstPtr& 
 }
 
 bool StereoTrackerRos::pairReady(const ImagePair& pair) const {
-  if (!left_info_ || !right_info_) return false;
+  if (!hasCameraInfo()) return false;
   if (!ros_options_.use_twist || twists_.empty()) return true;  // no twist stream: no wait
   const ros::Time& stamp = pair.first->header.stamp;
   if (twists_.back().header.stamp >= stamp) return true;
@@ -115,24 +117,21 @@ void StereoTrackerRos::processReadyPairs() {
   while (waiting_pairs_.size() > static_cast<size_t>(ros_options_.queue_size)) {
     waiting_pairs_.pop_front();
     ++pairs_dropped_waiting_;
-    if (!left_info_ || !right_info_) ++missing_camera_info_;
+    if (!hasCameraInfo()) ++missing_camera_info_;
     ROS_WARN_THROTTLE(
         kWarnPeriod, "%s: %s: oldest waiting pair dropped (%lu so far)", name_.c_str(),
-        (!left_info_ || !right_info_) ? "no camera_info yet on stereo/left/camera_info and "
-                                        "stereo/right/camera_info"
-                                      : "ros/queue_size pairs wait for the twist stream",
+        hasCameraInfo() ? "ros/queue_size pairs wait for the twist stream" : kNoCameraInfo,
         pairs_dropped_waiting_);
   }
-  if ((!left_info_ || !right_info_) && !waiting_pairs_.empty()) {
+  if (!hasCameraInfo() && !waiting_pairs_.empty()) {
     const double waited =
         (waiting_pairs_.back().first->header.stamp - waiting_pairs_.front().first->header.stamp)
             .toSec();
     if (waited >= kCameraInfoPatience) {
       ROS_WARN_THROTTLE(kWarnPeriod,
-                        "%s: %lu pairs wait for camera_info on stereo/left/camera_info and "
-                        "stereo/right/camera_info (the oldest for %.1f s of image time); more "
+                        "%s: %s: %lu pairs wait (the oldest for %.1f s of image time); more "
                         "than ros/queue_size are dropped",
-                        name_.c_str(), waiting_pairs_.size(), waited);
+                        name_.c_str(), kNoCameraInfo, waiting_pairs_.size(), waited);
     }
   }
 }
@@ -159,9 +158,9 @@ bool StereoTrackerRos::toGray(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gr
 
 bool StereoTrackerRos::calibrationFor(const sensor_msgs::Image& left, RectifiedStereo* stereo,
                                       std::string* why) {
-  if (!left_info_ || !right_info_) {
+  if (!hasCameraInfo()) {
     ++missing_camera_info_;
-    *why = "no camera_info yet on stereo/left/camera_info and stereo/right/camera_info";
+    *why = kNoCameraInfo;
     return false;
   }
   const auto& pl = left_info_->P;
@@ -337,10 +336,9 @@ void StereoTrackerRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWr
                        pairs_dropped_waiting_;
   if (pairs_received_ == 0) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no synchronized stereo pair yet");
-  } else if (!left_info_ || !right_info_) {
+  } else if (!hasCameraInfo()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::ERROR,
-                   "no camera_info on stereo/left/camera_info and stereo/right/camera_info: "
-                   "pairs wait");
+                   std::string(kNoCameraInfo) + ": pairs wait");
   } else if (pairs_tracked_ == 0) {
     status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "no pair tracked (see counters)");
   } else if (bad > 0) {

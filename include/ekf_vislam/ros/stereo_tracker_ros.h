@@ -55,6 +55,8 @@ class StereoTrackerRos {
   void processReadyPairs();
   /// A pair is tracked once both camera_infos are known and, with ros/use_twist, once the twist
   /// stream reaches its stamp or a pair ros/max_twist_wait newer waits behind it (message time).
+  /// Both camera_info messages have arrived (nothing can be tracked before).
+  bool hasCameraInfo() const { return left_info_ && right_info_; }
   bool pairReady(const ImagePair& pair) const;
   void trackPair(const ImagePair& pair);
   void leftInfoCallback(const sensor_msgs::CameraInfoConstPtr& msg);

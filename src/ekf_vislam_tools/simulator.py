@@ -24,7 +24,7 @@ import numpy as np
 from scipy.interpolate import PchipInterpolator
 from scipy.spatial import cKDTree
 
-from ekf_vislam_tools import se3, trajectory
+from ekf_vislam_tools import se3, stereo_geometry, trajectory
 from ekf_vislam_tools.dataset import TRANSLATION_CORRECT_KEY, UNOBSERVED, observed_mask
 
 # KITTI odometry sequence 07 calibration (rectified gray cameras, IMU -> cam0).
@@ -294,13 +294,7 @@ def _landmark_points(rng, world_T_imu, opts):
 def project(points_world, world_T_imu, cam_T_imu=KITTI_CAM_T_IMU, K=KITTI_K, b=KITTI_BASELINE):
     """Stereo projection of world points (N,3) at pose world_T_imu -> (z (N,4), depth (N,))."""
     cam_T_world = cam_T_imu @ se3.inverse(world_T_imu)
-    q = points_world @ cam_T_world[:3, :3].T + cam_T_world[:3, 3]
-    depth = q[:, 2]
-    with np.errstate(divide='ignore', invalid='ignore'):
-        u = K[0, 0] * q[:, 0] / depth + K[0, 2]
-        v = K[1, 1] * q[:, 1] / depth + K[1, 2]
-        disparity = K[0, 0] * b / depth
-    return np.stack([u, v, u - disparity, v], axis=1), depth
+    return stereo_geometry.project(points_world @ cam_T_world[:3, :3].T + cam_T_world[:3, 3], K, b)
 
 
 def _visible(z, depth, opts):

@@ -9,40 +9,32 @@ mean drift per frame by image region (a systematic error no noise model averages
 """
 import numpy as np
 
+from ekf_vislam_tools import stereo_geometry
+
 INLIER_PX = 6.0       # residuals beyond this are outliers for the statistics
 TRACK_MAX_PX = 20.0   # a track with a larger residual is dropped (wrong association)
 MIN_TRACK = 4         # observations
 LAGS = (1, 2, 5, 10)
 
 
-def _project(cam_T_world, p_world, fx, fy, cx, cy, b):
-    """(n,4) predicted [uL, vL, uR, vR] and (n,4,3) Jacobians w.r.t. p_world."""
+def _project(cam_T_world, p_world, K, b):
+    """(n,4) predicted [uL, vL, uR, vR], (n,4,3) Jacobians w.r.t. p_world and (n,) depths."""
     R, t = cam_T_world[:, :3, :3], cam_T_world[:, :3, 3]
-    xc = np.einsum('nij,j->ni', R, p_world) + t
-    x, y, z = xc[:, 0], xc[:, 1], xc[:, 2]
-    z_pred = np.stack([fx * x / z + cx, fy * y / z + cy, fx * (x - b) / z + cx, fy * y / z + cy], 1)
-    d = np.zeros((xc.shape[0], 4, 3))
-    d[:, 0, 0] = d[:, 2, 0] = fx / z
-    d[:, 1, 1] = d[:, 3, 1] = fy / z
-    d[:, 0, 2] = -fx * x / z ** 2
-    d[:, 2, 2] = -fx * (x - b) / z ** 2
-    d[:, 1, 2] = d[:, 3, 2] = -fy * y / z ** 2
-    return z_pred, np.einsum('nij,njk->nik', d, R), z
+    p_cam = np.einsum('nij,j->ni', R, p_world) + t
+    z_pred, depth = stereo_geometry.project(p_cam, K, b)
+    return z_pred, np.einsum('nij,njk->nik', stereo_geometry.project_jacobian(p_cam, K, b), R), depth
 
 
 def fit_track(z, cam_T_world, K, b, iterations=8):
     """Landmark fitted to one track's observations z (n,4) -> residuals (n,4), or None when the
     track cannot be fitted (non-positive disparity, behind a camera, gross residuals)."""
-    fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
-    disparity = z[0, 0] - z[0, 2]
-    if disparity <= 0.5:
+    if z[0, 0] - z[0, 2] <= 0.5:
         return None
-    depth = fx * b / disparity
-    p_cam = np.array([(z[0, 0] - cx) * depth / fx, (z[0, 1] - cy) * depth / fy, depth])
+    p_cam = stereo_geometry.triangulate(z[:1], K, b)[0]
     world_T_cam0 = np.linalg.inv(cam_T_world[0])
     p = world_T_cam0[:3, :3] @ p_cam + world_T_cam0[:3, 3]
     for _ in range(iterations):
-        z_pred, H, depth = _project(cam_T_world, p, fx, fy, cx, cy, b)
+        z_pred, H, depth = _project(cam_T_world, p, K, b)
         if np.any(depth < 0.5):
             return None
         r = (z - z_pred).ravel()
@@ -52,7 +44,7 @@ def fit_track(z, cam_T_world, K, b, iterations=8):
         p = p + step
         if np.linalg.norm(step) < 1e-6:
             break
-    z_pred, _, depth = _project(cam_T_world, p, fx, fy, cx, cy, b)
+    z_pred, _, depth = _project(cam_T_world, p, K, b)
     residual = z - z_pred
     if np.any(depth < 0.5) or np.max(np.abs(residual)) > TRACK_MAX_PX:
         return None

@@ -18,7 +18,7 @@ import collections
 
 import numpy as np
 
-from ekf_vislam_tools import se3
+from ekf_vislam_tools import se3, stereo_geometry
 
 #: Turn the twist when (S - T) / (S + T) exceeds this (T below 0.74 S). Files whose twist agrees
 #: with the extrinsic give -0.24 to -0.49 (simulated drives with a course-like twist, the KITTI
@@ -40,26 +40,17 @@ Verdict = collections.namedtuple('Verdict', ['turn', 'balance', 'mean_stored_px'
                                              'mean_turned_px', 'frames'])
 
 
-def _stereo_points(z, K, baseline):
-    """(N, 4) [uL, vL, uR, vR] -> (N, 3) points in the left camera's optical frame."""
-    fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
-    depth = fx * baseline / (z[:, 0] - z[:, 2])
-    v = 0.5 * (z[:, 1] + z[:, 3])
-    return np.stack([(z[:, 0] - cx) * depth / fx, (v - cy) * depth / fy, depth], axis=1)
-
-
 def frame_errors(dataset, axes=np.eye(3)):
     """(T-1,) median pixel error of predicting each frame pair's tracks with the twist
     `axes` @ v, `axes` @ w; NaN where a pair has fewer than MIN_TRACKS_PER_FRAME usable tracks."""
     K, features = dataset.K, dataset.features
     imu_T_cam = se3.inverse(dataset.cam_T_imu)
-    fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
     medians = np.full(dataset.num_frames - 1, np.nan)
     for k in range(dataset.num_frames - 1):
         both = (features[0, :, k] >= 0) & (features[0, :, k + 1] >= 0)
         z_now, z_next = features[:, both, k].T, features[:, both, k + 1].T
         usable = z_now[:, 0] - z_now[:, 2] >= MIN_DISPARITY_PX
-        p_cam = _stereo_points(z_now[usable], K, dataset.b)
+        p_cam = stereo_geometry.triangulate(z_now[usable], K, dataset.b)
         z_next = z_next[usable]
         near = p_cam[:, 2] <= MAX_DEPTH_M
         p_cam, z_next = p_cam[near], z_next[near]
@@ -71,9 +62,9 @@ def frame_errors(dataset, axes=np.eye(3)):
         ahead = p_next[:, 2] > 0.1
         if np.count_nonzero(ahead) < MIN_TRACKS_PER_FRAME:
             continue
-        u = fx * p_next[ahead, 0] / p_next[ahead, 2] + cx
-        v = fy * p_next[ahead, 1] / p_next[ahead, 2] + cy
-        medians[k] = np.median(np.hypot(u - z_next[ahead, 0], v - z_next[ahead, 1]))
+        z_pred, _ = stereo_geometry.project(p_next[ahead], K, dataset.b)
+        medians[k] = np.median(np.hypot(z_pred[:, 0] - z_next[ahead, 0],
+                                        z_pred[:, 1] - z_next[ahead, 1]))
     return medians
 
 

@@ -1,11 +1,13 @@
 """Paths and small helpers shared by the Python tests: repository root, scripts, the data
-directory (env EKF_VISLAM_DATA, else <repo>/../shared/data), temporary directories and running a
+directory (env EKF_VISLAM_DATA, else <repo>/../shared/data), temporary directories, npz files and running a
 script of the package as a subprocess with Debian's python3."""
 import os
 import shutil
 import subprocess
 import sys
 import tempfile
+
+import numpy as np
 
 PYTHON = '/usr/bin/python3'
 REPO_ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), '..', '..'))
@@ -39,6 +41,13 @@ def make_temp_dir(testcase=None, prefix='ekf_vislam_test_'):
     path = tempfile.mkdtemp(prefix=prefix)
     if testcase is not None:
         testcase.addCleanup(shutil.rmtree, path, True)
+    return path
+
+
+def write_npz(directory, name, arrays):
+    """Writes `arrays` as DIRECTORY/NAME (an uncompressed npz) and returns the path."""
+    path = os.path.join(directory, name)
+    np.savez(path, **arrays)
     return path
 
 

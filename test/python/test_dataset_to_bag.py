@@ -107,9 +107,7 @@ class ConverterTestCase(unittest.TestCase):
         self.tmp = ekf_test_paths.make_temp_dir(self)
 
     def write_npz(self, name, arrays):
-        path = os.path.join(self.tmp, name)
-        np.savez(path, **arrays)
-        return path
+        return ekf_test_paths.write_npz(self.tmp, name, arrays)
 
     def convert(self, npz, *options, bag_name='out.bag'):
         bag = os.path.join(self.tmp, bag_name)

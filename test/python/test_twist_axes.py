@@ -30,9 +30,7 @@ class TwistAxesTest(unittest.TestCase):
         self.tmp = paths.make_temp_dir(self)
 
     def write(self, name, arrays):
-        path = os.path.join(self.tmp, name)
-        np.savez(path, **arrays)
-        return path
+        return paths.write_npz(self.tmp, name, arrays)
 
     def test_agreeing_and_turned_twists_over_seeds_and_lengths(self):
         # With a course-like twist (0.5 m/s, 0.05 rad/s per sample) the straight stretches predict

@@ -1,6 +1,6 @@
 """Paths and small helpers shared by the Python tests: repository root, scripts, the data
-directory (env EKF_VISLAM_DATA, else <repo>/../shared/data), temporary directories, npz files and running a
-script of the package as a subprocess with Debian's python3."""
+directory (env EKF_VISLAM_DATA, else <repo>/../shared/data), temporary directories, npz files
+and running a script of the package as a subprocess with Debian's python3."""
 import os
 import shutil
 import subprocess

@@ -266,7 +266,7 @@ bool StereoUpdater::stackedUpdate(const std::vector<StereoCandidate*>& accepted,
   Eigen::VectorXd residual(r * n);
   for (int k = 0; k < n; ++k) {
     jacobians.push_back(updateJacobian(*state, *accepted[k]));
-    residual.segment(k * r, r) = accepted[k]->residual;
+    residual.segment(static_cast<Eigen::Index>(k) * r, r) = accepted[k]->residual;
   }
   const double pixel_var = options_->noise.pixel_sigma * options_->noise.pixel_sigma;
   const UpdateOutcome outcome = state_helper::update(

@@ -38,7 +38,8 @@ bool readRosOptions(const ros::NodeHandle& pnh, StereoTrackerRosOptions* o, std:
 
 }  // namespace
 
-StereoTrackerRos::StereoTrackerRos(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string& name)
+StereoTrackerRos::StereoTrackerRos(const ros::NodeHandle& nh, const ros::NodeHandle& pnh,
+                                   const std::string& name)
     : nh_(nh), pnh_(pnh), name_(name), image_transport_(nh) {
   RosParameterSource source(pnh_);
   std::string error;

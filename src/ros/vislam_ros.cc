@@ -15,7 +15,7 @@
 
 namespace ekf_vislam {
 
-VislamRos::VislamRos(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string& name)
+VislamRos::VislamRos(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const std::string& name)
     : nh_(nh), pnh_(pnh), name_(name) {
   keepLargeAllocationsOnHeap();
   RosParameterSource source(pnh_);

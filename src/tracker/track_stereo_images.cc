@@ -1,5 +1,6 @@
 // track_stereo_images: runs the stereo tracker over a folder of rectified stereo images in the
 // KITTI odometry layout and writes the tracks as a course dataset (.npz). See --help.
+#include "ekf_vislam/core/output_writers.h"
 #include "ekf_vislam/core/se3.h"
 #include "ekf_vislam/core/yaml_parameter_source.h"
 #include "ekf_vislam/tracker/debug_drawing.h"
@@ -220,14 +221,6 @@ bool writeStats(const std::string& path, const std::vector<StereoFrame>& frames,
   return static_cast<bool>(out);
 }
 
-double percentile(std::vector<double> values, double p) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  const size_t index =
-      std::min(values.size() - 1, static_cast<size_t>(p * (values.size() - 1) + 0.5));
-  return values[index];
-}
-
 int run(int argc, char** argv) {
   Arguments args;
   TrackerOptions options;
@@ -243,7 +236,7 @@ int run(int argc, char** argv) {
       args.max_frames > 0 ? std::min<size_t>(args.max_frames, sequence.size()) : sequence.size();
   StereoTracker tracker(options, sequence.calibration);
   std::vector<StereoFrame> frames;
-  std::vector<double> ms;
+  ProcessingTimes ms;
   cv::Size image_size;
   for (size_t k = 0; k < T; ++k) {
     const cv::Mat left = cv::imread(sequence.left_images[k], cv::IMREAD_GRAYSCALE);
@@ -258,7 +251,7 @@ int run(int argc, char** argv) {
       return 1;
     }
     image_size = left.size();
-    ms.push_back(frame.stats.ms_total);
+    ms.add(frame.stats.ms_total);
     if (!args.debug_dir.empty()) {
       char name[32];
       std::snprintf(name, sizeof(name), "/%06zu.png", k);
@@ -275,7 +268,7 @@ int run(int argc, char** argv) {
     std::printf(
         "track_stereo_images: %zu frames -> %s; tracker ms per frame: median %.2f, p99 "
         "%.2f, max %.2f\n",
-        T, args.out.c_str(), percentile(ms, 0.5), percentile(ms, 0.99), percentile(ms, 1.0));
+        T, args.out.c_str(), ms.percentile(0.5), ms.percentile(0.99), ms.max());
     if (!sequence.world_T_cam.empty()) {
       std::vector<Eigen::Matrix4d> poses(sequence.world_T_cam.begin(),
                                          sequence.world_T_cam.begin() + T);

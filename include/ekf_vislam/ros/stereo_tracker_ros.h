@@ -41,7 +41,7 @@ struct StereoTrackerRosOptions {
 class StereoTrackerRos {
  public:
   /// Reads the tracker options from `pnh` (throws std::runtime_error when invalid).
-  StereoTrackerRos(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string& name);
+  StereoTrackerRos(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const std::string& name);
 
  private:
   using SyncPolicy =

@@ -44,7 +44,7 @@ class VislamRos {
  public:
   /// nh: namespace of the inputs; pnh: private namespace (parameters, outputs, services).
   /// Throws std::runtime_error when the parameters are invalid (logged with ROS_FATAL first).
-  VislamRos(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string& name);
+  VislamRos(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const std::string& name);
   ~VislamRos();
 
   /// Processes what is still buffered and saves to ros/output_dir when set. Idempotent.

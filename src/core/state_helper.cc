@@ -43,7 +43,8 @@ Eigen::MatrixXd innovationCovariance(const std::vector<SparseJacobian>& jacobian
   return innovation_cov;
 }
 
-/// Copies the lower triangle (the one the rank updates maintain) into the upper.
+/// Copies the lower triangle (the one the rank update of the gains' covariance maintains) into
+/// the upper.
 void mirrorLowerTriangle(Eigen::Block<Eigen::MatrixXd> P) {
   const int dim = static_cast<int>(P.rows());
   for (int j = 1; j < dim; ++j) P.col(j).head(j) = P.row(j).head(j).transpose();

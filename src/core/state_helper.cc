@@ -2,7 +2,7 @@
 
 #include <Eigen/Cholesky>
 
-#include <cmath>
+#include <vector>
 
 namespace ekf_vislam {
 namespace state_helper {

@@ -25,8 +25,7 @@ import numpy as np
 import rosbag
 import rospy
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import CameraInfo, Image
-from tf2_msgs.msg import TFMessage
+from sensor_msgs.msg import Image
 
 from ekf_vislam_tools import bag_writer, stereo_images
 

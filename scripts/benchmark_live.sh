@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # Tracker and estimator live, faster than real time: a KITTI-layout folder (images, calib.txt,
 # times.txt, poses.txt for the twist) is written as a bag (play_stereo_images.py), played with
-# `rosbag play --clock -r RATE` into launch/stereo_vislam.launch (one nodelet manager), and the
-# features, twist and odometry are recorded. Prints the pairs received, tracked and dropped, the
-# frames the estimator used, its update time and latency (diagnostics), the time the estimator
-# finished after the last pair, and whether vislam_offline on the recorded features reproduces
-# the live trajectory bit for bit (live = offline).
+# `rosbag play --clock -r RATE` (paused until every node is connected) into
+# launch/stereo_vislam.launch (one nodelet manager), and the features, twist and odometry are
+# recorded. Prints the pairs received, tracked and dropped, the frames the estimator used, its
+# update time and latency (diagnostics), the time the estimator finished after the last pair,
+# and whether vislam_offline on the recorded features reproduces the live trajectory bit for bit
+# (live = offline).
 #   scripts/benchmark_live.sh FOLDER [--rate R] [--config estimator.yaml] [--out DIR]
 # Needs no roscore running on port 11399 (it starts its own there).
 set -eo pipefail
@@ -20,7 +21,7 @@ while (($#)); do
     --rate) RATE=$2; shift 2 ;;
     --config) CONFIG=$(readlink -f "$2"); shift 2 ;;
     --out) OUT=$2; shift 2 ;;
-    -h|--help) sed -n 2,10p "$0"; exit 0 ;;
+    -h|--help) sed -n 2,11p "$0"; exit 0 ;;
     *) FOLDER=$1; shift ;;
   esac
 done
@@ -41,7 +42,7 @@ roslaunch ekf_vislam stereo_vislam.launch "${ARGS[@]}" >"${OUT}/launch.log" 2>&1
 LAUNCH=$!
 rosbag record -O "${OUT}/live.bag" /stereo/features /imu/twist /stereo/left/camera_info \
   /stereo/right/camera_info /tf_static /vislam/odometry_update /diagnostics \
-  >"${OUT}/record.log" 2>&1 &
+  __name:=benchmark_live_record >"${OUT}/record.log" 2>&1 &
 RECORD=$!
 until rosservice list 2>/dev/null | grep -q /vislam/save; do sleep 0.5; done
 # Counts the estimator's per-frame outputs as they come; ends when every pair has one, or when
@@ -56,15 +57,30 @@ seen = {'count': 0, 'last': time.time()}
 def on_odometry(_):
     seen['count'] += 1
     seen['last'] = time.time()
-rospy.init_node('benchmark_live_count', anonymous=True)
+rospy.init_node('benchmark_live_count')
 rospy.Subscriber('/vislam/odometry_update', Odometry, on_odometry, queue_size=100000)
 while seen['count'] < pairs and time.time() - seen['last'] < 20.0:
     time.sleep(0.05)
 open(path, 'w').write('%d %.6f\n' % (seen['count'], seen['last']))
 PY
 COUNTER=$!
-sleep 2
-rosbag play --clock -r "${RATE}" "${OUT}/images.bag" >"${OUT}/play.log" 2>&1
+# The player starts paused and resumes once the nodelets, the recorder and the counter are
+# connected (bag_playback), so no pair and no output is lost to a slow start.
+/usr/bin/python3 - "${OUT}/images.bag" "${RATE}" >"${OUT}/play.log" 2>&1 <<'PY'
+import sys
+import rospy
+from ekf_vislam_tools import bag_playback
+bag, rate = sys.argv[1], float(sys.argv[2])
+manager, recorder, counter = '/stereo_vislam_manager', '/benchmark_live_record', '/benchmark_live_count'
+rospy.init_node('benchmark_live_play', anonymous=True)
+outputs = {'/stereo/features': (recorder,), '/vislam/odometry_update': (recorder, counter)}
+if not bag_playback.wait_until(lambda: bag_playback.publisher_connected(manager, outputs), 30.0):
+    sys.exit('benchmark_live: the recorder and the counter did not connect to the nodelets')
+inputs = {topic: (manager, recorder) for topic in ('/imu/twist', '/stereo/left/camera_info',
+                                                   '/stereo/right/camera_info')}
+inputs.update({topic: (manager,) for topic in ('/stereo/left/image_rect', '/stereo/right/image_rect')})
+bag_playback.play_bag(bag, '/benchmark_live_player', rate, inputs, timeout=3600)
+PY
 PLAY_END=$(date +%s.%N)
 wait "${COUNTER}"
 rosservice call /vislam/save >/dev/null

@@ -23,7 +23,9 @@ from sensor_msgs.msg import Image
 from ekf_vislam.msg import StereoFeatureArray
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import log, play_bag, run, wait_until  # noqa: E402
+from vislam_rostest import log, run  # noqa: E402
+
+from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
 
 PKG = 'ekf_vislam'
 FRAMES = 80

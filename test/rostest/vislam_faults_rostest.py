@@ -16,10 +16,10 @@ from nav_msgs.msg import Odometry
 from std_srvs.srv import Trigger
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import (ESTIMATOR_INPUTS, PLAY_RATE, log, play_bag, run,  # noqa: E402
-                            wait_until)
+from vislam_rostest import ESTIMATOR_INPUTS, PLAY_RATE, log, run  # noqa: E402
 
 from ekf_vislam_tools import metrics, trajectory  # noqa: E402
+from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
 from ekf_vislam_tools.faults import inject_faults  # noqa: E402
 
 PKG = 'ekf_vislam'

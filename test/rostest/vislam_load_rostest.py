@@ -19,8 +19,9 @@ import rostest
 from std_srvs.srv import Trigger
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import (ESTIMATOR_INPUTS, log, read_tum, resume_when_connected,  # noqa: E402
-                            run, start_player)
+from vislam_rostest import ESTIMATOR_INPUTS, log, read_tum, run  # noqa: E402
+
+from ekf_vislam_tools.bag_playback import resume_when_connected, start_player  # noqa: E402
 
 PKG = 'ekf_vislam'
 NODELET = '/vislam'

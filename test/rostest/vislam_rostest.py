@@ -18,7 +18,6 @@ import tempfile
 import threading
 import time
 import unittest
-import xmlrpc.client
 
 import numpy as np
 import rosgraph
@@ -27,11 +26,12 @@ import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry, Path
-from std_srvs.srv import SetBool, Trigger
+from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import Marker, MarkerArray
 
 from ekf_vislam_tools import metrics
+from ekf_vislam_tools.bag_playback import play_bag, wait_until
 
 PKG = 'ekf_vislam'
 SEED = 3
@@ -68,66 +68,9 @@ def read_tum(path):
     return data[:, 0], data[:, 1:]
 
 
-def wait_until(predicate, timeout, period=0.05):
-    end = time.time() + timeout
-    while time.time() < end:
-        if predicate():
-            return True
-        time.sleep(period)
-    return predicate()
-
-
 #: The estimator's input topics in the bags the tests play.
 ESTIMATOR_INPUTS = ('/imu/twist', '/stereo/features', '/stereo/left/camera_info',
                     '/stereo/right/camera_info')
-
-
-def player_connected(player, required):
-    """True when the node `player` publishes every topic of `required` (topic -> node names) with
-    an open connection to each of its nodes (a nodelet counts as its manager)."""
-    try:
-        uri = rosgraph.masterapi.Master('/rostest_player_check').lookupNode(player)
-        _, _, connections = xmlrpc.client.ServerProxy(uri).getBusInfo('/rostest_player_check')
-    except Exception:  # not registered yet
-        return False
-    outbound = {}
-    for connection in connections:
-        if connection[2] == 'o':
-            outbound.setdefault(connection[4], set()).add(connection[1])
-    return all(set(nodes) <= outbound.get(topic, set()) for topic, nodes in required.items())
-
-
-def start_player(bag, name, rate, extra_args=()):
-    """`rosbag play --clock` of `bag` as node `name`, started paused; its outgoing queue holds the
-    whole bag, so a stalled subscriber loses nothing."""
-    cmd = ['rosbag', 'play', '--clock', '--quiet', '--queue', '100000', '--pause', '--rate',
-           str(rate)] + list(extra_args) + [bag, '__name:=' + name.lstrip('/')]
-    return subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, universal_newlines=True)
-
-
-def resume_when_connected(player_name, required, timeout=30.0):
-    """Waits until the paused player is connected as `required` says (player_connected: no
-    message is lost at the start, however slow the machine), then resumes it."""
-    if not wait_until(lambda: player_connected(player_name, required), timeout, period=0.1):
-        raise RuntimeError('%s: the nodes under test did not connect to the player' % player_name)
-    rospy.wait_for_service(player_name + '/pause_playback', timeout=10.0)
-    rospy.ServiceProxy(player_name + '/pause_playback', SetBool)(False)
-
-
-def play_bag(bag, name, rate, required, extra_args=(), timeout=120):
-    """Plays `bag` (start_player), resumed once connected as `required` says (topic -> node
-    names); returns when the player has ended."""
-    player = start_player(bag, name, rate, extra_args)
-    try:
-        resume_when_connected(name, required)
-        output, _ = player.communicate(timeout=timeout)
-    except BaseException:
-        player.kill()
-        player.communicate()
-        raise
-    if player.returncode != 0:
-        raise RuntimeError('rosbag play failed:\n' + output)
 
 
 class Recorder:

@@ -13,6 +13,7 @@ add_library(ekf_vislam_tracker
   src/tracker/feature_detector.cc
   src/tracker/stereo_matcher.cc
   src/tracker/patch_refiner.cc
+  src/tracker/rectified_stereo.cc
   src/tracker/motion_check.cc
   src/tracker/stereo_tracker.cc
   src/tracker/debug_drawing.cc
@@ -40,6 +41,7 @@ if(CATKIN_ENABLE_TESTING)
     src/tracker/pose_twist_test.cc
     src/tracker/stereo_tracker_test.cc
     src/tracker/patch_refiner_test.cc
+    src/tracker/rectified_stereo_test.cc
     src/tracker/kitti_clips_test.cc)
   target_link_libraries(ekf_vislam_tracker_test ekf_vislam_tracker)
   target_compile_definitions(ekf_vislam_tracker_test PRIVATE

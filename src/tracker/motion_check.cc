@@ -1,5 +1,7 @@
 #include "ekf_vislam/tracker/motion_check.h"
 
+#include "ekf_vislam/tracker/rectified_stereo.h"
+
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 
@@ -33,8 +35,8 @@ MotionCheckResult fundamentalCheck(const std::vector<cv::Point2f>& prev_pixels,
 // returned in pixels through the focal length.
 double epipolarErrorPx(const Eigen::Matrix3d& E, const cv::Point2f& prev, const cv::Point2f& cur,
                        const RectifiedStereo& c) {
-  const Eigen::Vector3d x0((prev.x - c.cx) / c.fx, (prev.y - c.cy) / c.fy, 1.0);
-  const Eigen::Vector3d x1((cur.x - c.cx) / c.fx, (cur.y - c.cy) / c.fy, 1.0);
+  const Eigen::Vector3d x0 = normalized(c, prev);
+  const Eigen::Vector3d x1 = normalized(c, cur);
   const Eigen::Vector3d Ex0 = E * x0;
   const Eigen::Vector3d Etx1 = E.transpose() * x1;
   const double numerator = x1.dot(Ex0);
@@ -120,8 +122,9 @@ MotionCheckResult checkTemporalMatches(const std::vector<cv::Point3f>& prev_poin
       }
       // Far points: depth is uncertain, so only near ones are held to the reprojection.
       if (p.z <= options.max_pnp_depth_m) {
-        const double du = calibration.fx * q.x() / q.z() + calibration.cx - cur_pixels[i].x;
-        const double dv = calibration.fy * q.y() / q.z() + calibration.cy - cur_pixels[i].y;
+        const Eigen::Vector2d pixel = project(calibration, q);
+        const double du = pixel.x() - cur_pixels[i].x;
+        const double dv = pixel.y() - cur_pixels[i].y;
         result.inlier[i] = std::hypot(du, dv) <= options.ransac_threshold_px;
         continue;
       }

@@ -1,6 +1,7 @@
 #include "ekf_vislam/tracker/stereo_tracker.h"
 
 #include "ekf_vislam/tracker/motion_check.h"
+#include "ekf_vislam/tracker/rectified_stereo.h"
 #include "ekf_vislam/tracker/stereo_matcher.h"
 
 #include <Eigen/Geometry>
@@ -9,6 +10,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 
 namespace ekf_vislam {
 
@@ -62,13 +64,13 @@ void StereoTracker::reset() {
 }
 
 cv::Point3f StereoTracker::pointOf(const Track& track) const {
-  const double disparity = track.left.x - track.right.x;
-  if (disparity <= 0) return cv::Point3f(0, 0, -1);
-  const double z = calibration_.fx * calibration_.baseline / disparity;
-  const double v = 0.5 * (track.left.y + track.right.y);
-  return cv::Point3f(static_cast<float>((track.left.x - calibration_.cx) * z / calibration_.fx),
-                     static_cast<float>((v - calibration_.cy) * z / calibration_.fy),
-                     static_cast<float>(z));
+  // The row: the mean of both images' rows (half a float sum is exact in float).
+  const cv::Point2f pixel(track.left.x, 0.5f * (track.left.y + track.right.y));
+  const std::optional<Eigen::Vector3d> p_cam =
+      triangulate(calibration_, pixel, track.left.x - track.right.x);
+  if (!p_cam) return cv::Point3f(0, 0, -1);
+  return cv::Point3f(static_cast<float>(p_cam->x()), static_cast<float>(p_cam->y()),
+                     static_cast<float>(p_cam->z()));
 }
 
 std::vector<cv::Point2f> StereoTracker::predictLeft(const CameraMotionPrior* prior, double dt,
@@ -93,16 +95,14 @@ std::vector<cv::Point2f> StereoTracker::predictLeft(const CameraMotionPrior* pri
     if (used->has_translation && p.z > 0) {
       q = R * Eigen::Vector3d(p.x, p.y, p.z) + used->cur_t_prev;
     } else {  // rotation only: the point at infinity
-      q = R * Eigen::Vector3d((track.left.x - calibration_.cx) / calibration_.fx,
-                              (track.left.y - calibration_.cy) / calibration_.fy, 1.0);
+      q = R * normalized(calibration_, track.left);
     }
     if (q.z() < 0.1) {
       predicted[i] = track.left;
       continue;
     }
-    predicted[i] =
-        cv::Point2f(static_cast<float>(calibration_.fx * q.x() / q.z() + calibration_.cx),
-                    static_cast<float>(calibration_.fy * q.y() / q.z() + calibration_.cy));
+    const Eigen::Vector2d pixel = project(calibration_, q);
+    predicted[i] = cv::Point2f(static_cast<float>(pixel.x()), static_cast<float>(pixel.y()));
   }
   return predicted;
 }
@@ -233,7 +233,7 @@ std::vector<float> StereoTracker::trackTemporal(const std::vector<cv::Mat>& left
       const Eigen::Vector3d q =
           motion.cur_R_prev * Eigen::Vector3d(p.x, p.y, p.z) + motion.cur_t_prev;
       if (q.z() > 0.1) {
-        disparity = static_cast<float>(calibration_.fx * calibration_.baseline / q.z());
+        disparity = static_cast<float>(disparityAtDepth(calibration_, q.z()));
       }
     }
     predicted_disparity[i] = disparity;

@@ -1,9 +1,12 @@
 #include "ekf_vislam/tracker/track_quality.h"
 
+#include "ekf_vislam/tracker/rectified_stereo.h"
+
 #include <Eigen/Geometry>
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <sstream>
 #include <unordered_map>
 
@@ -51,12 +54,10 @@ TrackQuality evaluateTrackQuality(const std::vector<StereoFrame>& frames,
       if (it == starts.end()) {
         TrackStart start;
         start.frame = k;
-        const double disparity = f.left.x - f.right.x;
-        if (disparity > 0) {
-          const double z = c.fx * c.baseline / disparity;
-          const Eigen::Vector4d p_cam((f.left.x - c.cx) * z / c.fx, (f.left.y - c.cy) * z / c.fy, z,
-                                      1.0);
-          start.p_world = (world_T_cam[k] * p_cam).head<3>();
+        const std::optional<Eigen::Vector3d> p_cam = triangulate(c, f.left, f.left.x - f.right.x);
+        if (p_cam) {
+          const Eigen::Vector4d p_cam_h = p_cam->homogeneous();
+          start.p_world = (world_T_cam[k] * p_cam_h).head<3>();
           start.valid = true;
         }
         starts.emplace(f.id, start);
@@ -64,10 +65,11 @@ TrackQuality evaluateTrackQuality(const std::vector<StereoFrame>& frames,
       }
       const int age = static_cast<int>(k - it->second.frame);
       if (!it->second.valid || age > max_age) continue;
-      const Eigen::Vector3d p = (cam_T_world * it->second.p_world.homogeneous()).head<3>();
-      if (p.z() <= 0) continue;
-      const double du = c.fx * p.x() / p.z() + c.cx - f.left.x;
-      const double dv = c.fy * p.y() / p.z() + c.cy - f.left.y;
+      const Eigen::Vector3d p_cam = (cam_T_world * it->second.p_world.homogeneous()).head<3>();
+      if (p_cam.z() <= 0) continue;
+      const Eigen::Vector2d pixel = project(c, p_cam);
+      const double du = pixel.x() - f.left.x;
+      const double dv = pixel.y() - f.left.y;
       errors[age].push_back(std::hypot(du, dv));
     }
   }

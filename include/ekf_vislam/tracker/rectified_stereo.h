@@ -1,0 +1,31 @@
+// Pinhole projection and stereo triangulation of a rectified stereo pair (RectifiedStereo): the
+// formulas the tracker, its motion check and its quality measure share. Points are in the left
+// camera frame (x right, y down, z forward, m); pixels in the rectified left image. No ROS.
+#pragma once
+
+#include "ekf_vislam/tracker/tracker_types.h"
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include <optional>
+
+namespace ekf_vislam {
+
+/// The ray of a left-image pixel at unit depth: ((u - cx) / fx, (v - cy) / fy, 1).
+Eigen::Vector3d normalized(const RectifiedStereo& calibration, const cv::Point2f& pixel);
+
+/// The point in the left camera frame seen at the left-image pixel `left` with the disparity
+/// u_left - u_right (px): depth z = fx * baseline / disparity, then x and y from the pixel.
+/// Empty when the disparity is not positive (or NaN).
+std::optional<Eigen::Vector3d> triangulate(const RectifiedStereo& calibration,
+                                           const cv::Point2f& left, double disparity);
+
+/// The left-image pixel (u, v) of a point p_cam in the left camera frame (z > 0), in double:
+/// (fx * x / z + cx, fy * y / z + cy).
+Eigen::Vector2d project(const RectifiedStereo& calibration, const Eigen::Vector3d& p_cam);
+
+/// The disparity u_left - u_right (px) of a point at depth z (m): fx * baseline / z.
+double disparityAtDepth(const RectifiedStereo& calibration, double z);
+
+}  // namespace ekf_vislam

@@ -1,0 +1,27 @@
+#include "ekf_vislam/tracker/rectified_stereo.h"
+
+namespace ekf_vislam {
+
+Eigen::Vector3d normalized(const RectifiedStereo& calibration, const cv::Point2f& pixel) {
+  return Eigen::Vector3d((pixel.x - calibration.cx) / calibration.fx,
+                         (pixel.y - calibration.cy) / calibration.fy, 1.0);
+}
+
+std::optional<Eigen::Vector3d> triangulate(const RectifiedStereo& calibration,
+                                           const cv::Point2f& left, double disparity) {
+  if (!(disparity > 0)) return std::nullopt;
+  const double z = calibration.fx * calibration.baseline / disparity;
+  return Eigen::Vector3d((left.x - calibration.cx) * z / calibration.fx,
+                         (left.y - calibration.cy) * z / calibration.fy, z);
+}
+
+Eigen::Vector2d project(const RectifiedStereo& calibration, const Eigen::Vector3d& p_cam) {
+  return Eigen::Vector2d(calibration.fx * p_cam.x() / p_cam.z() + calibration.cx,
+                         calibration.fy * p_cam.y() / p_cam.z() + calibration.cy);
+}
+
+double disparityAtDepth(const RectifiedStereo& calibration, double z) {
+  return calibration.fx * calibration.baseline / z;
+}
+
+}  // namespace ekf_vislam

@@ -29,9 +29,11 @@ bool readRosOptions(const ros::NodeHandle& pnh, StereoTrackerRosOptions* o, std:
   pnh.param("ros/use_twist", o->use_twist, o->use_twist);
   pnh.param("ros/max_twist_wait", o->max_twist_wait, o->max_twist_wait);
   pnh.param("ros/diagnostic_period", o->diagnostic_period, o->diagnostic_period);
+  pnh.param("ros/time_jump_reset", o->time_jump_reset, o->time_jump_reset);
   if (o->queue_size < 1) *why = "ros/queue_size must be >= 1";
   if (!(o->max_stamp_difference >= 0)) *why = "ros/max_stamp_difference must be >= 0";
   if (!(o->max_twist_wait >= 0)) *why = "ros/max_twist_wait must be >= 0";
+  if (!(o->time_jump_reset >= 0)) *why = "ros/time_jump_reset must be >= 0";
   if (!(o->diagnostic_period > 0)) *why = "ros/diagnostic_period must be > 0";
   return why->empty();
 }
@@ -50,6 +52,7 @@ StereoTrackerRos::StereoTrackerRos(const ros::NodeHandle& nh, const ros::NodeHan
   }
   ROS_INFO("%s: tracker options (from %s):\n%s", name_.c_str(), source.describe().c_str(),
            describeOptions(options_).c_str());
+  time_jumps_ = std::make_unique<TimeJumpDetector>(ros_options_.time_jump_reset, 2);
 
   features_pub_ = nh_.advertise<ekf_vislam::StereoFeatureArray>("stereo/features", 10);
   debug_pub_ = image_transport_.advertise("stereo/debug_image", 1);
@@ -91,6 +94,7 @@ void StereoTrackerRos::rightInfoCallback(const sensor_msgs::CameraInfoConstPtr& 
 
 void StereoTrackerRos::twistCallback(const geometry_msgs::TwistStampedConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
+  restartIfTimeJumped(1, msg->header.stamp);
   if (!twists_.empty() && msg->header.stamp <= twists_.back().header.stamp) return;
   twists_.push_back(*msg);
   // Keep what the oldest waiting pair and the last tracked one may still need.
@@ -98,6 +102,21 @@ void StereoTrackerRos::twistCallback(const geometry_msgs::TwistStampedConstPtr& 
   if (prev_stamp_ > 0) keep_from = std::min(keep_from, prev_stamp_);
   while (twists_.size() > 2 && twists_[1].header.stamp.toSec() < keep_from) twists_.pop_front();
   processReadyPairs();
+}
+
+bool StereoTrackerRos::restartIfTimeJumped(int stream, const ros::Time& stamp) {
+  if (!time_jumps_->jumpedBack(stream, stamp.toSec())) return false;
+  ++time_jump_resets_;
+  ROS_WARN(
+      "%s: %s went back %.3f s in time (a bag played again?): tracking starts again at "
+      "%.3f s (%lu so far)",
+      name_.c_str(), stream == 0 ? "the images" : "imu/twist", time_jumps_->lastJump(),
+      stamp.toSec(), static_cast<unsigned long>(time_jump_resets_));
+  if (tracker_) tracker_->reset();
+  waiting_pairs_.clear();
+  twists_.clear();
+  prev_stamp_ = -1;
+  return true;
 }
 
 bool StereoTrackerRos::pairReady(const ImagePair& pair) const {
@@ -230,6 +249,7 @@ void StereoTrackerRos::imageCallback(const sensor_msgs::ImageConstPtr& left_msg,
                                      const sensor_msgs::ImageConstPtr& right_msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   ++pairs_received_;
+  restartIfTimeJumped(0, left_msg->header.stamp);
   if (!waiting_pairs_.empty() &&
       left_msg->header.stamp <= waiting_pairs_.back().first->header.stamp) {
     ++pairs_out_of_order_;
@@ -356,6 +376,7 @@ void StereoTrackerRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWr
   status.add("bad_camera_info", bad_camera_info_);
   status.add("tracker_refused", tracker_refused_);
   status.add("pairs_out_of_order", pairs_out_of_order_);
+  status.add("time_jump_resets", time_jump_resets_);
   status.add("pairs_dropped_waiting", pairs_dropped_waiting_);
   status.add("pairs_waiting", waiting_pairs_.size());
   status.add("twist_predictions", twist_used_);

@@ -43,6 +43,7 @@ void visitVislamRosOptions(Options& o, Visitor& v) {
   v.number("ros/sequencer_max_delay", o.sequencer_max_delay, Bound::kNonNegative);
   v.integer("ros/sequencer_max_buffered", o.sequencer_max_buffered, Bound::kAtLeastOne);
   v.integer("ros/queue_size", o.queue_size, Bound::kAtLeastOne);
+  v.number("ros/time_jump_reset", o.time_jump_reset, Bound::kNonNegative);
   v.text("ros/output_dir", o.output_dir);
 }
 

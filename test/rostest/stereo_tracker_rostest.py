@@ -67,10 +67,15 @@ class StereoTrackerPipelineTest(unittest.TestCase):
                                                  '/stereo/left/camera_info',
                                                  '/stereo/right/camera_info')}
         required['/stereo/left/image_rect'] = manager + (rospy.get_name(),)
+        cls.required = required
         play_bag(cls.bag, '/stereo_tracker_rostest_player', PLAY_RATE, required)
-        # On a loaded machine the tracker and the estimator lag behind the bag: wait until the
-        # estimator has reached the last image.
-        wait_until(lambda: cls.images and cls.odometry and
+        cls.wait_for_last_image()
+
+    @classmethod
+    def wait_for_last_image(cls, odometry_from=0):
+        """On a loaded machine the tracker and the estimator lag behind the bag: waits until the
+        estimator's odometry (from index odometry_from on) has reached the last image."""
+        wait_until(lambda: cls.images and len(cls.odometry) > odometry_from and
                    cls.odometry[-1].header.stamp >= max(cls.images), 60.0)
         time.sleep(1.0)
 
@@ -185,6 +190,34 @@ class StereoTrackerPipelineTest(unittest.TestCase):
         self.assertEqual(status.level, 2)  # ERROR: nothing can be tracked
         self.assertEqual(values['pairs_tracked'], '0')
         self.assertEqual(values['pairs_waiting'], '3')
+
+    def test_05_bag_played_again_restarts_both(self):
+        """Time goes back to the start of the drive (and from test_03's stamps): tracker and
+        estimator each restart once and track the drive anew, new ids included."""
+        with self.lock:
+            features_before, odometry_before = len(self.features), len(self.odometry)
+            ids_before = {f.id for msg in self.features for f in msg.features}
+        play_bag(self.bag, '/stereo_tracker_replay_player', PLAY_RATE, self.required)
+        self.wait_for_last_image(odometry_from=odometry_before)
+        with self.lock:
+            replay_features = self.features[features_before:]
+            replay_odometry = self.odometry[odometry_before:]
+        tracker = self.latest_status('stereo_tracker')[1]
+        estimator = self.latest_status('estimator')[1]
+        log('replay: %d feature messages, %d odometry, resets tracker %s, estimator %s' %
+            (len(replay_features), len(replay_odometry), tracker.get('time_jump_resets'),
+             estimator.get('time_jump_resets')))
+        self.assertGreaterEqual(int(tracker.get('time_jump_resets', 0)), 1, tracker)
+        self.assertGreaterEqual(int(estimator.get('time_jump_resets', 0)), 1, estimator)
+        self.assertEqual(len(replay_features), FRAMES)
+        self.assertTrue(all(len(m.features) >= MIN_FEATURES for m in replay_features))
+        self.assertFalse({f.id for f in replay_features[0].features} & ids_before)
+        gt = {m.header.stamp.to_nsec(): m.pose.pose.position for m in self.groundtruth}
+        last = replay_odometry[-1]
+        truth, p = gt[last.header.stamp.to_nsec()], last.pose.pose.position
+        error = np.linalg.norm([p.x - truth.x, p.y - truth.y, p.z - truth.z])
+        log('replay: final position error %.3f m' % error)
+        self.assertLess(error, FINAL_ERROR_TOLERANCE_M)
 
 
 if __name__ == '__main__':

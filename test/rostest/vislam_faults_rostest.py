@@ -1,5 +1,6 @@
 #!/usr/bin/python3
-"""Plays a fault-injected synthetic bag through the nodelet (see vislam_faults.test)."""
+"""Plays a fault-injected synthetic bag through the nodelet, then the clean bag again (time going
+back; see vislam_faults.test)."""
 import json
 import math
 import os
@@ -12,6 +13,7 @@ import unittest
 import rospkg
 import rospy
 import rostest
+from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
 from std_srvs.srv import Trigger
 
@@ -30,10 +32,35 @@ ATE_TOLERANCE_M = 1.0
 
 class VislamFaultsTest(unittest.TestCase):
     @classmethod
-    def play(cls):
-        """Plays the bag into the nodelet, resumed once it is connected."""
-        play_bag(cls.bag, '/vislam_faults_player', PLAY_RATE,
-                 {topic: ('/vislam_manager',) for topic in ESTIMATOR_INPUTS})
+    def play(cls, bag, name):
+        """Plays `bag` into the nodelet, resumed once it is connected."""
+        play_bag(bag, name, PLAY_RATE, {topic: ('/vislam_manager',) for topic in ESTIMATOR_INPUTS})
+
+    @classmethod
+    def wait_settled(cls):
+        """Returns once no odometry has come for 1.5 s (20 s at most)."""
+        last = [len(cls.odometry), time.time()]
+
+        def settled():
+            if len(cls.odometry) != last[0]:
+                last[0], last[1] = len(cls.odometry), time.time()
+            return time.time() - last[1] > 1.5
+        wait_until(settled, 20.0)
+
+    @classmethod
+    def save(cls, folder):
+        """~save into `folder`: (service response, stats.json)."""
+        out = os.path.join(cls.tmp, folder)
+        rospy.set_param(NODELET + '/ros/output_dir', out)
+        response = rospy.ServiceProxy(NODELET + '/save', Trigger)()
+        with open(os.path.join(out, 'stats.json')) as f:
+            return out, response, json.load(f)
+
+    @classmethod
+    def on_diagnostics(cls, msg):
+        for status in msg.status:
+            if status.name.endswith('estimator'):
+                cls.diagnostics = {kv.key: kv.value for kv in status.values}
 
     @classmethod
     def setUpClass(cls):
@@ -49,21 +76,18 @@ class VislamFaultsTest(unittest.TestCase):
         cls.bag = os.path.join(cls.tmp, 'faulty.bag')
         cls.expected = inject_faults(prefix + '.bag', cls.bag)
         cls.odometry = []
+        cls.diagnostics = {}
         rospy.Subscriber(NODELET + '/odometry', Odometry, cls.odometry.append, queue_size=10000)
+        rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics, queue_size=100)
         rospy.wait_for_service(NODELET + '/save', timeout=60.0)
-        cls.play()
-        last = [len(cls.odometry), time.time()]
-
-        def settled():
-            if len(cls.odometry) != last[0]:
-                last[0], last[1] = len(cls.odometry), time.time()
-            return time.time() - last[1] > 1.5
-        wait_until(settled, 20.0)
-        cls.out = os.path.join(cls.tmp, 'out')
-        rospy.set_param(NODELET + '/ros/output_dir', cls.out)
-        cls.save_response = rospy.ServiceProxy(NODELET + '/save', Trigger)()
-        with open(os.path.join(cls.out, 'stats.json')) as f:
-            cls.stats = json.load(f)
+        cls.play(cls.bag, '/vislam_faults_player')
+        cls.wait_settled()
+        cls.out, cls.save_response, cls.stats = cls.save('out')
+        # The clean bag played afterwards: time goes back to the start of the drive.
+        cls.play(prefix + '.bag', '/vislam_replay_player')
+        cls.wait_settled()
+        cls.replay_out, _, cls.replay_stats = cls.save('replay')
+        wait_until(lambda: int(cls.diagnostics.get('time_jump_resets', 0)) > 0, 5.0)
 
     @classmethod
     def tearDownClass(cls):
@@ -87,11 +111,28 @@ class VislamFaultsTest(unittest.TestCase):
             self.assertGreaterEqual(counters[name], minimum, '%s: %s' % (name, counters))
         log('fault counters: %s' % {k: counters[k] for k in self.expected})
 
-    def test_still_tracks_the_groundtruth(self):
-        t, T = trajectory.read_tum(os.path.join(self.out, 'trajectory.tum'))
+    def ate(self, folder):
+        t, T = trajectory.read_tum(os.path.join(folder, 'trajectory.tum'))
         tg, Tg = trajectory.read_tum(self.groundtruth)
-        ate = metrics.evaluate_trajectory(t, T, tg, Tg)['ate_rmse_m']
+        return metrics.evaluate_trajectory(t, T, tg, Tg)['ate_rmse_m'], len(t)
+
+    def test_still_tracks_the_groundtruth(self):
+        ate, _ = self.ate(self.out)
         log('ATE with faults: %.3f m' % ate)
+        self.assertLess(ate, ATE_TOLERANCE_M)
+
+    def test_time_going_back_restarts_the_estimator(self):
+        """The second bag starts where the first did: the node resets once and tracks it anew
+        (without the reset every frame of it would be stale and the trajectory the first's)."""
+        self.assertGreaterEqual(int(self.diagnostics.get('time_jump_resets', 0)), 1,
+                                self.diagnostics)
+        ate, poses = self.ate(self.replay_out)
+        log('replay after the time jump: %d poses, ATE %.3f m, %s time jump reset(s)' %
+            (poses, ate, self.diagnostics.get('time_jump_resets')))
+        # Counters run on across a reset: no frame of the replay was stale.
+        self.assertEqual(self.replay_stats['counters']['frame_stale'],
+                         self.stats['counters']['frame_stale'])
+        self.assertGreater(poses, 250)
         self.assertLess(ate, ATE_TOLERANCE_M)
 
 

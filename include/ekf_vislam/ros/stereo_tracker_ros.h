@@ -4,6 +4,7 @@
 // diagnostics. A thin layer over the ROS-free StereoTracker.
 #pragma once
 
+#include "ekf_vislam/core/time_jump_detector.h"
 #include "ekf_vislam/tracker/stereo_tracker.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -36,6 +37,7 @@ struct StereoTrackerRosOptions {
   bool use_twist = true;                ///< predict KLT start points from imu/twist (needs tf)
   double max_twist_wait = 0.5;          ///< s of message time a pair waits for the twist stream
   double diagnostic_period = 1.0;       ///< s
+  double time_jump_reset = 1.0;         ///< s back on one input: the tracker restarts (0 = off)
 };
 
 class StereoTrackerRos {
@@ -62,6 +64,9 @@ class StereoTrackerRos {
   void leftInfoCallback(const sensor_msgs::CameraInfoConstPtr& msg);
   void rightInfoCallback(const sensor_msgs::CameraInfoConstPtr& msg);
   void twistCallback(const geometry_msgs::TwistStampedConstPtr& msg);
+  /// True when `stamp` on `stream` (0 images, 1 twist) went back in time: then every track,
+  /// waiting pair and twist is dropped, and tracking starts again with new ids.
+  bool restartIfTimeJumped(int stream, const ros::Time& stamp);
   bool toGray(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* why) const;
   bool calibrationFor(const sensor_msgs::Image& left, RectifiedStereo* stereo, std::string* why);
   std::optional<CameraMotionPrior> motionPrior(const std::string& camera_frame, double from,
@@ -97,7 +102,8 @@ class StereoTrackerRos {
   uint64_t pairs_received_ = 0, pairs_tracked_ = 0, bad_encoding_ = 0, size_mismatch_ = 0;
   uint64_t unsynchronized_ = 0, missing_camera_info_ = 0, bad_camera_info_ = 0;
   uint64_t tracker_refused_ = 0, twist_used_ = 0, pairs_dropped_waiting_ = 0;
-  uint64_t pairs_out_of_order_ = 0;
+  uint64_t pairs_out_of_order_ = 0, time_jump_resets_ = 0;
+  std::unique_ptr<TimeJumpDetector> time_jumps_;
   int last_features_ = 0;
   double last_ms_ = 0;
 };

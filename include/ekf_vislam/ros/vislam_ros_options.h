@@ -32,6 +32,7 @@ struct VislamRosOptions {
   double sequencer_max_delay = 10.0;   ///< ros/sequencer_max_delay, s of message time
   int sequencer_max_buffered = 2000;   ///< ros/sequencer_max_buffered, messages
   int queue_size = 2000;               ///< ros/queue_size of every subscriber
+  double time_jump_reset = 1.0;        ///< ros/time_jump_reset, s (0 = off)
   std::string output_dir;              ///< ros/output_dir: save target ("" = no saving)
   CalibrationOverride calibration;     ///< ros/calibration/...
 

@@ -20,6 +20,7 @@ add_library(ekf_vislam_tracker
   src/tracker/kitti_sequence.cc
   src/tracker/npz_writer.cc
   src/tracker/pose_twist.cc
+  src/tracker/twist_motion_prior.cc
   src/tracker/track_quality.cc)
 target_include_directories(ekf_vislam_tracker SYSTEM PUBLIC ${OpenCV_INCLUDE_DIRS})
 target_link_libraries(ekf_vislam_tracker ekf_vislam_core ${OpenCV_LIBS})
@@ -39,6 +40,7 @@ if(CATKIN_ENABLE_TESTING)
     src/tracker/feature_detector_test.cc
     src/tracker/npz_writer_test.cc
     src/tracker/pose_twist_test.cc
+    src/tracker/twist_motion_prior_test.cc
     src/tracker/stereo_tracker_test.cc
     src/tracker/patch_refiner_test.cc
     src/tracker/rectified_stereo_test.cc

@@ -1,6 +1,5 @@
 #include "ekf_vislam/ros/stereo_tracker_ros.h"
 
-#include "ekf_vislam/core/se3.h"
 #include "ekf_vislam/ros/ros_parameter_source.h"
 #include "ekf_vislam/tracker/debug_drawing.h"
 
@@ -95,12 +94,16 @@ void StereoTrackerRos::rightInfoCallback(const sensor_msgs::CameraInfoConstPtr& 
 void StereoTrackerRos::twistCallback(const geometry_msgs::TwistStampedConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   restartIfTimeJumped(1, msg->header.stamp);
-  if (!twists_.empty() && msg->header.stamp <= twists_.back().header.stamp) return;
-  twists_.push_back(*msg);
+  const double stamp = msg->header.stamp.toSec();
+  if (!twists_.empty() && stamp <= twists_.back().stamp) return;
+  const geometry_msgs::Twist& t = msg->twist;
+  twists_.push_back({stamp, Eigen::Vector3d(t.linear.x, t.linear.y, t.linear.z),
+                     Eigen::Vector3d(t.angular.x, t.angular.y, t.angular.z)});
+  twist_frame_ = msg->header.frame_id;
   // Keep what the oldest waiting pair and the last tracked one may still need.
-  double keep_from = msg->header.stamp.toSec() - kTwistHistory;
+  double keep_from = stamp - kTwistHistory;
   if (prev_stamp_ > 0) keep_from = std::min(keep_from, prev_stamp_);
-  while (twists_.size() > 2 && twists_[1].header.stamp.toSec() < keep_from) twists_.pop_front();
+  while (twists_.size() > 2 && twists_[1].stamp < keep_from) twists_.pop_front();
   processReadyPairs();
 }
 
@@ -123,7 +126,7 @@ bool StereoTrackerRos::pairReady(const ImagePair& pair) const {
   if (!hasCameraInfo()) return false;
   if (!ros_options_.use_twist || twists_.empty()) return true;  // no twist stream: no wait
   const ros::Time& stamp = pair.first->header.stamp;
-  if (twists_.back().header.stamp >= stamp) return true;
+  if (twists_.back().stamp >= stamp.toSec()) return true;
   return (waiting_pairs_.back().first->header.stamp - stamp).toSec() > ros_options_.max_twist_wait;
 }
 
@@ -215,34 +218,12 @@ std::optional<CameraMotionPrior> StereoTrackerRos::motionPrior(const std::string
   if (twists_.empty() || from <= 0 || to <= from) return std::nullopt;
   Eigen::Isometry3d cam_T_imu;
   try {
-    cam_T_imu = tf2::transformToEigen(
-        tf_buffer_.lookupTransform(camera_frame, twists_.back().header.frame_id, ros::Time(0)));
+    cam_T_imu =
+        tf2::transformToEigen(tf_buffer_.lookupTransform(camera_frame, twist_frame_, ros::Time(0)));
   } catch (const tf2::TransformException&) {
     return std::nullopt;  // no tf between the twist and the camera: no prediction
   }
-  // Sample k+1 drives [t_k, t_k+1]: integrate the twists over [from, to].
-  Eigen::Matrix4d prev_T_cur = Eigen::Matrix4d::Identity();
-  double t = from;
-  for (const auto& twist : twists_) {
-    const double stamp = twist.header.stamp.toSec();
-    if (stamp <= t) continue;
-    const double end = std::min(stamp, to);
-    Vector6d xi;
-    xi << twist.twist.linear.x, twist.twist.linear.y, twist.twist.linear.z, twist.twist.angular.x,
-        twist.twist.angular.y, twist.twist.angular.z;
-    prev_T_cur = prev_T_cur * se3::exp(xi * (end - t));
-    t = end;
-    if (t >= to) break;
-  }
-  if (t < to) return std::nullopt;  // twists do not reach the image yet
-  const Eigen::Matrix4d cam_prev_T_cam_cur =
-      cam_T_imu.matrix() * prev_T_cur * cam_T_imu.inverse().matrix();
-  const Eigen::Matrix4d cur_T_prev = se3::inverse(cam_prev_T_cam_cur);
-  CameraMotionPrior prior;
-  prior.cur_R_prev = cur_T_prev.block<3, 3>(0, 0);
-  prior.cur_t_prev = cur_T_prev.block<3, 1>(0, 3);
-  prior.has_translation = true;
-  return prior;
+  return motionPriorFromTwists(twists_, cam_T_imu.matrix(), from, to);
 }
 
 void StereoTrackerRos::imageCallback(const sensor_msgs::ImageConstPtr& left_msg,

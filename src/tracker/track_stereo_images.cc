@@ -9,6 +9,7 @@
 #include "ekf_vislam/tracker/pose_twist.h"
 #include "ekf_vislam/tracker/stereo_tracker.h"
 #include "ekf_vislam/tracker/track_quality.h"
+#include "ekf_vislam/tracker/twist_motion_prior.h"
 
 #include <Eigen/Geometry>
 #include <opencv2/imgcodecs.hpp>
@@ -16,9 +17,11 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <deque>
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -29,7 +32,7 @@ const char* kUsage =
     "usage: track_stereo_images --left DIR --right DIR --calib calib.txt --times times.txt\n"
     "           --out OUT.npz [--poses poses.txt] [--config tracker.yaml]\n"
     "           [--twist-noise V W] [--gyro-offset B] [--seed N] [--time-offset S]\n"
-    "           [--max-frames N] [--debug-dir DIR] [--stats CSV] [--quiet]\n"
+    "           [--max-frames N] [--predict-with-twist] [--debug-dir DIR] [--stats CSV] [--quiet]\n"
     "Tracks the rectified stereo images (KITTI odometry layout: calib.txt with P0 and P1,\n"
     "times.txt, optional poses.txt with world_T_cam0) and writes OUT.npz in the course layout:\n"
     "features (4,M,T; -1 where unobserved), K, b, time_stamps (1,T), image_size. With --poses\n"
@@ -38,6 +41,8 @@ const char* kUsage =
     "sample and axis (default 0.05 0.005) and a constant gyro offset B rad/s (default 0.001),\n"
     "seeded by N (default 0)), cam_T_imu, and OUT_groundtruth.tum (world_T_imu), and prints the\n"
     "track quality against the poses. --time-offset adds S seconds to every time (default 0).\n"
+    "--predict-with-twist (needs --poses): the tracker predicts each image's motion from that\n"
+    "twist, as the nodelet does from imu/twist.\n"
     "--config: tracker options (config/tracker.yaml; absent keys keep the defaults).\n"
     "--debug-dir: writes the debug drawing of every frame as DIR/NNNNNN.png.\n"
     "--stats: writes the tracker's per-frame counters and times (ms) as CSV.\n";
@@ -48,6 +53,13 @@ struct Arguments {
   double time_offset = 0;
   long max_frames = -1;
   bool quiet = false;
+  bool predict_with_twist = false;
+};
+
+/// The IMU poses of --poses and their body twist (with the noise of --twist-noise etc.).
+struct PoseTwist {
+  std::vector<Eigen::Matrix4d> world_T_imu;
+  std::vector<Eigen::Vector3d> v, w;
 };
 
 bool parseArguments(int argc, char** argv, Arguments* args, std::string* error) {
@@ -71,6 +83,8 @@ bool parseArguments(int argc, char** argv, Arguments* args, std::string* error) 
       std::exit(0);
     } else if (arg == "--quiet") {
       args->quiet = true;
+    } else if (arg == "--predict-with-twist") {
+      args->predict_with_twist = true;
     } else if (paths.count(arg) && i + 1 < argc) {
       *paths[arg] = argv[++i];
     } else if (arg == "--twist-noise" && number(i + 1, &a) && number(i + 2, &b) && a >= 0 &&
@@ -100,6 +114,11 @@ bool parseArguments(int argc, char** argv, Arguments* args, std::string* error) 
     *error = "--left, --right, --calib, --times and --out are required (see --help)";
     return false;
   }
+  if (args->predict_with_twist && args->poses.empty()) {
+    *error = "--predict-with-twist needs --poses (the twist comes from them)";
+    return false;
+  }
+
   return true;
 }
 
@@ -160,8 +179,8 @@ bool writeGroundTruth(const std::string& path, const std::vector<double>& times,
 }
 
 bool writeDataset(const Arguments& args, const KittiSequence& sequence,
-                  const std::vector<StereoFrame>& frames, const cv::Size& image_size,
-                  std::string* error) {
+                  const std::vector<StereoFrame>& frames, const PoseTwist& pose_twist,
+                  const cv::Size& image_size, std::string* error) {
   const size_t T = frames.size();
   const RectifiedStereo& c = sequence.calibration;
   NpzWriter npz;
@@ -174,12 +193,10 @@ bool writeDataset(const Arguments& args, const KittiSequence& sequence,
   for (size_t k = 0; k < T; ++k) stamps[k] = frames[k].stamp;
   npz.addDoubles("time_stamps", {1, T}, stamps);
   npz.addInts("image_size", {2}, {image_size.width, image_size.height});
-  if (!sequence.world_T_cam.empty()) {
+  if (!pose_twist.world_T_imu.empty()) {
     const Eigen::Matrix4d cam_T_imu = forwardLeftUpCamTImu();
-    std::vector<Eigen::Matrix4d> world_T_imu(T);
-    for (size_t k = 0; k < T; ++k) world_T_imu[k] = sequence.world_T_cam[k] * cam_T_imu;
-    std::vector<Eigen::Vector3d> v, w;
-    twistFromPoses(world_T_imu, stamps, args.noise, &v, &w);
+    const std::vector<Eigen::Vector3d>& v = pose_twist.v;
+    const std::vector<Eigen::Vector3d>& w = pose_twist.w;
     std::vector<double> linear(3 * T), angular(3 * T), extrinsic(16);
     for (size_t k = 0; k < T; ++k) {
       for (size_t axis = 0; axis < 3; ++axis) {
@@ -194,7 +211,8 @@ bool writeDataset(const Arguments& args, const KittiSequence& sequence,
     npz.addDoubles("rotational_velocity", {3, T}, angular);
     npz.addDoubles("cam_T_imu", {4, 4}, extrinsic);
     npz.addInts("cam_T_imu_translation_correct", {}, {1});
-    if (!writeGroundTruth(stem(args.out) + "_groundtruth.tum", stamps, world_T_imu, error)) {
+    if (!writeGroundTruth(stem(args.out) + "_groundtruth.tum", stamps, pose_twist.world_T_imu,
+                          error)) {
       return false;
     }
   }
@@ -221,6 +239,18 @@ bool writeStats(const std::string& path, const std::vector<StereoFrame>& frames,
   return static_cast<bool>(out);
 }
 
+PoseTwist poseTwist(const Arguments& args, const KittiSequence& sequence,
+                    const std::vector<double>& stamps) {
+  PoseTwist result;
+  if (sequence.world_T_cam.empty()) return result;
+  const Eigen::Matrix4d cam_T_imu = forwardLeftUpCamTImu();
+  for (size_t k = 0; k < stamps.size(); ++k) {
+    result.world_T_imu.push_back(sequence.world_T_cam[k] * cam_T_imu);
+  }
+  twistFromPoses(result.world_T_imu, stamps, args.noise, &result.v, &result.w);
+  return result;
+}
+
 int run(int argc, char** argv) {
   Arguments args;
   TrackerOptions options;
@@ -234,6 +264,13 @@ int run(int argc, char** argv) {
   }
   const size_t T =
       args.max_frames > 0 ? std::min<size_t>(args.max_frames, sequence.size()) : sequence.size();
+  std::vector<double> stamps(T);
+  for (size_t k = 0; k < T; ++k) stamps[k] = sequence.times[k] + args.time_offset;
+  const PoseTwist pose_twist = poseTwist(args, sequence, stamps);
+  std::deque<StampedTwist> twists;
+  for (size_t k = 0; k < pose_twist.v.size(); ++k) {
+    twists.push_back({stamps[k], pose_twist.v[k], pose_twist.w[k]});
+  }
   StereoTracker tracker(options, sequence.calibration);
   std::vector<StereoFrame> frames;
   ProcessingTimes ms;
@@ -242,9 +279,12 @@ int run(int argc, char** argv) {
     const cv::Mat left = cv::imread(sequence.left_images[k], cv::IMREAD_GRAYSCALE);
     const cv::Mat right = cv::imread(sequence.right_images[k], cv::IMREAD_GRAYSCALE);
     StereoFrame frame;
+    std::optional<CameraMotionPrior> prior;
+    if (args.predict_with_twist && k > 0) {
+      prior = motionPriorFromTwists(twists, forwardLeftUpCamTImu(), stamps[k - 1], stamps[k]);
+    }
     if (left.empty() || right.empty() ||
-        !tracker.process(left, right, sequence.times[k] + args.time_offset, nullptr, &frame,
-                         &error)) {
+        !tracker.process(left, right, stamps[k], prior ? &*prior : nullptr, &frame, &error)) {
       std::cerr << "track_stereo_images: frame " << k << " (" << sequence.left_images[k]
                 << "): " << (left.empty() || right.empty() ? "cannot read the image" : error)
                 << "\n";
@@ -259,7 +299,7 @@ int run(int argc, char** argv) {
     }
     frames.push_back(std::move(frame));
   }
-  if (!writeDataset(args, sequence, frames, image_size, &error) ||
+  if (!writeDataset(args, sequence, frames, pose_twist, image_size, &error) ||
       (!args.stats.empty() && !writeStats(args.stats, frames, &error))) {
     std::cerr << "track_stereo_images: " << error << "\n";
     return 1;

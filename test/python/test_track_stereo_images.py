@@ -72,6 +72,24 @@ class TrackStereoImagesTest(unittest.TestCase):
         self.assertAlmostEqual(float(np.median(d.v[0])), 8.0, delta=0.1)  # x forward, 8 m/s
         np.testing.assert_allclose(d.cam_T_imu, stereo_images.CAM_T_IMU)
 
+    def test_predict_with_twist(self):
+        """The exact twist's prediction starts the KLT nearer its result: the same drive, tracked
+        as well (features in every frame, the same twist in the npz), and it needs --poses."""
+        f, out = self.folder, os.path.join(self.tmp, 'predicted.npz')
+        args = [tool('track_stereo_images'), '--left', f + '/image_left', '--right',
+                f + '/image_right', '--calib', f + '/calib.txt', '--times', f + '/times.txt',
+                '--out', out, '--twist-noise', '0', '0', '--gyro-offset', '0', '--time-offset',
+                '100', '--predict-with-twist']
+        refused = subprocess.run(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                 universal_newlines=True)
+        self.assertEqual(refused.returncode, 2)
+        self.assertIn('--predict-with-twist needs --poses', refused.stderr)
+        subprocess.run(args + ['--poses', f + '/poses.txt'], check=True, stdout=subprocess.PIPE)
+        d, reference = dataset.load_dataset(out), dataset.load_dataset(self.npz)
+        self.assertGreaterEqual(d.observed().sum(axis=0).min(), 100)
+        np.testing.assert_array_equal(d.v, reference.v)
+        self.assertFalse(np.array_equal(d.features, reference.features))
+
     def test_bag_of_images(self):
         bag = os.path.join(self.tmp, 'drive.bag')
         result = paths.run_script('play_stereo_images.py', self.folder, '--bag', bag)

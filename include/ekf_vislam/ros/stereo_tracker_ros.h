@@ -6,6 +6,7 @@
 
 #include "ekf_vislam/core/time_jump_detector.h"
 #include "ekf_vislam/tracker/stereo_tracker.h"
+#include "ekf_vislam/tracker/twist_motion_prior.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <geometry_msgs/TwistStamped.h>
@@ -95,7 +96,8 @@ class StereoTrackerRos {
 
   std::mutex mutex_;
   sensor_msgs::CameraInfoConstPtr left_info_, right_info_;
-  std::deque<geometry_msgs::TwistStamped> twists_;
+  std::deque<StampedTwist> twists_;      ///< imu/twist samples, stamp order
+  std::string twist_frame_;              ///< their frame (the last one received)
   std::deque<ImagePair> waiting_pairs_;  // in stamp order
   double prev_stamp_ = -1;
   // Counters (diagnostics).

@@ -1,0 +1,34 @@
+#include "ekf_vislam/tracker/twist_motion_prior.h"
+
+#include "ekf_vislam/core/se3.h"
+
+#include <algorithm>
+
+namespace ekf_vislam {
+
+std::optional<CameraMotionPrior> motionPriorFromTwists(const std::deque<StampedTwist>& twists,
+                                                       const Eigen::Matrix4d& cam_T_imu,
+                                                       double from, double to) {
+  if (twists.empty() || !(to > from)) return std::nullopt;
+  Eigen::Matrix4d prev_T_cur = Eigen::Matrix4d::Identity();
+  double t = from;
+  for (const StampedTwist& twist : twists) {
+    if (twist.stamp <= t) continue;
+    const double end = std::min(twist.stamp, to);
+    Vector6d xi;
+    xi << twist.v, twist.w;
+    prev_T_cur = prev_T_cur * se3::exp(xi * (end - t));
+    t = end;
+    if (t >= to) break;
+  }
+  if (t < to) return std::nullopt;  // the twists do not reach the image yet
+  const Eigen::Matrix4d cam_prev_T_cam_cur = cam_T_imu * prev_T_cur * se3::inverse(cam_T_imu);
+  const Eigen::Matrix4d cur_T_prev = se3::inverse(cam_prev_T_cam_cur);
+  CameraMotionPrior prior;
+  prior.cur_R_prev = cur_T_prev.block<3, 3>(0, 0);
+  prior.cur_t_prev = cur_T_prev.block<3, 1>(0, 3);
+  prior.has_translation = true;
+  return prior;
+}
+
+}  // namespace ekf_vislam

@@ -47,6 +47,11 @@ EstimatorRunner::EstimatorRunner(const VislamOptions& options,
       preview_estimator_(options) {}
 
 void EstimatorRunner::push(Measurement measurement) {
+  const bool is_twist = std::holds_alternative<TwistData>(measurement);
+  if (time_jumps_.jumpedBack(is_twist ? 0 : 1, stampOf(measurement))) {
+    clear();
+    ++time_jump_resets_;
+  }
   if (const TwistData* twist = std::get_if<TwistData>(&measurement)) {
     const TwistData copy = *twist;
     sequencer_.push(std::move(measurement));
@@ -179,7 +184,16 @@ void EstimatorRunner::noteStamp(double stamp) {
   peak_active_landmarks_ = std::max(peak_active_landmarks_, estimator_.activeLandmarkCount());
 }
 
+void EstimatorRunner::enableTimeJumpReset(double threshold) {
+  time_jumps_ = TimeJumpDetector(threshold, 2);
+}
+
 void EstimatorRunner::reset() {
+  time_jumps_.reset();
+  clear();
+}
+
+void EstimatorRunner::clear() {
   estimator_.reset();
   sequencer_.clear();
   trajectory_.clear();
@@ -202,6 +216,7 @@ RunSummary EstimatorRunner::summary() const {
   s.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
   s.data_s = has_stamp_ ? last_stamp_ - first_stamp_ : 0.0;
   s.extra["sequencer_late"] = static_cast<double>(sequencer_.late());
+  s.extra["time_jump_resets"] = static_cast<double>(time_jump_resets_);
   s.extra["latency_ms_p50"] = latencies_.percentile(0.5);
   s.extra["latency_ms_p99"] = latencies_.percentile(0.99);
   s.extra["frames_without_calibration"] = static_cast<double>(frames_without_calibration_);

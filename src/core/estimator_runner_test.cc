@@ -220,6 +220,42 @@ TEST(EstimatorRunner, FlagsFramesWithoutCalibration) {
   EXPECT_EQ(runner.estimator().stats().get(Counter::kFrameNoCalibration), 1u);
 }
 
+// The same drive pushed twice, as when a bag is played again: with the time-jump reset the
+// runner starts over at the second pass and uses every frame of it; without, all are stale.
+TEST(EstimatorRunner, TimeGoingBackRestartsTheRunWhenEnabled) {
+  for (const double threshold : {1.0, 0.0}) {
+    EstimatorRunner runner{VislamOptions(), MeasurementSequencer::Options()};
+    if (threshold > 0.0) runner.enableTimeJumpReset(threshold);
+    const StereoCalibration calibration = forwardCamera();
+    std::string error;
+    ASSERT_TRUE(runner.estimator().setCalibration(calibration, &error)) << error;
+    for (int pass = 0; pass < 2; ++pass) {
+      for (int k = 0; k < 30; ++k) {
+        const double t = 100.0 + 0.1 * k;
+        TwistData twist;
+        twist.stamp = t;
+        twist.v_imu.x() = 1.0;
+        runner.push(twist);
+        runner.push(frameSeeing(t, Eigen::Vector3d(20.0 - (t - 100.0), 0.5, 0.2), calibration));
+        runner.processReady();
+      }
+    }
+    runner.flush();
+    const uint64_t stale = runner.estimator().stats().get(Counter::kFrameStale);
+    if (threshold > 0.0) {
+      EXPECT_EQ(runner.timeJumpResets(), 1u);
+      EXPECT_NEAR(runner.lastTimeJump(), 2.9, 1e-9);
+      EXPECT_EQ(stale, 0u);
+      ASSERT_EQ(runner.trajectory().size(), 30u);  // the second pass only
+      EXPECT_DOUBLE_EQ(runner.trajectory().front().stamp, 100.0);
+      EXPECT_DOUBLE_EQ(runner.summary().extra.at("time_jump_resets"), 1.0);
+    } else {
+      EXPECT_EQ(runner.timeJumpResets(), 0u);
+      EXPECT_GE(stale, 29u);
+    }
+  }
+}
+
 TEST(EstimatorRunner, SaveFailsWithAMessage) {
   EstimatorRunner runner{VislamOptions(), MeasurementSequencer::Options()};
   std::string error;

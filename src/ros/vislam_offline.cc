@@ -301,6 +301,7 @@ int run(int argc, char** argv) {
       break;
   }
 
+  runner.enableTimeJumpReset(ros_options.time_jump_reset);  // as the node does
   runner.startClock();
   Progress progress;
   const bool ok = bag.forEachMeasurement(
@@ -312,6 +313,11 @@ int run(int argc, char** argv) {
       &error);
   progress.done();
   if (!ok) return fail(error);
+  if (runner.timeJumpResets() > 0) {
+    std::cerr << "vislam_offline: time went back " << runner.timeJumpResets()
+              << " time(s) in the bag (ros/time_jump_reset): the estimator was reset, the "
+                 "outputs hold the part after the last reset\n";
+  }
   runner.flush();
   if (!runner.save(args["--out"], &error)) return fail(error);
   printSummary(runner, args["--out"]);

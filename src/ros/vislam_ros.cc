@@ -39,7 +39,7 @@ VislamRos::VislamRos(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, cons
       MeasurementSequencer::Options{ros_options_.sequencer_max_delay,
                                     static_cast<size_t>(ros_options_.sequencer_max_buffered)});
   runner_->enablePreview(true);  // twist-rate odometry
-  time_jumps_ = std::make_unique<TimeJumpDetector>(ros_options_.time_jump_reset, 2);
+  runner_->enableTimeJumpReset(ros_options_.time_jump_reset);
   if (ros_options_.calibration.has_intrinsics && ros_options_.calibration.has_extrinsic) {
     tryCalibrate();
   }
@@ -224,16 +224,17 @@ void VislamRos::rightInfoCallback(const sensor_msgs::CameraInfo::ConstPtr& msg) 
 void VislamRos::push(Measurement measurement) {
   last_input_ = ros::WallTime::now();
   const bool is_twist = std::holds_alternative<TwistData>(measurement);
-  if (time_jumps_->jumpedBack(is_twist ? 0 : 1, stampOf(measurement))) {
-    ++time_jump_resets_;
+  const double stamp = stampOf(measurement);
+  const uint64_t resets = runner_->timeJumpResets();
+  runner_->push(std::move(measurement));
+  if (runner_->timeJumpResets() != resets) {
     ROS_WARN(
         "%s: %s went back %.3f s in time (a bag played again?): estimator reset, map "
         "cleared, starting at %.3f s (%lu so far)",
-        name_.c_str(), is_twist ? "imu/twist" : "stereo/features", time_jumps_->lastJump(),
-        stampOf(measurement), static_cast<unsigned long>(time_jump_resets_));
-    resetLocked();
+        name_.c_str(), is_twist ? "imu/twist" : "stereo/features", runner_->lastTimeJump(), stamp,
+        static_cast<unsigned long>(runner_->timeJumpResets()));
+    clearOutputsLocked();
   }
-  runner_->push(std::move(measurement));
   process(false);
 }
 
@@ -511,7 +512,7 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
   status.add("twist_covariance_invalid", twist_covariance_invalid_);
   status.add("twist_without_tf", twists_without_tf_);
   status.add("frames_received", frames_received_);
-  status.add("time_jump_resets", time_jump_resets_);
+  status.add("time_jump_resets", runner_->timeJumpResets());
   status.add("update_ms_last", last_update_ms_);
   status.add("update_ms_p99", runner_->times().percentile(0.99));
   status.add("latency_ms_p50", runner_->latencies().percentile(0.5));
@@ -539,16 +540,15 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
 
 bool VislamRos::resetService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
   std::lock_guard<std::mutex> lock(mutex_);
-  resetLocked();
-  time_jumps_->reset();  // the inputs may come from a new start
+  runner_->reset();
+  clearOutputsLocked();
   ROS_INFO("%s: reset: pose back at identity, map cleared", name_.c_str());
   response.success = true;
   response.message = "estimator reset";
   return true;
 }
 
-void VislamRos::resetLocked() {
-  runner_->reset();
+void VislamRos::clearOutputsLocked() {
   last_odometry_stamp_ = -1e300;  // time starts again
   path_.poses.clear();
   path_dirty_ = false;

@@ -132,6 +132,7 @@ class VislamFaultsTest(unittest.TestCase):
         # Counters run on across a reset: no frame of the replay was stale.
         self.assertEqual(self.replay_stats['counters']['frame_stale'],
                          self.stats['counters']['frame_stale'])
+        self.assertEqual(self.replay_stats['time_jump_resets'], 1)
         self.assertGreater(poses, 250)
         self.assertLess(ate, ATE_TOLERANCE_M)
 

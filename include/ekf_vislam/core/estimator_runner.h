@@ -13,6 +13,7 @@
 
 #include "ekf_vislam/core/measurement_sequencer.h"
 #include "ekf_vislam/core/output_writers.h"
+#include "ekf_vislam/core/time_jump_detector.h"
 #include "ekf_vislam/core/types.h"
 #include "ekf_vislam/core/vislam_estimator.h"
 #include "ekf_vislam/core/vislam_options.h"
@@ -70,6 +71,13 @@ class EstimatorRunner {
 
   /// Estimator reset, sequencer cleared, trajectory cleared. Times and counts are kept.
   void reset();
+  /// From now on, a message stamped more than `threshold` s before the newest one of its own
+  /// stream (twists, frames) means time went back (a bag played again): the runner resets
+  /// before taking it (TimeJumpDetector; 0 = never, the default).
+  void enableTimeJumpReset(double threshold);
+  /// Resets caused by time going back, and how far the last one went (s).
+  uint64_t timeJumpResets() const { return time_jump_resets_; }
+  double lastTimeJump() const { return time_jumps_.lastJump(); }
 
   const std::vector<StampedPose>& trajectory() const { return trajectory_; }
   /// Pose covariance (VislamEstimator::poseCovarianceWorld) of each trajectory pose.
@@ -92,6 +100,8 @@ class EstimatorRunner {
 
  private:
   using Clock = std::chrono::steady_clock;
+  /// reset() but for the time-jump detector.
+  void clear();
   void feed(const Measurement& measurement, const Observer& observer);
   void feedTwist(const TwistData& twist, const Observer& observer);
   void feedFrame(const FeatureFrame& frame, const Observer& observer);
@@ -118,6 +128,8 @@ class EstimatorRunner {
   uint64_t frames_ = 0;
   uint64_t twists_ = 0;
   uint64_t frames_without_calibration_ = 0;
+  TimeJumpDetector time_jumps_{0.0, 2};
+  uint64_t time_jump_resets_ = 0;
   int peak_state_dimension_ = 0;
   size_t peak_active_landmarks_ = 0;
   double first_stamp_ = 0.0;

@@ -18,7 +18,6 @@
 #include <ekf_vislam/StereoFeature.h>
 #include <ekf_vislam/StereoFeatureArray.h>
 #include "ekf_vislam/core/estimator_runner.h"
-#include "ekf_vislam/core/time_jump_detector.h"
 #include "ekf_vislam/core/types.h"
 #include "ekf_vislam/ros/vislam_ros_options.h"
 
@@ -86,8 +85,8 @@ class VislamRos {
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
 
   bool resetService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response);
-  /// Estimator reset, path and markers cleared (locked).
-  void resetLocked();
+  /// After a reset: path and markers cleared, odometry time starts again (locked).
+  void clearOutputsLocked();
   bool saveService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response);
   bool saveLocked(std::string* message);
 
@@ -99,7 +98,6 @@ class VislamRos {
 
   std::mutex mutex_;
   std::unique_ptr<EstimatorRunner> runner_;
-  std::unique_ptr<TimeJumpDetector> time_jumps_;  ///< per input: twist 0, features 1
   bool shut_down_ = false;
   bool publishing_ = true;
 
@@ -122,7 +120,6 @@ class VislamRos {
   std::string imu_T_twist_child_frame_;  ///< frame of the cached imu_T_twist_child_ ("" = none)
   Eigen::Isometry3d imu_T_twist_child_ = Eigen::Isometry3d::Identity();
   uint64_t frames_received_ = 0;
-  uint64_t time_jump_resets_ = 0;
   uint64_t twists_at_last_diag_ = 0;
   uint64_t frames_at_last_diag_ = 0;
   ros::WallTime last_diag_;

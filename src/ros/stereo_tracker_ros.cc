@@ -51,7 +51,7 @@ StereoTrackerRos::StereoTrackerRos(const ros::NodeHandle& nh, const ros::NodeHan
   }
   ROS_INFO("%s: tracker options (from %s):\n%s", name_.c_str(), source.describe().c_str(),
            describeOptions(options_).c_str());
-  time_jumps_ = std::make_unique<TimeJumpDetector>(ros_options_.time_jump_reset, 2);
+  time_jumps_ = TimeJumpDetector(ros_options_.time_jump_reset, 2);
 
   features_pub_ = nh_.advertise<ekf_vislam::StereoFeatureArray>("stereo/features", 10);
   debug_pub_ = image_transport_.advertise("stereo/debug_image", 1);
@@ -108,12 +108,12 @@ void StereoTrackerRos::twistCallback(const geometry_msgs::TwistStampedConstPtr& 
 }
 
 bool StereoTrackerRos::restartIfTimeJumped(int stream, const ros::Time& stamp) {
-  if (!time_jumps_->jumpedBack(stream, stamp.toSec())) return false;
+  if (!time_jumps_.jumpedBack(stream, stamp.toSec())) return false;
   ++time_jump_resets_;
   ROS_WARN(
       "%s: %s went back %.3f s in time (a bag played again?): tracking starts again at "
       "%.3f s (%lu so far)",
-      name_.c_str(), stream == 0 ? "the images" : "imu/twist", time_jumps_->lastJump(),
+      name_.c_str(), stream == 0 ? "the images" : "imu/twist", time_jumps_.lastJump(),
       stamp.toSec(), static_cast<unsigned long>(time_jump_resets_));
   if (tracker_) tracker_->reset();
   waiting_pairs_.clear();

@@ -268,9 +268,12 @@ int run(int argc, char** argv) {
   for (size_t k = 0; k < T; ++k) stamps[k] = sequence.times[k] + args.time_offset;
   const PoseTwist pose_twist = poseTwist(args, sequence, stamps);
   std::deque<StampedTwist> twists;
-  for (size_t k = 0; k < pose_twist.v.size(); ++k) {
-    twists.push_back({stamps[k], pose_twist.v[k], pose_twist.w[k]});
+  if (args.predict_with_twist) {
+    for (size_t k = 0; k < pose_twist.v.size(); ++k) {
+      twists.push_back({stamps[k], pose_twist.v[k], pose_twist.w[k]});
+    }
   }
+  const Eigen::Matrix4d cam_T_imu = forwardLeftUpCamTImu();
   StereoTracker tracker(options, sequence.calibration);
   std::vector<StereoFrame> frames;
   ProcessingTimes ms;
@@ -281,7 +284,7 @@ int run(int argc, char** argv) {
     StereoFrame frame;
     std::optional<CameraMotionPrior> prior;
     if (args.predict_with_twist && k > 0) {
-      prior = motionPriorFromTwists(twists, forwardLeftUpCamTImu(), stamps[k - 1], stamps[k]);
+      prior = motionPriorFromTwists(twists, cam_T_imu, stamps[k - 1], stamps[k]);
     }
     if (left.empty() || right.empty() ||
         !tracker.process(left, right, stamps[k], prior ? &*prior : nullptr, &frame, &error)) {

@@ -12,11 +12,14 @@ std::optional<CameraMotionPrior> motionPriorFromTwists(const std::deque<StampedT
   if (twists.empty() || !(to > from)) return std::nullopt;
   Eigen::Matrix4d prev_T_cur = Eigen::Matrix4d::Identity();
   double t = from;
-  for (const StampedTwist& twist : twists) {
-    if (twist.stamp <= t) continue;
-    const double end = std::min(twist.stamp, to);
+  // The first sample that drives part of the interval: the first one stamped after `from`.
+  const auto first =
+      std::upper_bound(twists.begin(), twists.end(), from,
+                       [](double stamp, const StampedTwist& twist) { return stamp < twist.stamp; });
+  for (auto twist = first; twist != twists.end(); ++twist) {
+    const double end = std::min(twist->stamp, to);
     Vector6d xi;
-    xi << twist.v, twist.w;
+    xi << twist->v, twist->w;
     prev_T_cur = prev_T_cur * se3::exp(xi * (end - t));
     t = end;
     if (t >= to) break;

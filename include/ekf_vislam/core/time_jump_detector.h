@@ -31,8 +31,7 @@ class TimeJumpDetector {
 
  private:
   double threshold_;
-  std::vector<double> newest_;
-  std::vector<bool> has_newest_;
+  std::vector<double> newest_;  ///< per stream; -inf before its first stamp
   double last_jump_ = 0.0;
 };
 

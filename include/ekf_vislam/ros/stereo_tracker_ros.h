@@ -105,7 +105,7 @@ class StereoTrackerRos {
   uint64_t unsynchronized_ = 0, missing_camera_info_ = 0, bad_camera_info_ = 0;
   uint64_t tracker_refused_ = 0, twist_used_ = 0, pairs_dropped_waiting_ = 0;
   uint64_t pairs_out_of_order_ = 0, time_jump_resets_ = 0;
-  std::unique_ptr<TimeJumpDetector> time_jumps_;
+  TimeJumpDetector time_jumps_{0.0, 2};  ///< images 0, twist 1 (set from ros/time_jump_reset)
   int last_features_ = 0;
   double last_ms_ = 0;
 };

@@ -8,8 +8,9 @@ a bag: what a stereo camera driver with rectification and a twist source would g
 FOLDER holds image_left/, image_right/, calib.txt (P0, P1), times.txt and optionally poses.txt
 (world_T_cam0 per line). Topics: /stereo/left/image_rect and /stereo/right/image_rect
 (sensor_msgs/Image, mono8, frames camera_left / camera_right), /stereo/{left,right}/camera_info
-(rectified, right P[0,3] = -fx b), and with poses /imu/twist (the ground-truth body twist of an
-IMU frame x forward, y left, z up at the left camera, with the noise of an accurate twist:
+(rectified, right P[0,3] = -fx b), and with poses /imu/twist (the ground-truth body twist of a
+vehicle frame at the left camera, x along the poses' direction of travel, y left, z up, with the
+noise of an accurate twist:
 --twist-noise V W, --gyro-offset B, --seed N, as track_stereo_images), /tf_static imu ->
 camera_left -> camera_right and /groundtruth/odometry. Stamps are the folder's times plus
 --start-time (default 1000 s: ROS reads a zero stamp as "no time"). --play needs a roscore and
@@ -77,12 +78,14 @@ def messages(folder, args):
     first = cv2.imread(folder.left[0], cv2.IMREAD_GRAYSCALE)
     v = w = None
     groundtruth = None
+    cam_T_imu = stereo_images.CAM_T_IMU
     if folder.world_T_cam is not None and not args.no_twist:
-        world_T_imu = folder.world_T_cam[:n] @ stereo_images.CAM_T_IMU
+        cam_T_imu = stereo_images.travel_aligned_cam_T_imu(folder.world_T_cam[:n])
+        world_T_imu = folder.world_T_cam[:n] @ cam_T_imu
         v, w = stereo_images.twist_from_poses(world_T_imu, times, args.twist_noise[0],
                                               args.twist_noise[1], args.gyro_offset, args.seed)
         groundtruth = world_T_imu
-    calib = _Calibration(folder.K, folder.b, stereo_images.CAM_T_IMU,
+    calib = _Calibration(folder.K, folder.b, cam_T_imu,
                          (first.shape[1], first.shape[0]), v, w)
     if v is not None:
         yield bag_writer.TOPIC_TF_STATIC, bag_writer.tf_static_msg(

@@ -1,7 +1,8 @@
 """Stereo image folders in the KITTI odometry layout (image_left/, image_right/, calib.txt with P0
 and P1, times.txt, optional poses.txt with world_T_cam0 per line) and the ground-truth twist of
-an IMU frame (x forward, y left, z up) rigidly attached at the left camera, as
-track_stereo_images writes it (sample k+1 drives [t_k, t_k+1]; white noise and a gyro offset)."""
+a vehicle frame (x along the direction of travel, y left, z up) rigidly attached at the left
+camera, as track_stereo_images writes it (sample k+1 drives [t_k, t_k+1]; white noise and a gyro
+offset)."""
 import collections
 import os
 
@@ -16,6 +17,31 @@ CAM_T_IMU = np.array([[0.0, -1.0, 0.0, 0.0],
                       [0.0, 0.0, -1.0, 0.0],
                       [1.0, 0.0, 0.0, 0.0],
                       [0.0, 0.0, 0.0, 1.0]])
+
+
+
+def travel_aligned_cam_T_imu(world_T_cam, min_distance=1.0):
+    """cam_T_imu of a vehicle frame at the left camera's origin, as track_stereo_images makes it:
+    x along the camera's direction of travel (the sum of its steps, each in the camera frame it
+    starts from), z up (the camera's -y made orthogonal to x), y left. A ground vehicle's body
+    velocity lies along this x, so the estimator's vehicle prior holds for a twist in these axes.
+    CAM_T_IMU when the poses travel less than min_distance m or mostly backwards."""
+    travel = np.zeros(3)
+    distance = 0.0
+    for k in range(len(world_T_cam) - 1):
+        step = (se3.inverse(world_T_cam[k]) @ world_T_cam[k + 1])[:3, 3]
+        travel += step
+        distance += np.linalg.norm(step)
+    cam_T_imu = CAM_T_IMU.copy()
+    if not distance >= min_distance or not travel[2] > 0.5 * np.linalg.norm(travel):
+        return cam_T_imu
+    x = travel / np.linalg.norm(travel)
+    up = np.array([0.0, -1.0, 0.0])
+    z = up - up.dot(x) * x
+    z /= np.linalg.norm(z)
+    cam_T_imu[:3, 0], cam_T_imu[:3, 1], cam_T_imu[:3, 2] = x, np.cross(z, x), z
+    return cam_T_imu
+
 
 StereoFolder = collections.namedtuple(
     'StereoFolder', ['left', 'right', 'times', 'K', 'b', 'world_T_cam'])

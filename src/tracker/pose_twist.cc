@@ -14,6 +14,28 @@ Eigen::Matrix4d forwardLeftUpCamTImu() {
   return cam_T_imu;
 }
 
+Eigen::Matrix4d travelAlignedCamTImu(const std::vector<Eigen::Matrix4d>& world_T_cam,
+                                     double min_distance) {
+  Eigen::Vector3d travel_cam = Eigen::Vector3d::Zero();
+  double distance = 0.0;
+  for (size_t k = 0; k + 1 < world_T_cam.size(); ++k) {
+    const Eigen::Vector3d step_cam =
+        (se3::inverse(world_T_cam[k]) * world_T_cam[k + 1]).topRightCorner<3, 1>();
+    travel_cam += step_cam;
+    distance += step_cam.norm();
+  }
+  Eigen::Matrix4d cam_T_imu = forwardLeftUpCamTImu();
+  // Mostly forward along the optical axis (z): otherwise the camera's own axes are kept.
+  if (!(distance >= min_distance) || !(travel_cam.z() > 0.5 * travel_cam.norm())) return cam_T_imu;
+  const Eigen::Vector3d x = travel_cam.normalized();
+  const Eigen::Vector3d up_cam(0.0, -1.0, 0.0);
+  const Eigen::Vector3d z = (up_cam - up_cam.dot(x) * x).normalized();
+  cam_T_imu.block<3, 1>(0, 0) = x;
+  cam_T_imu.block<3, 1>(0, 1) = z.cross(x);
+  cam_T_imu.block<3, 1>(0, 2) = z;
+  return cam_T_imu;
+}
+
 void twistFromPoses(const std::vector<Eigen::Matrix4d>& world_T_body,
                     const std::vector<double>& times, const TwistNoise& noise,
                     std::vector<Eigen::Vector3d>* v, std::vector<Eigen::Vector3d>* w) {

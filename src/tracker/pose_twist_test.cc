@@ -17,6 +17,50 @@ TEST(PoseTwist, CamTImuAxes) {
   EXPECT_NEAR(R.determinant(), 1.0, 1e-12);
 }
 
+// A camera pitched and turned against its straight travel: the vehicle frame's x is the travel
+// (no lateral or vertical velocity in it), its z the camera's up made orthogonal; without travel
+// (or backwards) the camera's own axes.
+TEST(PoseTwist, VehicleFrameFollowsTheTravel) {
+  const Eigen::Matrix3d mount = se3::expSO3(Eigen::Vector3d(0.026, 0.0, 0.0)) *
+                                se3::expSO3(Eigen::Vector3d(0.0, -0.012, 0.0));
+  std::vector<Eigen::Matrix4d> world_T_cam;
+  for (int k = 0; k < 20; ++k) {
+    Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();
+    pose.block<3, 3>(0, 0) = mount;
+    pose(2, 3) = 1.2 * k;
+    world_T_cam.push_back(pose);
+  }
+  const Eigen::Matrix4d cam_T_imu = travelAlignedCamTImu(world_T_cam);
+  const Eigen::Matrix3d R = cam_T_imu.block<3, 3>(0, 0);
+  EXPECT_LT((R.transpose() * R - Eigen::Matrix3d::Identity()).norm(), 1e-12);
+  EXPECT_NEAR(R.determinant(), 1.0, 1e-12);
+  EXPECT_LT((R.col(0) - mount.transpose() * Eigen::Vector3d::UnitZ()).norm(), 1e-12);
+  EXPECT_NEAR(R.col(1).y(), 0.0, 1e-12);  // left is level in the camera: no roll about x
+  EXPECT_LT(R.col(2).y(), -0.99);         // up = the camera's -y
+  std::vector<Eigen::Matrix4d> world_T_imu;
+  for (const Eigen::Matrix4d& pose : world_T_cam) world_T_imu.push_back(pose * cam_T_imu);
+  std::vector<double> times;
+  for (int k = 0; k < 20; ++k) times.push_back(0.1 * k);
+  TwistNoise exact;
+  exact.linear_sigma = exact.angular_sigma = exact.gyro_offset = 0;
+  std::vector<Eigen::Vector3d> v, w;
+  twistFromPoses(world_T_imu, times, exact, &v, &w);
+  for (const Eigen::Vector3d& sample : v) {
+    EXPECT_LT((sample - Eigen::Vector3d(12.0, 0.0, 0.0)).norm(), 1e-9);
+  }
+  // In the camera's own axes the pitch shows as vertical velocity: 12 m/s x sin(0.026).
+  world_T_imu.clear();
+  for (const Eigen::Matrix4d& pose : world_T_cam)
+    world_T_imu.push_back(pose * forwardLeftUpCamTImu());
+  twistFromPoses(world_T_imu, times, exact, &v, &w);
+  EXPECT_GT(std::abs(v[5].z()), 0.3);
+
+  const std::vector<Eigen::Matrix4d> still(5, world_T_cam.front());
+  EXPECT_EQ(travelAlignedCamTImu(still), forwardLeftUpCamTImu());
+  std::vector<Eigen::Matrix4d> backwards(world_T_cam.rbegin(), world_T_cam.rend());
+  EXPECT_EQ(travelAlignedCamTImu(backwards), forwardLeftUpCamTImu());
+}
+
 TEST(PoseTwist, RecoversTheTwistThatMovedThePoses) {
   std::vector<Eigen::Matrix4d> poses{Eigen::Matrix4d::Identity()};
   std::vector<double> times{0.0};

@@ -36,8 +36,9 @@ const char* kUsage =
     "Tracks the rectified stereo images (KITTI odometry layout: calib.txt with P0 and P1,\n"
     "times.txt, optional poses.txt with world_T_cam0) and writes OUT.npz in the course layout:\n"
     "features (4,M,T; -1 where unobserved), K, b, time_stamps (1,T), image_size. With --poses\n"
-    "also linear_velocity and rotational_velocity (3,T: the ground-truth body twist of an IMU\n"
-    "frame x forward, y left, z up at the left camera, plus white noise V m/s and W rad/s per\n"
+    "also linear_velocity and rotational_velocity (3,T: the ground-truth body twist of a vehicle\n"
+    "frame at the left camera, x along the poses' direction of travel, y left, z up, as a wheel\n"
+    "odometry would give it, plus white noise V m/s and W rad/s per\n"
     "sample and axis (default 0.05 0.005) and a constant gyro offset B rad/s (default 0.001),\n"
     "seeded by N (default 0)), cam_T_imu, and OUT_groundtruth.tum (world_T_imu), and prints the\n"
     "track quality against the poses. --time-offset adds S seconds to every time (default 0).\n"
@@ -58,6 +59,7 @@ struct Arguments {
 
 /// The IMU poses of --poses and their body twist (with the noise of --twist-noise etc.).
 struct PoseTwist {
+  Eigen::Matrix4d cam_T_imu = Eigen::Matrix4d::Identity();
   std::vector<Eigen::Matrix4d> world_T_imu;
   std::vector<Eigen::Vector3d> v, w;
 };
@@ -194,7 +196,7 @@ bool writeDataset(const Arguments& args, const KittiSequence& sequence,
   npz.addDoubles("time_stamps", {1, T}, stamps);
   npz.addInts("image_size", {2}, {image_size.width, image_size.height});
   if (!pose_twist.world_T_imu.empty()) {
-    const Eigen::Matrix4d cam_T_imu = forwardLeftUpCamTImu();
+    const Eigen::Matrix4d& cam_T_imu = pose_twist.cam_T_imu;
     const std::vector<Eigen::Vector3d>& v = pose_twist.v;
     const std::vector<Eigen::Vector3d>& w = pose_twist.w;
     std::vector<double> linear(3 * T), angular(3 * T), extrinsic(16);
@@ -243,8 +245,11 @@ PoseTwist poseTwist(const Arguments& args, const KittiSequence& sequence,
                     const std::vector<double>& stamps) {
   PoseTwist result;
   if (sequence.world_T_cam.empty()) return result;
-  const Eigen::Matrix4d cam_T_imu = forwardLeftUpCamTImu();
-  for (size_t k = 0; k < stamps.size(); ++k) {
+  const size_t n = std::min(stamps.size(), sequence.world_T_cam.size());
+  result.cam_T_imu = travelAlignedCamTImu(
+      std::vector<Eigen::Matrix4d>(sequence.world_T_cam.begin(), sequence.world_T_cam.begin() + n));
+  const Eigen::Matrix4d& cam_T_imu = result.cam_T_imu;
+  for (size_t k = 0; k < n; ++k) {
     result.world_T_imu.push_back(sequence.world_T_cam[k] * cam_T_imu);
   }
   twistFromPoses(result.world_T_imu, stamps, args.noise, &result.v, &result.w);
@@ -273,7 +278,7 @@ int run(int argc, char** argv) {
       twists.push_back({stamps[k], pose_twist.v[k], pose_twist.w[k]});
     }
   }
-  const Eigen::Matrix4d cam_T_imu = forwardLeftUpCamTImu();
+  const Eigen::Matrix4d& cam_T_imu = pose_twist.cam_T_imu;
   StereoTracker tracker(options, sequence.calibration);
   std::vector<StereoFrame> frames;
   ProcessingTimes ms;

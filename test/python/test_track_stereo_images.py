@@ -65,12 +65,46 @@ class TrackStereoImagesTest(unittest.TestCase):
     def test_twist_is_the_ground_truth_motion(self):
         d = dataset.load_dataset(self.npz)
         folder = stereo_images.load_folder(self.folder)
-        world_T_imu = folder.world_T_cam @ stereo_images.CAM_T_IMU
+        # The C++ tool and the Python player make the same vehicle frame from the poses.
+        cam_T_imu = stereo_images.travel_aligned_cam_T_imu(folder.world_T_cam)
+        np.testing.assert_allclose(d.cam_T_imu, cam_T_imu, atol=1e-9)
+        world_T_imu = folder.world_T_cam @ cam_T_imu
         v, w = stereo_images.twist_from_poses(world_T_imu, folder.times, 0, 0, 0)
         np.testing.assert_allclose(d.v, v, atol=1e-6)
         np.testing.assert_allclose(d.w, w, atol=1e-6)
         self.assertAlmostEqual(float(np.median(d.v[0])), 8.0, delta=0.1)  # x forward, 8 m/s
-        np.testing.assert_allclose(d.cam_T_imu, stereo_images.CAM_T_IMU)
+        # The rendered camera looks along its travel: the camera's own axes within 0.3 degrees.
+        np.testing.assert_allclose(d.cam_T_imu, stereo_images.CAM_T_IMU, atol=5e-3)
+
+    def test_vehicle_frame_of_a_pitched_camera(self):
+        """A camera pitched 1.5 degrees and turned 0.7 degrees against its travel: the frame's
+        x is the travel, so a straight drive has no lateral or vertical velocity in it; no travel
+        keeps the camera's axes."""
+        from ekf_vislam_tools import se3
+        pitch, yaw = np.radians(1.5), np.radians(0.7)
+        mount = np.eye(4)
+        mount[:3, :3] = se3.so3_exp(np.array([pitch, 0.0, 0.0])) @ se3.so3_exp(
+            np.array([0.0, -yaw, 0.0]))
+        poses = []
+        for k in range(20):
+            vehicle = np.eye(4)
+            vehicle[:3, 3] = [0.0, 0.0, 1.2 * k]  # straight along the world's z
+            poses.append(vehicle @ mount)
+        cam_T_imu = stereo_images.travel_aligned_cam_T_imu(np.array(poses))
+        world_T_imu = np.array(poses) @ cam_T_imu
+        v, _ = stereo_images.twist_from_poses(world_T_imu, 0.1 * np.arange(20), 0, 0, 0)
+        np.testing.assert_allclose(v[0], 12.0, atol=1e-9)
+        np.testing.assert_allclose(v[1:], 0.0, atol=1e-9)
+        R = cam_T_imu[:3, :3]
+        np.testing.assert_allclose(R.T @ R, np.eye(3), atol=1e-12)
+        self.assertAlmostEqual(np.linalg.det(R), 1.0, places=12)
+        # The camera's axes would see the pitch as vertical velocity (12 m/s x sin 1.5 degrees).
+        v_cam, _ = stereo_images.twist_from_poses(
+            np.array(poses) @ stereo_images.CAM_T_IMU, 0.1 * np.arange(20), 0, 0, 0)
+        self.assertGreater(np.abs(v_cam[2]).min(), 0.25)
+        np.testing.assert_array_equal(
+            stereo_images.travel_aligned_cam_T_imu(np.array([poses[0]] * 5)),
+            stereo_images.CAM_T_IMU)
 
     def test_predict_with_twist(self):
         """The exact twist's prediction starts the KLT nearer its result: the same drive, tracked

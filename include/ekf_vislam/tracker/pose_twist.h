@@ -14,6 +14,16 @@ namespace ekf_vislam {
 /// optical frame (z forward, x right, y down).
 Eigen::Matrix4d forwardLeftUpCamTImu();
 
+/// cam_T_imu of a vehicle frame at the left camera's origin: x along the direction the camera
+/// travels (the sum of its steps, each in the camera frame it starts from), z up (the camera's -y
+/// made orthogonal to x), y left. A ground vehicle's body velocity lies along this x, so the
+/// estimator's vehicle prior (no lateral or vertical velocity) holds for a twist in these axes; in
+/// the camera's own axes it would not, for a camera pitched or turned against the direction of
+/// travel (KITTI's cam0: 1.25 degrees of pitch on odometry 06). forwardLeftUpCamTImu() when the
+/// poses travel less than `min_distance` m or mostly backwards.
+Eigen::Matrix4d travelAlignedCamTImu(const std::vector<Eigen::Matrix4d>& world_T_cam,
+                                     double min_distance = 1.0);
+
 struct TwistNoise {
   double linear_sigma = 0.05;    ///< m/s, white, per sample and axis
   double angular_sigma = 0.005;  ///< rad/s, white, per sample and axis

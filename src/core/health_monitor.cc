@@ -20,6 +20,25 @@ std::string disagreementHint(uint64_t gated, uint64_t updated) {
   return text.str();
 }
 
+std::string travelDirectionHint(const TravelDirectionEstimator& travel,
+                                const VehicleOptions& vehicle) {
+  if (travel.samples() < kTravelHintMinSamples) return "";
+  const bool lateral =
+      vehicle.lateral_velocity_sigma > 0.0 && std::abs(travel.yaw()) > kTravelHintAngle;
+  const bool vertical =
+      vehicle.vertical_velocity_sigma > 0.0 && std::abs(travel.pitch()) > kTravelHintAngle;
+  if (!lateral && !vertical) return "";
+  constexpr double kDegrees = 180.0 / 3.14159265358979323846;
+  std::ostringstream text;
+  text.precision(2);
+  text << std::fixed << "the twist travels " << travel.yaw() * kDegrees << " deg towards its y and "
+       << travel.pitch() * kDegrees
+       << " deg towards its z, not along its x axis: the vehicle prior (vehicle/*_velocity_sigma) "
+          "takes that part of the velocity for noise. Give the twist in a frame whose x is the "
+          "vehicle's direction of travel, or set the two sigmas to 0";
+  return text.str();
+}
+
 bool HealthMonitor::diverged(int candidates, int disagreeing, double position_sigma,
                              std::string* why) {
   if (candidates >= 10 && disagreeing > options_->health.rejected_fraction * candidates) {

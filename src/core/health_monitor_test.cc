@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <string>
 
 namespace ekf_vislam {
@@ -27,6 +28,30 @@ TEST(DisagreementHint, ManyGatedNameTheFractionAndTheLikelyCauses) {
   EXPECT_NE(hint.find("axes"), std::string::npos) << hint;
   EXPECT_NE(hint.find("time stamps"), std::string::npos) << hint;
   EXPECT_NE(disagreementHint(11, 39), "");  // 22 % of 50
+}
+
+// A twist frame mounted `pitch` rad off the travel: 400 moving samples.
+TravelDirectionEstimator pitchedTravel(double pitch) {
+  TravelDirectionEstimator travel(1.0);
+  for (int k = 0; k < 400; ++k) travel.add(10.0 * Eigen::Vector3d(1.0, 0.0, std::tan(pitch)));
+  return travel;
+}
+
+TEST(TravelDirectionHint, SpeaksBeyondOneDegreeWhereAPriorHolds) {
+  VehicleOptions vehicle;  // both priors on
+  // The KITTI course twists travel within 0.7 degrees of their x: nothing to say.
+  EXPECT_EQ(travelDirectionHint(pitchedTravel(0.012), vehicle), "");
+  // A camera's axes on KITTI odometry 06: 1.25 degrees of pitch.
+  const std::string hint = travelDirectionHint(pitchedTravel(0.0218), vehicle);
+  EXPECT_NE(hint.find("1.25 deg towards its z"), std::string::npos) << hint;
+  EXPECT_NE(hint.find("vehicle/*_velocity_sigma"), std::string::npos) << hint;
+  // Without the vertical prior, a pitch costs nothing.
+  vehicle.vertical_velocity_sigma = 0.0;
+  EXPECT_EQ(travelDirectionHint(pitchedTravel(0.0218), vehicle), "");
+  // Too few moving samples.
+  TravelDirectionEstimator few(1.0);
+  for (int k = 0; k < 299; ++k) few.add(Eigen::Vector3d(10.0, 0.5, 0.0));
+  EXPECT_EQ(travelDirectionHint(few, VehicleOptions()), "");
 }
 
 TEST(HealthMonitor, MostObservationsGatedForManyFramesIsDivergence) {

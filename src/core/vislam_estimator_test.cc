@@ -286,6 +286,27 @@ TEST(VislamEstimator, VehiclePriorShrinksLateralAndVerticalVelocity) {
   EXPECT_NEAR(P(1, 1) - P(0, 0), 2 * 0.01 * (g_y - 1.0) * r, 1e-9);
 }
 
+TEST(VislamEstimator, TheTwistsDirectionOfTravelIsTrackedAndForgottenOnReset) {
+  // A twist frame pitched 1.25 degrees against the travel (a camera's axes on KITTI 06): every
+  // accepted twist shows it, a reset forgets it.
+  VislamOptions o;
+  o.mode = EstimatorMode::kDeadReckoning;
+  VislamEstimator estimator(o);
+  const double pitch = 1.25 * M_PI / 180.0;
+  TwistData twist;
+  for (int k = 0; k < 400; ++k) {
+    twist.stamp = 10.0 + 0.1 * k;
+    twist.v_imu = (8.0 + std::sin(0.1 * k)) * Eigen::Vector3d(1.0, 0.0, std::tan(pitch));
+    estimator.feedTwist(twist);
+  }
+  EXPECT_EQ(estimator.travelDirection().samples(), 399u);  // the first twist starts the clock
+  EXPECT_NEAR(estimator.travelDirection().pitch(), pitch, 1e-12);
+  EXPECT_NEAR(estimator.travelDirection().yaw(), 0.0, 1e-12);
+  EXPECT_NE(travelDirectionHint(estimator.travelDirection(), o.vehicle), "");
+  estimator.reset();
+  EXPECT_EQ(estimator.travelDirection().samples(), 0u);
+}
+
 TEST(VislamEstimator, LandmarkInitializationCovarianceFromJacobians) {
   // One frame: the landmark's covariance must equal J_z R J_z^T + J_pose P J_pose^T with the
   // Jacobians checked here by finite differences of the initialization map.

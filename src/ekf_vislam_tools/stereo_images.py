@@ -22,14 +22,15 @@ CAM_T_IMU = np.array([[0.0, -1.0, 0.0, 0.0],
 
 def travel_aligned_cam_T_imu(world_T_cam, min_distance=1.0):
     """cam_T_imu of a vehicle frame at the left camera's origin, as track_stereo_images makes it:
-    x along the camera's direction of travel (the sum of its steps, each in the camera frame it
-    starts from), z up (the camera's -y made orthogonal to x), y left. A ground vehicle's body
+    x along the camera's direction of travel (the sum of its steps' body velocities: each step's
+    SE(3) logarithm, in the camera frame it starts from; in a turn a step's chord leans into it),
+    z up (the camera's -y made orthogonal to x), y left. A ground vehicle's body
     velocity lies along this x, so the estimator's vehicle prior holds for a twist in these axes.
     CAM_T_IMU when the poses travel less than min_distance m or mostly backwards."""
     travel = np.zeros(3)
     distance = 0.0
     for k in range(len(world_T_cam) - 1):
-        step = (se3.inverse(world_T_cam[k]) @ world_T_cam[k + 1])[:3, 3]
+        step = se3_log(se3.inverse(world_T_cam[k]) @ world_T_cam[k + 1])[:3]
         travel += step
         distance += np.linalg.norm(step)
     cam_T_imu = CAM_T_IMU.copy()

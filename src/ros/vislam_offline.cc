@@ -264,6 +264,9 @@ void printSummary(const EstimatorRunner& runner, const std::string& out_dir) {
   const std::string hint =
       disagreementHint(stats.get(Counter::kObsGated), stats.get(Counter::kObservationUpdate));
   if (!hint.empty()) std::fprintf(stderr, "vislam_offline: warning: %s\n", hint.c_str());
+  const std::string travel = travelDirectionHint(runner.estimator().travelDirection(),
+                                                 runner.estimator().options().vehicle);
+  if (!travel.empty()) std::fprintf(stderr, "vislam_offline: warning: %s\n", travel.c_str());
 }
 
 int run(int argc, char** argv) {

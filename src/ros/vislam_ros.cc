@@ -480,6 +480,9 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
   if (!disagreement.empty()) {
     ROS_WARN_THROTTLE(30.0, "%s: in the last %.1f s %s", name_.c_str(), dt, disagreement.c_str());
   }
+  const TravelDirectionEstimator& travel = estimator.travelDirection();
+  const std::string travel_hint = travelDirectionHint(travel, options_.vehicle);
+  if (!travel_hint.empty()) ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), travel_hint.c_str());
 
   const double since_twist = (now - last_twist_).toSec();
   const double since_features = (now - last_features_).toSec();
@@ -501,6 +504,10 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
                    "many observations gated: do the twist, the camera tf and the stamps agree? "
                    "(see the log)");
+  } else if (!travel_hint.empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   "the twist does not travel along its x axis: the vehicle prior removes a part "
+                   "of the velocity (see the log)");
   } else {
     status.summary(diagnostic_msgs::DiagnosticStatus::OK, "running");
   }
@@ -524,6 +531,8 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
   status.add("baseline_scale", estimator.baselineScale());
   status.add("track_drift_rate_rad_s", estimator.trackDriftRate().norm());
   status.add("track_correlation", estimator.trackCorrelation());
+  status.add("twist_travel_yaw_deg", travel.yaw() * 180.0 / M_PI);
+  status.add("twist_travel_pitch_deg", travel.pitch() * 180.0 / M_PI);
   status.add("observations_rejected", stats.observationsRejected());
   for (int i = 0; i < static_cast<int>(Counter::kCount); ++i) {
     status.add(counterName(static_cast<Counter>(i)), stats.get(static_cast<Counter>(i)));

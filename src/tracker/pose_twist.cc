@@ -16,11 +16,13 @@ Eigen::Matrix4d forwardLeftUpCamTImu() {
 
 Eigen::Matrix4d travelAlignedCamTImu(const std::vector<Eigen::Matrix4d>& world_T_cam,
                                      double min_distance) {
+  // The body velocity of each step (its SE(3) logarithm, in the camera frame it starts from): in
+  // a turn the chord of a step leans half the step's rotation into the turn, the velocity does not.
   Eigen::Vector3d travel_cam = Eigen::Vector3d::Zero();
   double distance = 0.0;
   for (size_t k = 0; k + 1 < world_T_cam.size(); ++k) {
     const Eigen::Vector3d step_cam =
-        (se3::inverse(world_T_cam[k]) * world_T_cam[k + 1]).topRightCorner<3, 1>();
+        se3::log(se3::inverse(world_T_cam[k]) * world_T_cam[k + 1]).head<3>();
     travel_cam += step_cam;
     distance += step_cam.norm();
   }

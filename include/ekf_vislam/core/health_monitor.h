@@ -2,6 +2,7 @@
 // observations disagree with the filter (health/ options). No ROS.
 #pragma once
 
+#include "ekf_vislam/core/travel_direction_estimator.h"
 #include "ekf_vislam/core/vislam_options.h"
 
 #include <cstdint>
@@ -17,6 +18,15 @@ namespace ekf_vislam {
 constexpr double kDisagreementFraction = 0.2;
 constexpr uint64_t kDisagreementMinObservations = 50;
 std::string disagreementHint(uint64_t gated, uint64_t updated);
+
+/// A hint when the vehicle prior is on and the twist travels more than kTravelHintAngle off its
+/// x axis (yaw for the lateral prior, pitch for the vertical one), over at least
+/// kTravelHintMinSamples moving samples (30 s at 10 Hz): the prior then takes a part of the true
+/// velocity proportional to the speed for noise (1 degree: 1.7 % of it). Empty otherwise.
+constexpr double kTravelHintAngle = 1.0 * 3.14159265358979323846 / 180.0;
+constexpr size_t kTravelHintMinSamples = 300;
+std::string travelDirectionHint(const TravelDirectionEstimator& travel,
+                                const VehicleOptions& vehicle);
 
 class HealthMonitor {
  public:

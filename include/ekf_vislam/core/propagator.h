@@ -3,6 +3,7 @@
 #pragma once
 
 #include "ekf_vislam/core/filter_state.h"
+#include "ekf_vislam/core/travel_direction_estimator.h"
 #include "ekf_vislam/core/twist_noise_estimator.h"
 #include "ekf_vislam/core/types.h"
 #include "ekf_vislam/core/vislam_options.h"
@@ -11,17 +12,28 @@ namespace ekf_vislam {
 
 class Propagator {
  public:
+  /// Twists slower than this (m/s along x) do not show the direction of travel.
+  static constexpr double kTravelMinSpeed = 1.0;
+
   explicit Propagator(const VislamOptions& options)
       : options_(&options),
-        noise_estimator_(options.noise.twist_noise_window, options.noise.twist_noise_min_samples) {}
+        noise_estimator_(options.noise.twist_noise_window, options.noise.twist_noise_min_samples),
+        travel_direction_(kTravelMinSpeed) {}
 
-  /// Every accepted twist, in stamp order: feeds the online noise estimate.
-  void observeTwist(const TwistData& twist) { noise_estimator_.add(twist); }
-  /// Forgets the online noise estimate (a full filter reset starts it again).
+  /// Every accepted twist, in stamp order: feeds the online noise estimate and the direction of
+  /// travel.
+  void observeTwist(const TwistData& twist) {
+    noise_estimator_.add(twist);
+    travel_direction_.add(twist.v_imu);
+  }
+  /// Forgets both (a full filter reset starts them again).
   void resetNoiseEstimate() {
     noise_estimator_ = TwistNoiseEstimator(options_->noise.twist_noise_window,
                                            options_->noise.twist_noise_min_samples);
+    travel_direction_ = TravelDirectionEstimator(kTravelMinSpeed);
   }
+  /// Where the twist travels in its own frame (the vehicle prior assumes along x).
+  const TravelDirectionEstimator& travelDirection() const { return travel_direction_; }
   /// Noise densities of a twist without its own covariance (m/s/sqrt(Hz), rad/s/sqrt(Hz)): the
   /// online estimate once it is ready (noise/estimate_twist_noise), else the configured ones.
   double linearNoiseDensity() const;
@@ -63,6 +75,7 @@ class Propagator {
 
   const VislamOptions* options_;  ///< not owned (the estimator keeps it alive)
   TwistNoiseEstimator noise_estimator_;
+  TravelDirectionEstimator travel_direction_;
   double sample_period_ = 0.1;
 };
 

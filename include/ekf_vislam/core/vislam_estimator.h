@@ -100,6 +100,8 @@ class VislamEstimator {
   /// variance of the reported covariance.
   double trackCorrelation() const { return updater_.trackCorrelation().correlation(); }
   double trackVarianceFactor() const { return updater_.trackCorrelation().varianceFactor(); }
+  /// Where the twist travels in its own frame (yaw, pitch from x; TravelDirectionEstimator).
+  const TravelDirectionEstimator& travelDirection() const { return propagator_.travelDirection(); }
 
   /// Every landmark ever initialized (active ones carry their current estimate).
   const std::vector<LandmarkEstimate>& landmarks() const { return landmarks_.map(); }

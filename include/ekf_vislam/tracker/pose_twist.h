@@ -15,7 +15,8 @@ namespace ekf_vislam {
 Eigen::Matrix4d forwardLeftUpCamTImu();
 
 /// cam_T_imu of a vehicle frame at the left camera's origin: x along the direction the camera
-/// travels (the sum of its steps, each in the camera frame it starts from), z up (the camera's -y
+/// travels (the sum of its steps' body velocities: each step's SE(3) logarithm, in the camera frame
+/// it starts from), z up (the camera's -y
 /// made orthogonal to x), y left. A ground vehicle's body velocity lies along this x, so the
 /// estimator's vehicle prior (no lateral or vertical velocity) holds for a twist in these axes; in
 /// the camera's own axes it would not, for a camera pitched or turned against the direction of

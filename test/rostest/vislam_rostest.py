@@ -293,8 +293,12 @@ class VislamPipelineTest(unittest.TestCase):
         keys = {kv.key: kv.value for kv in statuses[-1].values}
         for key in ('twist_rate_hz', 'feature_rate_hz', 'update_ms_last', 'update_ms_p99',
                     'active_landmarks', 'total_landmarks', 'state_dimension',
-                    'observation_gated', 'observation_disparity', 'frame_no_calibration'):
+                    'observation_gated', 'observation_disparity', 'frame_no_calibration',
+                    'twist_travel_yaw_deg', 'twist_travel_pitch_deg'):
             self.assertIn(key, keys)
+        # The simulated twist travels along its x: the vehicle prior's assumption holds.
+        self.assertLess(abs(float(keys['twist_travel_pitch_deg'])), 1.0)
+        self.assertLess(abs(float(keys['twist_travel_yaw_deg'])), 1.0)
         self.assertEqual(int(keys['frames_received']), FRAMES)
         self.assertEqual(int(keys['frame_no_calibration']), 0)
         # While the bag played the status was OK (or WARN right at the start).

@@ -2,9 +2,11 @@
 // $EKF_VISLAM_DATA/kitti_clips); skipped when they are absent. The targets are: median
 // left-image reprojection error of tracks triangulated at their first frame with the
 // ground-truth pose <= 0.5 / 0.8 / 1.5 px at ages 1 / 2 / 5, >= 150 observations in every frame,
-// mean track length >= 6 frames. They are NOT all met (doc/tracker.md, "Quality"): the bounds
-// below are today's figures plus a small margin, so that a regression fails; tighten them as the
-// tracker improves.
+// mean track length >= 6 frames. They are NOT all met on the whole clips (doc/tracker.md,
+// "Track quality"): the bounds below are today's figures plus a small margin, so that a
+// regression fails. The 06 ground truth disagrees with its images in its first second (frames
+// 0-10, up to 0.17 degrees of yaw per frame); from frame 12 on, the error targets themselves are
+// asserted.
 #include "ekf_vislam/core/yaml_parameter_source.h"
 #include "ekf_vislam/tracker/kitti_sequence.h"
 #include "ekf_vislam/tracker/stereo_tracker.h"
@@ -31,6 +33,7 @@ std::string clipsFolder() {
 
 struct ClipBounds {
   const char* folder;
+  size_t first_frame;  // frames before it are left out
   // Measured ages 1 / 2 / 5: 0.669 / 1.216 / 2.791 px (06), 0.953 / 1.830 / 4.405 px (01).
   double age1_px, age2_px, age5_px;
   int min_observations;      // measured 149 (06), 122 (01)
@@ -38,8 +41,10 @@ struct ClipBounds {
 };
 
 const ClipBounds kClips[] = {
-    {"odometry_06_000000-000050", 0.75, 1.35, 3.05, 135, 3.7},
-    {"odometry_01_000000-000050", 1.05, 2.00, 4.80, 105, 5.8},
+    {"odometry_06_000000-000050", 0, 0.75, 1.35, 3.05, 135, 3.7},
+    {"odometry_01_000000-000050", 0, 1.05, 2.00, 4.80, 105, 5.8},
+    // Measured 0.452 / 0.733 / 1.348 px, at least 150 observations, 3.73 frames.
+    {"odometry_06_000000-000050", 12, 0.5, 0.8, 1.5, 145, 3.5},
 };
 
 class KittiClips : public ::testing::TestWithParam<ClipBounds> {};
@@ -56,6 +61,11 @@ TEST_P(KittiClips, TrackQualityAgainstGroundTruth) {
                                 folder + "/calib.txt", folder + "/times.txt", folder + "/poses.txt",
                                 &sequence, &error))
       << error;
+  const auto skip = static_cast<std::ptrdiff_t>(bounds.first_frame);
+  sequence.left_images.erase(sequence.left_images.begin(), sequence.left_images.begin() + skip);
+  sequence.right_images.erase(sequence.right_images.begin(), sequence.right_images.begin() + skip);
+  sequence.times.erase(sequence.times.begin(), sequence.times.begin() + skip);
+  sequence.world_T_cam.erase(sequence.world_T_cam.begin(), sequence.world_T_cam.begin() + skip);
   TrackerOptions options;
   YamlParameterSource source(std::string(EKF_VISLAM_SOURCE_DIR) + "/config/tracker.yaml");
   ASSERT_TRUE(source.ok() && parseTrackerOptions(source, &options, &error)) << error;
@@ -69,7 +79,8 @@ TEST_P(KittiClips, TrackQualityAgainstGroundTruth) {
   }
   const TrackQuality quality =
       evaluateTrackQuality(frames, sequence.world_T_cam, sequence.calibration, 5);
-  std::printf("%s: %s\n", bounds.folder, quality.describe().c_str());
+  std::printf("%s from frame %zu: %s\n", bounds.folder, bounds.first_frame,
+              quality.describe().c_str());
   EXPECT_LE(quality.median_error_px.at(1), bounds.age1_px);
   EXPECT_LE(quality.median_error_px.at(2), bounds.age2_px);
   EXPECT_LE(quality.median_error_px.at(5), bounds.age5_px);

@@ -5,7 +5,7 @@
 # reckoning through vislam_offline, and evaluate.py against the poses. Prints one line per mode:
 # ATE (m, after SE(3) alignment), RPE (%), mean position NEES, and the path length.
 #   scripts/images_end_to_end.sh FOLDER [--out DIR] [--config estimator.yaml]
-#                                [--tracker-config tracker.yaml] [--seed N]
+#                                [--tracker-config tracker.yaml] [--seed N] [--first-frame N]
 set -eo pipefail
 export PATH=/usr/bin:/bin:${PATH}
 REPO=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -14,12 +14,14 @@ OUT=""
 SEED=0
 ESTIMATOR=()
 TRACKER=()
+FIRST=()
 while (($#)); do
   case "$1" in
     --out) OUT=$2; shift 2 ;;
     --config) ESTIMATOR=(--config "$(readlink -f "$2")"); shift 2 ;;
     --tracker-config) TRACKER=(--config "$(readlink -f "$2")"); shift 2 ;;
     --seed) SEED=$2; shift 2 ;;
+    --first-frame) FIRST=(--first-frame "$2"); shift 2 ;;
     -h|--help) sed -n 2,8p "$0"; exit 0 ;;
     *) FOLDER=$1; shift ;;
   esac
@@ -31,7 +33,8 @@ OUT=${OUT:-$(mktemp -d)}
 mkdir -p "${OUT}"
 "${LIB}/track_stereo_images" --left "${FOLDER}/image_left" --right "${FOLDER}/image_right" \
   --calib "${FOLDER}/calib.txt" --times "${FOLDER}/times.txt" --poses "${FOLDER}/poses.txt" \
-  --out "${OUT}/tracks.npz" --time-offset 1000 --seed "${SEED}" --quiet "${TRACKER[@]}" >"${OUT}/tracker.log"
+  --out "${OUT}/tracks.npz" --time-offset 1000 --seed "${SEED}" --quiet "${TRACKER[@]}" "${FIRST[@]}" \
+  >"${OUT}/tracker.log"
 /usr/bin/python3 "${REPO}/scripts/dataset_to_bag.py" "${OUT}/tracks.npz" "${OUT}/tracks.bag" >/dev/null
 for mode in slam deadreckoning; do
   "${LIB}/vislam_offline" --bag "${OUT}/tracks.bag" --mode "${mode}" --out "${OUT}/${mode}" \

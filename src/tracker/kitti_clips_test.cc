@@ -61,11 +61,7 @@ TEST_P(KittiClips, TrackQualityAgainstGroundTruth) {
                                 folder + "/calib.txt", folder + "/times.txt", folder + "/poses.txt",
                                 &sequence, &error))
       << error;
-  const auto skip = static_cast<std::ptrdiff_t>(bounds.first_frame);
-  sequence.left_images.erase(sequence.left_images.begin(), sequence.left_images.begin() + skip);
-  sequence.right_images.erase(sequence.right_images.begin(), sequence.right_images.begin() + skip);
-  sequence.times.erase(sequence.times.begin(), sequence.times.begin() + skip);
-  sequence.world_T_cam.erase(sequence.world_T_cam.begin(), sequence.world_T_cam.begin() + skip);
+  sequence.dropFirstFrames(bounds.first_frame);
   TrackerOptions options;
   YamlParameterSource source(std::string(EKF_VISLAM_SOURCE_DIR) + "/config/tracker.yaml");
   ASSERT_TRUE(source.ok() && parseTrackerOptions(source, &options, &error)) << error;

@@ -8,6 +8,17 @@
 
 namespace ekf_vislam {
 
+void KittiSequence::dropFirstFrames(size_t n) {
+  auto drop = [n](auto* items) {
+    items->erase(items->begin(),
+                 items->begin() + static_cast<std::ptrdiff_t>(std::min(n, items->size())));
+  };
+  drop(&left_images);
+  drop(&right_images);
+  drop(&times);
+  drop(&world_T_cam);
+}
+
 namespace {
 
 // Numbers of one line (a leading "NAME:" label is skipped); false on a non-number.

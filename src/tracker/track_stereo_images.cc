@@ -32,7 +32,8 @@ const char* kUsage =
     "usage: track_stereo_images --left DIR --right DIR --calib calib.txt --times times.txt\n"
     "           --out OUT.npz [--poses poses.txt] [--config tracker.yaml]\n"
     "           [--twist-noise V W] [--gyro-offset B] [--seed N] [--time-offset S]\n"
-    "           [--max-frames N] [--predict-with-twist] [--debug-dir DIR] [--stats CSV] [--quiet]\n"
+    "           [--first-frame N] [--max-frames N] [--predict-with-twist] [--debug-dir DIR]\n"
+    "           [--stats CSV] [--quiet]\n"
     "Tracks the rectified stereo images (KITTI odometry layout: calib.txt with P0 and P1,\n"
     "times.txt, optional poses.txt with world_T_cam0) and writes OUT.npz in the course layout:\n"
     "features (4,M,T; -1 where unobserved), K, b, time_stamps (1,T), image_size. With --poses\n"
@@ -42,6 +43,7 @@ const char* kUsage =
     "sample and axis (default 0.05 0.005) and a constant gyro offset B rad/s (default 0.001),\n"
     "seeded by N (default 0)), cam_T_imu, and OUT_groundtruth.tum (world_T_imu), and prints the\n"
     "track quality against the poses. --time-offset adds S seconds to every time (default 0).\n"
+    "--first-frame: starts at frame N of the folder (images, times and poses; default 0).\n"
     "--predict-with-twist (needs --poses): the tracker predicts each image's motion from that\n"
     "twist, as the nodelet does from imu/twist.\n"
     "--config: tracker options (config/tracker.yaml; absent keys keep the defaults).\n"
@@ -53,6 +55,7 @@ struct Arguments {
   TwistNoise noise;
   double time_offset = 0;
   long max_frames = -1;
+  long first_frame = 0;
   bool quiet = false;
   bool predict_with_twist = false;
 };
@@ -102,6 +105,9 @@ bool parseArguments(int argc, char** argv, Arguments* args, std::string* error) 
       ++i;
     } else if (arg == "--time-offset" && number(i + 1, &a)) {
       args->time_offset = a;
+      ++i;
+    } else if (arg == "--first-frame" && number(i + 1, &a) && a >= 0) {
+      args->first_frame = static_cast<long>(a);
       ++i;
     } else if (arg == "--max-frames" && number(i + 1, &a) && a >= 1) {
       args->max_frames = static_cast<long>(a);
@@ -267,6 +273,12 @@ int run(int argc, char** argv) {
     std::cerr << "track_stereo_images: " << error << "\n";
     return 2;
   }
+  if (args.first_frame > 0 && static_cast<size_t>(args.first_frame) + 2 > sequence.size()) {
+    std::cerr << "track_stereo_images: --first-frame " << args.first_frame
+              << " leaves fewer than 2 of " << sequence.size() << " frames\n";
+    return 2;
+  }
+  sequence.dropFirstFrames(static_cast<size_t>(args.first_frame));
   const size_t T =
       args.max_frames > 0 ? std::min<size_t>(args.max_frames, sequence.size()) : sequence.size();
   std::vector<double> stamps(T);

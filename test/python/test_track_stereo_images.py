@@ -124,6 +124,23 @@ class TrackStereoImagesTest(unittest.TestCase):
         np.testing.assert_array_equal(d.v, reference.v)
         self.assertFalse(np.array_equal(d.features, reference.features))
 
+    def test_first_frame(self):
+        """--first-frame N starts at frame N: images, times and the poses' twist from there."""
+        f, out = self.folder, os.path.join(self.tmp, 'from5.npz')
+        args = [tool('track_stereo_images'), '--left', f + '/image_left', '--right',
+                f + '/image_right', '--calib', f + '/calib.txt', '--times', f + '/times.txt',
+                '--poses', f + '/poses.txt', '--twist-noise', '0', '0', '--gyro-offset', '0',
+                '--time-offset', '100', '--out', out]
+        subprocess.run(args + ['--first-frame', '5'], check=True, stdout=subprocess.PIPE)
+        d, full = dataset.load_dataset(out), dataset.load_dataset(self.npz)
+        self.assertEqual(d.num_frames, FRAMES - 5)
+        np.testing.assert_allclose(d.t, full.t[5:])
+        np.testing.assert_allclose(d.w[:, 1:], full.w[:, 6:], atol=1e-6)
+        refused = subprocess.run(args + ['--first-frame', str(FRAMES - 1)], stdout=subprocess.PIPE,
+                                 stderr=subprocess.PIPE, universal_newlines=True)
+        self.assertEqual(refused.returncode, 2)
+        self.assertIn('leaves fewer than 2', refused.stderr)
+
     def test_bag_of_images(self):
         bag = os.path.join(self.tmp, 'drive.bag')
         result = paths.run_script('play_stereo_images.py', self.folder, '--bag', bag)

@@ -19,6 +19,8 @@ struct KittiSequence {
   RectifiedStereo calibration;
   std::vector<Eigen::Matrix4d> world_T_cam;  ///< empty without poses
   size_t size() const { return times.size(); }
+  /// Leaves out the first n frames (images, times, poses); all of them when n >= size().
+  void dropFirstFrames(size_t n);
 };
 
 /// Reads the calibration (fx, fy, cx, cy from P0; baseline = (P0[0,3] - P1[0,3]) / fx).

@@ -141,6 +141,40 @@ class TrackStereoImagesTest(unittest.TestCase):
         self.assertEqual(refused.returncode, 2)
         self.assertIn('leaves fewer than 2', refused.stderr)
 
+    def test_groundtruth_vs_images(self):
+        """groundtruth_vs_images.py: the rendered drive's exact poses agree with its images; the
+        same poses with a 0.3 degree yaw slipped in between frames 9 and 10 are caught there."""
+        import json
+        from ekf_vislam_tools import se3
+        exact = os.path.join(self.tmp, 'exact.json')
+        result = paths.run_script('groundtruth_vs_images.py', self.folder, '--json', exact)
+        self.assertEqual(result.returncode, 0, result.stderr)
+        with open(exact) as f:
+            difference = np.array(json.load(f)['difference_deg'])
+        self.assertEqual(difference.shape, (FRAMES - 1, 3))
+        size = np.linalg.norm(difference, axis=1)
+        self.assertLess(np.median(size), 0.2)  # the fit's own precision on 640 px images: 0.12
+        # A copy whose poses from frame 10 on are turned 0.3 degrees about the camera's y.
+        slipped = os.path.join(self.tmp, 'slipped')
+        os.makedirs(slipped, exist_ok=True)
+        for name in ('image_left', 'image_right', 'calib.txt', 'times.txt'):
+            target = os.path.join(slipped, name)
+            if not os.path.exists(target):
+                os.symlink(os.path.join(self.folder, name), target)
+        poses = stereo_images.read_poses(os.path.join(self.folder, 'poses.txt'))
+        turn = np.eye(4)
+        turn[:3, :3] = se3.so3_exp(np.array([0.0, np.radians(0.3), 0.0]))
+        poses[10:] = poses[10:] @ turn
+        np.savetxt(os.path.join(slipped, 'poses.txt'), poses[:, :3, :].reshape(-1, 12))
+        out = os.path.join(self.tmp, 'slipped.json')
+        result = paths.run_script('groundtruth_vs_images.py', slipped, '--json', out)
+        self.assertEqual(result.returncode, 0, result.stderr)
+        with open(out) as f:
+            slipped_difference = np.array(json.load(f)['difference_deg'])
+        self.assertAlmostEqual(slipped_difference[9, 1], difference[9, 1] + 0.3, delta=0.02)
+        np.testing.assert_allclose(slipped_difference[:9], difference[:9])
+        self.assertIn('median size', result.stdout)
+
     def test_bag_of_images(self):
         bag = os.path.join(self.tmp, 'drive.bag')
         result = paths.run_script('play_stereo_images.py', self.folder, '--bag', bag)

@@ -89,7 +89,7 @@ void VislamEstimator::initializeState() {
   jump_test_paused_ = false;
   last_frame_stamp_ = 0.0;
   held_twist_ = TwistData();
-  propagator_.resetNoiseEstimate();
+  propagator_.resetTwistEstimates();
   state_.reset(prior());
   repeated_handler_.clear();
   if (has_calibration_) camera_ = scaledStereoCamera(nominal_calibration_, 0.0);

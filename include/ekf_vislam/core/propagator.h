@@ -26,8 +26,9 @@ class Propagator {
     noise_estimator_.add(twist);
     travel_direction_.add(twist.v_imu);
   }
-  /// Forgets both (a full filter reset starts them again).
-  void resetNoiseEstimate() {
+  /// Forgets the noise estimate and the direction of travel (a full filter reset starts both
+  /// again).
+  void resetTwistEstimates() {
     noise_estimator_ = TwistNoiseEstimator(options_->noise.twist_noise_window,
                                            options_->noise.twist_noise_min_samples);
     travel_direction_ = TravelDirectionEstimator(kTravelMinSpeed);

@@ -28,7 +28,7 @@ std::string travelDirectionHint(const TravelDirectionEstimator& travel,
   const bool vertical =
       vehicle.vertical_velocity_sigma > 0.0 && std::abs(travel.pitch()) > kTravelHintAngle;
   if (!lateral && !vertical) return "";
-  constexpr double kDegrees = 180.0 / 3.14159265358979323846;
+  constexpr double kDegrees = 180.0 / M_PI;
   std::ostringstream text;
   text.precision(2);
   text << std::fixed << "the twist travels " << travel.yaw() * kDegrees << " deg towards its y and "

@@ -19,7 +19,6 @@ CAM_T_IMU = np.array([[0.0, -1.0, 0.0, 0.0],
                       [0.0, 0.0, 0.0, 1.0]])
 
 
-
 def travel_aligned_cam_T_imu(world_T_cam, min_distance=1.0):
     """cam_T_imu of a vehicle frame at the left camera's origin, as track_stereo_images makes it:
     x along the camera's direction of travel (the sum of its steps' body velocities: each step's

@@ -5,6 +5,7 @@
 #include "ekf_vislam/core/travel_direction_estimator.h"
 #include "ekf_vislam/core/vislam_options.h"
 
+#include <cmath>
 #include <cstdint>
 #include <string>
 
@@ -23,7 +24,7 @@ std::string disagreementHint(uint64_t gated, uint64_t updated);
 /// x axis (yaw for the lateral prior, pitch for the vertical one), over at least
 /// kTravelHintMinSamples moving samples (30 s at 10 Hz): the prior then takes a part of the true
 /// velocity proportional to the speed for noise (1 degree: 1.7 % of it). Empty otherwise.
-constexpr double kTravelHintAngle = 1.0 * 3.14159265358979323846 / 180.0;
+constexpr double kTravelHintAngle = 1.0 * M_PI / 180.0;
 constexpr size_t kTravelHintMinSamples = 300;
 std::string travelDirectionHint(const TravelDirectionEstimator& travel,
                                 const VehicleOptions& vehicle);

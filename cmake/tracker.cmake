@@ -11,6 +11,7 @@ find_package(message_filters REQUIRED)
 add_library(ekf_vislam_tracker
   src/tracker/tracker_options.cc
   src/tracker/feature_detector.cc
+  src/tracker/klt_back_check.cc
   src/tracker/stereo_matcher.cc
   src/tracker/patch_refiner.cc
   src/tracker/rectified_stereo.cc
@@ -41,6 +42,7 @@ if(CATKIN_ENABLE_TESTING)
     src/tracker/npz_writer_test.cc
     src/tracker/pose_twist_test.cc
     src/tracker/twist_motion_prior_test.cc
+    src/tracker/klt_back_check_test.cc
     src/tracker/stereo_tracker_test.cc
     src/tracker/patch_refiner_test.cc
     src/tracker/rectified_stereo_test.cc

@@ -1,9 +1,11 @@
 #include "ekf_vislam/tracker/stereo_matcher.h"
 
+#include "ekf_vislam/tracker/klt_back_check.h"
 #include "ekf_vislam/tracker/patch_refiner.h"
 
 #include <opencv2/video/tracking.hpp>
 
+#include <algorithm>
 #include <cmath>
 
 namespace ekf_vislam {
@@ -23,42 +25,55 @@ std::vector<cv::Point2f> matchStereo(const std::vector<cv::Mat>& left_pyramid,
   const cv::Size window(options.stereo_window_size, options.stereo_window_size);
   const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
                                   options.max_iterations, options.epsilon);
+  const KltSettings klt{window, options.stereo_pyramid_levels, criteria};
   std::vector<uint8_t> status;
   std::vector<float> error;
-  cv::calcOpticalFlowPyrLK(left_pyramid, right_pyramid, left, right, status, error, window,
-                           options.stereo_pyramid_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
-  std::vector<cv::Point2f> back = left;
-  std::vector<uint8_t> back_status;
-  cv::calcOpticalFlowPyrLK(right_pyramid, left_pyramid, right, back, back_status, error, window,
-                           options.stereo_pyramid_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+  cv::calcOpticalFlowPyrLK(left_pyramid, right_pyramid, left, right, status, error, klt.window,
+                           klt.levels, klt.criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
 
+  // The checks on the match itself first: only what passes them is matched back.
   const cv::Size size = left_pyramid[0].size();
-  PatchRefinerOptions refiner;
-  refiner.max_iterations = options.refine_max_iterations;
-  refiner.epsilon = options.refine_epsilon;
+  std::vector<size_t> candidates;
+  candidates.reserve(n);
   for (size_t i = 0; i < n; ++i) {
     const cv::Point2f r = right[i];
+    const double disparity = left[i].x - r.x;
     if (!status[i] || r.x < 0 || r.y < 0 || r.x > size.width - 1 || r.y > size.height - 1) {
       ++counts->klt_failed;
-      continue;
+    } else if (std::abs(r.y - left[i].y) > options.row_tolerance_px) {
+      ++counts->row_failed;
+    } else if (disparity < options.min_disparity_px || disparity > options.max_disparity_px) {
+      ++counts->disparity_failed;
+    } else {
+      candidates.push_back(i);
     }
-    if (!back_status[i] || cv::norm(back[i] - left[i]) > options.stereo_back_check_px) {
+  }
+  const std::vector<uint8_t> back_ok = backCheck(right_pyramid, left_pyramid, right, left,
+                                                 candidates, klt, options.stereo_back_check_px);
+
+  std::vector<size_t> matched;
+  matched.reserve(candidates.size());
+  for (const size_t i : candidates) {
+    if (!back_ok[i]) {
       ++counts->back_check_failed;
       continue;
     }
-    if (std::abs(r.y - left[i].y) > options.row_tolerance_px) {
-      ++counts->row_failed;
-      continue;
-    }
-    const double disparity = left[i].x - r.x;
-    if (disparity < options.min_disparity_px || disparity > options.max_disparity_px) {
-      ++counts->disparity_failed;
-      continue;
-    }
     (*ok)[i] = 1;
-    ++counts->matched;
-    if (refine && options.refine && options.refine_stereo) {
-      // The current left patch aligned to the right image from the KLT match.
+    matched.push_back(i);
+  }
+  counts->matched += static_cast<int>(matched.size());
+  if (!refine || !options.refine || !options.refine_stereo) return right;
+
+  // The current left patch aligned to the right image from the KLT match, each match on its own
+  // (on OpenCV's threads, like its KLT).
+  PatchRefinerOptions refiner;
+  refiner.max_iterations = options.refine_max_iterations;
+  refiner.epsilon = options.refine_epsilon;
+  std::vector<uint8_t> refined_ok(matched.size(), 0);
+  cv::parallel_for_(cv::Range(0, static_cast<int>(matched.size())), [&](const cv::Range& range) {
+    for (int j = range.start; j < range.end; ++j) {
+      const size_t i = matched[j];
+      const cv::Point2f r = right[i];
       ReferencePatch patch;
       if (!patch.create(left_pyramid[0], left[i], options.refine_patch_size, WarpModel::kStereo)) {
         continue;
@@ -74,10 +89,11 @@ std::vector<cv::Point2f> matchStereo(const std::vector<cv::Mat>& left_pyramid,
           refined_disparity >= options.min_disparity_px &&
           refined_disparity <= options.max_disparity_px) {
         right[i] = refined;
-        ++counts->refined;
+        refined_ok[j] = 1;
       }
     }
-  }
+  });
+  counts->refined += static_cast<int>(std::count(refined_ok.begin(), refined_ok.end(), 1));
   return right;
 }
 

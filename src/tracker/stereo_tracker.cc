@@ -1,5 +1,6 @@
 #include "ekf_vislam/tracker/stereo_tracker.h"
 
+#include "ekf_vislam/tracker/klt_back_check.h"
 #include "ekf_vislam/tracker/motion_check.h"
 #include "ekf_vislam/tracker/rectified_stereo.h"
 #include "ekf_vislam/tracker/stereo_matcher.h"
@@ -177,27 +178,28 @@ std::vector<float> StereoTracker::trackTemporal(const std::vector<cv::Mat>& left
   for (size_t i = 0; i < tracks_.size(); ++i) prev[i] = tracks_[i].left;
   std::vector<cv::Point2f> cur = predictLeft(prior, dt, &prediction);
 
-  const cv::Size window(options_.window_size, options_.window_size);
-  const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
-                                  options_.max_iterations, options_.epsilon);
-  std::vector<uint8_t> status, back_status;
+  const KltSettings klt{cv::Size(options_.window_size, options_.window_size),
+                        options_.pyramid_levels,
+                        cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
+                                         options_.max_iterations, options_.epsilon)};
+  std::vector<uint8_t> status;
   std::vector<float> error;
-  cv::calcOpticalFlowPyrLK(prev_left_pyramid_, left_pyramid, prev, cur, status, error, window,
-                           options_.pyramid_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
-  std::vector<cv::Point2f> back = prev;
-  cv::calcOpticalFlowPyrLK(left_pyramid, prev_left_pyramid_, cur, back, back_status, error, window,
-                           options_.pyramid_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+  cv::calcOpticalFlowPyrLK(prev_left_pyramid_, left_pyramid, prev, cur, status, error, klt.window,
+                           klt.levels, klt.criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
   const cv::Size size = left_pyramid[0].size();
-  std::vector<uint8_t> keep(tracks_.size(), 0);
+  std::vector<size_t> candidates;
+  candidates.reserve(tracks_.size());
   for (size_t i = 0; i < tracks_.size(); ++i) {
     if (!status[i] || !insideImage(cur[i], size, options_.border_px)) {
       ++stats->klt_lost;
-    } else if (!back_status[i] || cv::norm(back[i] - prev[i]) > options_.forward_backward_px) {
-      ++stats->forward_backward_rejected;
     } else {
-      keep[i] = 1;
+      candidates.push_back(i);
     }
   }
+  std::vector<uint8_t> keep = backCheck(left_pyramid, prev_left_pyramid_, cur, prev, candidates,
+                                        klt, options_.forward_backward_px);
+  stats->forward_backward_rejected += static_cast<int>(candidates.size()) -
+                                      static_cast<int>(std::count(keep.begin(), keep.end(), 1));
   keepSelected(keep, &tracks_);
   keepSelected(keep, &prev);
   keepSelected(keep, &cur);
@@ -262,38 +264,46 @@ std::vector<uint8_t> StereoTracker::refineLeft(const cv::Mat& left, std::vector<
   refiner.max_iterations = options_.refine_max_iterations;
   refiner.epsilon = options_.refine_epsilon;
   const double max_scale = options_.refine_max_scale_change;
-  std::vector<uint8_t> keep(tracks_.size(), 1);
-  for (size_t i = 0; i < tracks_.size(); ++i) {
-    Track& track = tracks_[i];
-    cv::Point2f& p = (*cur)[i];
-    bool aligned = false;
-    if (track.reference.valid()) {
-      AffineWarp warp = track.warp;
-      warp.t = Eigen::Vector2f(p.x, p.y);
-      const RefineResult result = track.reference.align(left, refiner, &warp);
-      const cv::Point2f refined(warp.t.x(), warp.t.y());
-      if (result.inside && result.converged && result.zncc >= options_.refine_min_zncc &&
-          cv::norm(refined - p) <= options_.refine_max_shift_px) {
-        p = refined;
-        track.warp = warp;
-        aligned = true;
-        ++stats->refined;
-      } else {
-        ++stats->refine_failed;
-        if (options_.refine_end_failed) {
-          keep[i] = 0;
+  // Each track on its own (on OpenCV's threads, like its KLT); the counts afterwards.
+  enum Outcome : uint8_t { kNoReference, kAligned, kRefused };
+  std::vector<uint8_t> outcome(tracks_.size(), kNoReference);
+  cv::parallel_for_(cv::Range(0, static_cast<int>(tracks_.size())), [&](const cv::Range& range) {
+    for (int i = range.start; i < range.end; ++i) {
+      Track& track = tracks_[i];
+      cv::Point2f& p = (*cur)[i];
+      if (track.reference.valid()) {
+        AffineWarp warp = track.warp;
+        warp.t = Eigen::Vector2f(p.x, p.y);
+        const RefineResult result = track.reference.align(left, refiner, &warp);
+        const cv::Point2f refined(warp.t.x(), warp.t.y());
+        outcome[i] = result.inside && result.converged && result.zncc >= options_.refine_min_zncc &&
+                             cv::norm(refined - p) <= options_.refine_max_shift_px
+                         ? kAligned
+                         : kRefused;
+        if (outcome[i] == kAligned) {
+          p = refined;
+          track.warp = warp;
+        } else if (options_.refine_end_failed) {
           continue;
         }
       }
+      const double scale = std::sqrt(std::abs(track.warp.A.determinant()));
+      if (outcome[i] != kAligned || !(scale <= max_scale && scale >= 1.0 / max_scale)) {
+        // A new reference where the track now is.
+        Track anchored;
+        anchored.left = p;
+        setReference(left, &anchored);
+        track.reference = std::move(anchored.reference);
+        track.warp = anchored.warp;
+      }
     }
-    const double scale = std::sqrt(std::abs(track.warp.A.determinant()));
-    if (!aligned || !(scale <= max_scale && scale >= 1.0 / max_scale)) {
-      // A new reference where the track now is.
-      Track anchored;
-      anchored.left = p;
-      setReference(left, &anchored);
-      track.reference = std::move(anchored.reference);
-      track.warp = anchored.warp;
+  });
+  std::vector<uint8_t> keep(tracks_.size(), 1);
+  for (size_t i = 0; i < tracks_.size(); ++i) {
+    if (outcome[i] == kAligned) ++stats->refined;
+    if (outcome[i] == kRefused) {
+      ++stats->refine_failed;
+      if (options_.refine_end_failed) keep[i] = 0;
     }
   }
   return keep;

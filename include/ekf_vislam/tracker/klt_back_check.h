@@ -1,0 +1,31 @@
+// The back-check of pyramidal KLT matches: a match is tracked back from where it moved to and
+// kept when it lands within a tolerance of where it started. Only the listed candidates (the
+// matches that passed the cheaper checks) are tracked back, so the second KLT costs only what
+// can still be kept. OpenCV tracks every point on its own, so the result for a candidate is the
+// one it would get in a call over all points. No ROS.
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include <vector>
+
+namespace ekf_vislam {
+
+/// KLT settings shared by the forward and the backward pass.
+struct KltSettings {
+  cv::Size window;
+  int levels = 0;  ///< pyramid levels above the full image
+  cv::TermCriteria criteria;
+};
+
+/// `origin[i]` lies in `origin_pyramid`'s image and moved to `moved[i]` in `moved_pyramid`'s.
+/// Returns one flag per point: 1 where i is in `candidates`, its back-tracking from moved[i]
+/// (started at origin[i]) converged and ended within `tolerance_px` of origin[i].
+std::vector<uint8_t> backCheck(const std::vector<cv::Mat>& moved_pyramid,
+                               const std::vector<cv::Mat>& origin_pyramid,
+                               const std::vector<cv::Point2f>& moved,
+                               const std::vector<cv::Point2f>& origin,
+                               const std::vector<size_t>& candidates, const KltSettings& klt,
+                               double tolerance_px);
+
+}  // namespace ekf_vislam

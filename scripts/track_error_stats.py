@@ -56,6 +56,17 @@ def report(stats):
             lines.append('  %s %4.0f-%4.0f (%6d): %s' % (label, b['range_px'][0],
                                                          b['range_px'][1], b['count'],
                                                          fmt(b['mean'])))
+    spread = stats['per_track']
+    if spread['tracks']:
+        lines.append('per track (%d tracks of %d+ observations): RMS %s px, |drift| %s px per '
+                     'frame (percentiles %s); the worst 10 %% hold %.0f %% of the squared error, '
+                     'the worst 25 %% %.0f %%' % (
+                         spread['tracks'], track_errors.PER_TRACK_MIN,
+                         fmt(spread['rms_percentiles_px']),
+                         fmt(spread['drift_percentiles_px_per_frame']),
+                         '/'.join(str(p) for p in track_errors.PERCENTILES),
+                         100 * spread['worst_10_percent_share'],
+                         100 * spread['worst_25_percent_share']))
     return '\n'.join(lines)
 
 

@@ -4,8 +4,10 @@ Each track (an id seen in consecutive frames) gets the landmark that best explai
 stereo observations from the ground-truth camera poses (Gauss-Newton, Huber weights); its
 residuals are then the track's pixel errors (plus the ground truth's own pose error). From them:
 the stationary std, the correlation from one frame to the next (lag 1, 2, 5, 10), the part
-shared by all tracks of a frame, the std of the differenced error e_k - rho e_(k-1), and the
-mean drift per frame by image region (a systematic error no noise model averages away).
+shared by all tracks of a frame, the std of the differenced error e_k - rho e_(k-1), the mean
+drift per frame by image region (a systematic error no noise model averages away), and how
+unequal the tracks are (each track's RMS error and drift rate; the share of all squared error
+that the worst tracks hold).
 """
 import numpy as np
 
@@ -15,6 +17,8 @@ INLIER_PX = 6.0       # residuals beyond this are outliers for the statistics
 TRACK_MAX_PX = 20.0   # a track with a larger residual is dropped (wrong association)
 MIN_TRACK = 4         # observations
 LAGS = (1, 2, 5, 10)
+PER_TRACK_MIN = 6     # inlier observations for a track's own RMS and drift rate
+PERCENTILES = (10, 50, 90)
 
 
 def _project(cam_T_world, p_world, K, b):
@@ -112,7 +116,34 @@ def statistics(residual, frame, track, z):
     columns = np.quantile(where[:, 0], [0.0, 1.0 / 3.0, 2.0 / 3.0, 1.0])
     result['drift_per_frame']['by_row'] = _binned(increment, where[:, 1], rows)
     result['drift_per_frame']['by_column'] = _binned(increment, where[:, 0], columns)
+    result['per_track'] = _per_track(r, f, k)
     return result
+
+
+def _per_track(residual, frame, track):
+    """Each track's RMS error (uL, vL, uR: vR repeats vL in a rectified pair) and the slope of
+    its uL error against the frame index, over tracks of at least PER_TRACK_MIN observations:
+    percentiles, and the share of the squared error held by the 10 % and 25 % of them with the
+    largest RMS (white errors of one std: about 0.15 and 0.35, as tracks differ by chance)."""
+    order = np.argsort(track, kind='stable')
+    starts = np.flatnonzero(np.diff(track[order])) + 1
+    rms, slope, squared = [], [], []
+    for rows in np.split(order, starts):
+        if rows.size < PER_TRACK_MIN:
+            continue
+        e = residual[rows][:, :3]
+        rms.append(np.sqrt(np.mean(e ** 2)))
+        slope.append(abs(np.polyfit(frame[rows].astype(float), e[:, 0], 1)[0]))
+        squared.append(np.sum(e ** 2))
+    if not rms:
+        return dict(tracks=0)
+    squared = np.asarray(squared)[np.argsort(rms)[::-1]]
+    share = lambda fraction: float(squared[:max(1, int(fraction * squared.size))].sum() /  # noqa
+                                   squared.sum())
+    return dict(tracks=len(rms),
+                rms_percentiles_px=np.percentile(rms, PERCENTILES).tolist(),
+                drift_percentiles_px_per_frame=np.percentile(slope, PERCENTILES).tolist(),
+                worst_10_percent_share=share(0.10), worst_25_percent_share=share(0.25))
 
 
 def _binned(values, key, edges):

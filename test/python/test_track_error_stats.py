@@ -37,6 +37,14 @@ class TrackErrorStatsTest(unittest.TestCase):
         # The fitted landmark takes a little of each track's error: slightly negative.
         self.assertGreater(s['rho'], -0.15)
         self.assertLess(s['rho'], 0.05)
+        # Tracks of one white error differ only by chance: 10th and 90th percentile of their RMS
+        # within 1.5x, the 10 % with the largest RMS hold about 15 % of the squared error.
+        spread = s['per_track']
+        self.assertGreater(spread['tracks'], 500)
+        p10, p50, p90 = spread['rms_percentiles_px']
+        self.assertAlmostEqual(p50, 1.0, delta=0.12)
+        self.assertLess(p90 / p10, 1.5)
+        self.assertLess(spread['worst_10_percent_share'], 0.18)
 
     def test_drifting_tracks(self):
         s = self.stats('drift', '--pixel-correlation', 0.85)
@@ -44,6 +52,13 @@ class TrackErrorStatsTest(unittest.TestCase):
         self.assertLess(s['rho'], 0.9)
         for std in s['differenced_std']:
             self.assertLess(std, 0.7)  # sqrt(1 - 0.85^2) = 0.53 for the true rho
+        # A slow error wanders further on some tracks than on others: a wider spread than white
+        # tracks give (and still far from the KITTI course tracks' 5x).
+        spread = s['per_track']
+        p10, _, p90 = spread['rms_percentiles_px']
+        self.assertGreater(p90 / p10, 1.5)
+        self.assertGreater(spread['worst_10_percent_share'], 0.18)
+        self.assertGreater(spread['drift_percentiles_px_per_frame'][1], 0.035)
 
     def test_groundtruth_without_matching_stamps_is_refused(self):
         prefix = os.path.join(self.tmp, 'refused')

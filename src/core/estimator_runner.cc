@@ -228,8 +228,8 @@ RunSummary EstimatorRunner::summary() const {
   s.extra["track_correlation"] = estimator_.trackCorrelation();
   s.extra["track_variance_factor"] = estimator_.trackVarianceFactor();
   // Where the twist travels in its own frame (the vehicle prior assumes along x), degrees.
-  s.extra["twist_travel_yaw_deg"] = estimator_.travelDirection().yaw() * 180.0 / M_PI;
-  s.extra["twist_travel_pitch_deg"] = estimator_.travelDirection().pitch() * 180.0 / M_PI;
+  s.extra["twist_travel_yaw_deg"] = estimator_.travelDirection().yawDegrees();
+  s.extra["twist_travel_pitch_deg"] = estimator_.travelDirection().pitchDegrees();
   const Vector6d bias = estimator_.twistBias();
   const Eigen::Vector3d& drift = estimator_.trackDriftRate();
   for (int i = 0; i < 3; ++i) {

@@ -28,11 +28,10 @@ std::string travelDirectionHint(const TravelDirectionEstimator& travel,
   const bool vertical =
       vehicle.vertical_velocity_sigma > 0.0 && std::abs(travel.pitch()) > kTravelHintAngle;
   if (!lateral && !vertical) return "";
-  constexpr double kDegrees = 180.0 / M_PI;
   std::ostringstream text;
   text.precision(2);
-  text << std::fixed << "the twist travels " << travel.yaw() * kDegrees << " deg towards its y and "
-       << travel.pitch() * kDegrees
+  text << std::fixed << "the twist travels " << travel.yawDegrees() << " deg towards its y and "
+       << travel.pitchDegrees()
        << " deg towards its z, not along its x axis: the vehicle prior (vehicle/*_velocity_sigma) "
           "takes that part of the velocity for noise. Give the twist in a frame whose x is the "
           "vehicle's direction of travel, or set the two sigmas to 0";

@@ -138,8 +138,10 @@ def _per_track(residual, frame, track):
     if not rms:
         return dict(tracks=0)
     squared = np.asarray(squared)[np.argsort(rms)[::-1]]
-    share = lambda fraction: float(squared[:max(1, int(fraction * squared.size))].sum() /  # noqa
-                                   squared.sum())
+
+    def share(fraction):
+        return float(squared[:max(1, int(fraction * squared.size))].sum() / squared.sum())
+
     return dict(tracks=len(rms),
                 rms_percentiles_px=np.percentile(rms, PERCENTILES).tolist(),
                 drift_percentiles_px_per_frame=np.percentile(slope, PERCENTILES).tolist(),

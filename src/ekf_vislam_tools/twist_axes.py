@@ -32,7 +32,7 @@ MAX_DEPTH_M = 40.0
 #: A frame pair counts with at least this many usable tracks; fewer such pairs: no verdict. One
 #: track is enough: the verdict sums over hundreds of pairs, and a sparse feature source (1 % of
 #: the KITTI ids, 0.6 observations per frame) would otherwise get no verdict at all (3 tracks
-#: left 0-15 of 03's 1010 frame pairs at 1 %: a turned twist went through unturned).
+#: left 0-10 of 03's 1010 frame pairs at 1 %: a turned twist went through unturned).
 MIN_TRACKS_PER_FRAME = 1
 MIN_FRAMES = 20
 

@@ -531,8 +531,8 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
   status.add("baseline_scale", estimator.baselineScale());
   status.add("track_drift_rate_rad_s", estimator.trackDriftRate().norm());
   status.add("track_correlation", estimator.trackCorrelation());
-  status.add("twist_travel_yaw_deg", travel.yaw() * 180.0 / M_PI);
-  status.add("twist_travel_pitch_deg", travel.pitch() * 180.0 / M_PI);
+  status.add("twist_travel_yaw_deg", travel.yawDegrees());
+  status.add("twist_travel_pitch_deg", travel.pitchDegrees());
   status.add("observations_rejected", stats.observationsRejected());
   for (int i = 0; i < static_cast<int>(Counter::kCount); ++i) {
     status.add(counterName(static_cast<Counter>(i)), stats.get(static_cast<Counter>(i)));

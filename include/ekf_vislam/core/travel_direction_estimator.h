@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 
+#include <cmath>
 #include <cstddef>
 
 namespace ekf_vislam {
@@ -27,6 +28,9 @@ class TravelDirectionEstimator {
   /// Angles (rad) of the travel from x: towards +y (yaw) and towards +z (pitch); 0 without samples.
   double yaw() const;
   double pitch() const;
+  /// The same in degrees, the unit the diagnostics, stats.json and the warning report.
+  double yawDegrees() const { return yaw() * 180.0 / M_PI; }
+  double pitchDegrees() const { return pitch() * 180.0 / M_PI; }
 
  private:
   double min_speed_;

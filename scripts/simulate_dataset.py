@@ -55,6 +55,11 @@ def parse_args(argv):
                        help='highest forward speed (default %(default)s m/s)')
     scene.add_argument('--max-yaw-rate', type=float, default=d['max_yaw_rate'],
                        help='peak yaw rate of the sharpest turns (default %(default)s rad/s)')
+    scene.add_argument('--roll-amplitude', type=float, default=d['roll_amplitude'],
+                       metavar='DEG', help='peak roll against the level (default %(default)s deg)')
+    scene.add_argument('--pitch-amplitude', type=float, default=d['pitch_amplitude'],
+                       metavar='DEG', help='peak pitch against the level, hills and dips '
+                       '(default %(default)s deg)')
     scene.add_argument('--target-obs', type=int, default=d['target_obs'],
                        help='observations per frame aimed at (default %(default)s)')
     scene.add_argument('--track-loss', type=float, default=d['track_loss'],
@@ -77,7 +82,7 @@ def main(argv=None):
     options = {name: getattr(args, name) for name in (
         'frames', 'length_m', 'pixel_noise', 'pixel_correlation', 'outlier_rate',
         'velocity_noise', 'gyro_noise', 'gyro_bias', 'rate_hz', 'start_time', 'speed_min',
-        'speed_max', 'max_yaw_rate', 'target_obs', 'track_loss', 'landmark_density', 'max_depth')}
+        'speed_max', 'max_yaw_rate', 'roll_amplitude', 'pitch_amplitude', 'target_obs', 'track_loss', 'landmark_density', 'max_depth')}
     try:
         result = simulator.simulate(args.seed, **options)
     except ValueError as exc:

@@ -48,6 +48,8 @@ DEFAULT_OPTIONS = {
     'speed_min': 5.0,          # forward speed range, m/s
     'speed_max': 10.0,
     'max_yaw_rate': 0.3,       # peak yaw rate of the sharpest turns, rad/s
+    'roll_amplitude': 1.0,     # peak roll of the vehicle against the level, deg (smooth, 8-30 s)
+    'pitch_amplitude': 1.5,    # peak pitch, deg (smooth, periods 10-40 s): hills and dips
     # Scene and tracking
     'landmark_density': 5.0,   # landmarks per metre of road (both sides together)
     'target_obs': 70,          # observations per frame the tracker aims at (varies +-25 %)
@@ -132,12 +134,15 @@ def _check_options(opts):
             raise ValueError('%s must be positive, got %r' % (name, opts[name]))
     if opts['length_m'] is not None and not opts['length_m'] > 0:
         raise ValueError('length_m must be positive, got %r' % opts['length_m'])
-    for name in ('pixel_noise', 'velocity_noise', 'gyro_noise', 'time_jitter', 'min_disparity'):
+    for name in ('pixel_noise', 'velocity_noise', 'gyro_noise', 'time_jitter', 'min_disparity',
+                 'roll_amplitude', 'pitch_amplitude'):
         if not opts[name] >= 0:
             raise ValueError('%s must not be negative, got %r' % (name, opts[name]))
     for name in ('outlier_rate', 'track_loss', 'pixel_correlation'):
         if not 0 <= opts[name] < 1:
             raise ValueError('%s must be in [0, 1), got %r' % (name, opts[name]))
+    if max(opts['roll_amplitude'], opts['pitch_amplitude']) > 30.0:
+        raise ValueError('roll and pitch amplitudes must stay within 30 deg')
     if opts['speed_max'] - opts['speed_min'] < 1.0:
         raise ValueError('speed_max must exceed speed_min by at least 1 m/s')
     if opts['max_depth'] <= opts['min_depth']:
@@ -221,7 +226,7 @@ def _drive(rng, opts):
     pitch, pitch_rate = _smooth_signal(rng, (10.0, 40.0))
     lateral, _ = _smooth_signal(rng, (5.0, 20.0))
     vertical, _ = _smooth_signal(rng, (3.0, 15.0))
-    roll_amp, pitch_amp = np.radians(1.0), np.radians(1.5)
+    roll_amp, pitch_amp = np.radians(opts['roll_amplitude']), np.radians(opts['pitch_amplitude'])
 
     # Twist k+1 drives [t_k, t_k+1]: evaluate the profiles at the interval midpoints.
     tau = 0.5 * (t[:-1] + t[1:]) - t[0]

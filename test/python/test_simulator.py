@@ -185,7 +185,24 @@ class DeterminismTest(unittest.TestCase):
         r = simulator.simulate(4, length_m=150.0)
         self.assertAlmostEqual(r['path_length'], 150.0, delta=1.5)
 
+    def test_hills(self):
+        # A hilly drive: the vehicle's tilt against the first pose's level reaches several
+        # degrees, and the geometry and the measurements stay consistent.
+        flat = simulator.simulate(7, frames=300)
+        hilly = simulator.simulate(7, frames=300, roll_amplitude=3.0, pitch_amplitude=6.0)
+
+        def tilt_deg(result):
+            up = result['world_T_imu'][:, :3, 2]
+            return np.degrees(np.arccos(np.clip(up[:, 2], -1, 1)))
+        self.assertLess(tilt_deg(flat).max(), 5.0)
+        self.assertGreater(tilt_deg(hilly).max(), 6.0)
+        self.assertLess(tilt_deg(hilly).max(), 20.0)
+        np.testing.assert_allclose(integrate(hilly['t'], hilly['v_true'], hilly['w_true']),
+                                   hilly['world_T_imu'], atol=1e-9)
+
     def test_bad_options(self):
+        with self.assertRaises(ValueError):
+            simulator.simulate(1, pitch_amplitude=-1.0)
         with self.assertRaises(ValueError):
             simulator.simulate(1, outlier_rate=1.5)
         with self.assertRaises(ValueError):

@@ -230,6 +230,7 @@ RunSummary EstimatorRunner::summary() const {
   // Where the twist travels in its own frame (the vehicle prior assumes along x), degrees.
   s.extra["twist_travel_yaw_deg"] = estimator_.travelDirection().yawDegrees();
   s.extra["twist_travel_pitch_deg"] = estimator_.travelDirection().pitchDegrees();
+  s.extra["road_tilt_deg"] = estimator_.roadTiltDegrees();
   const Vector6d bias = estimator_.twistBias();
   const Eigen::Vector3d& drift = estimator_.trackDriftRate();
   for (int i = 0; i < 3; ++i) {

@@ -16,6 +16,7 @@ void FilterState::reset(const StatePrior& prior) {
   disparity_offset = 0.0;
   baseline_scale_error = 0.0;
   track_drift_rate_imu.setZero();
+  road_tilt_world.setZero();
   dim_ = layout_.headDim();
   const int capacity = std::max(64, dim_);
   sigma_ = Eigen::MatrixXd::Zero(capacity, capacity);
@@ -59,6 +60,14 @@ void FilterState::setPrior(const StatePrior& prior) {
   for (int i = 0; i < layout_.drift_dim; ++i) {
     const int row = layout_.driftRow() + i;
     sigma_(row, row) = prior.track_drift_rate_sigma * prior.track_drift_rate_sigma;
+  }
+  if (layout_.tilt_dim > 0) {
+    // The road is taken to be under the vehicle as it stands now.
+    road_tilt_world = se3::inverse(imu_T_world).block<2, 1>(0, 2);
+    for (int i = 0; i < layout_.tilt_dim; ++i) {
+      const int row = layout_.tiltRow() + i;
+      sigma_(row, row) = prior.road_tilt_sigma * prior.road_tilt_sigma;
+    }
   }
   if (layout_.reported_covariance) covariance(1) = sigma_.topLeftCorner(dim_, dim_);
   clonePose();
@@ -165,6 +174,7 @@ void FilterState::applyCorrection(const Eigen::VectorXd& dx, bool correct_pose) 
   if (L.disparity_dim > 0) disparity_offset += dx(L.disparityRow());
   if (L.scale_dim > 0) baseline_scale_error += dx(L.scaleRow());
   if (L.drift_dim > 0) track_drift_rate_imu += dx.segment<3>(L.driftRow());
+  if (L.tilt_dim > 0) road_tilt_world += dx.segment<2>(L.tiltRow());
   // Landmarks: p <- exp(dphi^) p + J_l(dphi) dxi (the SE_K(3) exponential).
   const Eigen::Vector3d dphi =
       correct_pose ? Eigen::Vector3d(dx.segment<3>(3)) : Eigen::Vector3d::Zero();

@@ -3,6 +3,7 @@
 #include "ekf_vislam/core/se3.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace ekf_vislam {
 
@@ -156,6 +157,23 @@ void Propagator::predict(double dt, const TwistData& twist, double noise_scale,
     S.noalias() += D * Q_world * D.transpose();
   }
   addRandomWalks(dt, state);
+  if (layout.tilt_dim > 0) propagateRoadTilt(dt * u.head<3>().norm(), state);
+}
+
+void Propagator::propagateRoadTilt(double distance, FilterState* state) const {
+  // First-order Gauss-Markov over the distance travelled: s' = f s + w, f = exp(-d / L),
+  // Var(w) = (1 - f^2) sigma^2, so the road's tilt keeps the stationary std sigma and forgets
+  // itself over L. Standing still, nothing changes.
+  const double f = std::exp(-distance / options_->vehicle.tilt_correlation_distance);
+  const double sigma = options_->vehicle.tilt_sigma;
+  const int row = state->layout().tiltRow();
+  state->road_tilt_world *= f;
+  for (int which = 0; which < state->covarianceCount(); ++which) {
+    auto S = state->covariance(which);
+    S.middleRows(row, 2) *= f;
+    S.middleCols(row, 2) *= f;
+    S.block<2, 2>(row, row).diagonal().array() += (1.0 - f * f) * sigma * sigma;
+  }
 }
 
 void Propagator::addRandomWalks(double dt, FilterState* state) const {

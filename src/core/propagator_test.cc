@@ -278,5 +278,51 @@ TEST(Propagator, OnlineTwistNoiseReplacesTheConfiguredDensitiesOnceReady) {
   EXPECT_DOUBLE_EQ(propagator.linearNoiseDensity(), options.noise.linear_velocity_noise);
 }
 
+TEST(Propagator, RoadTiltIsAGaussMarkovProcessOverTheDistanceTravelled) {
+  // s' = f s + w, f = exp(-d / L), Var(w) = (1 - f^2) sigma^2 over the distance d = |v| dt: rows
+  // and columns of the tilt scale by f, its block gains the process noise; standing still
+  // changes nothing.
+  VislamOptions options = noiselessOptions(EstimatorMode::kSlam);
+  options.vehicle.tilt_sigma = 0.05;
+  options.vehicle.tilt_correlation_distance = 200.0;
+  const Propagator propagator(options);
+  StateLayout layout;  // pose and tilt: nothing else moves the cross-covariance
+  layout.tilt_dim = 2;
+  FilterState state(layout);
+  state.reset(StatePrior());
+  std::mt19937 rng(7);
+  const Eigen::MatrixXd A = randomMatrix(state.dim(), state.dim(), &rng);
+  state.covariance() = 1e-3 * A * A.transpose();
+  state.road_tilt_world = Eigen::Vector2d(0.04, -0.02);
+  const int row = layout.tiltRow();
+
+  FilterState still = state;
+  TwistData stop;
+  propagator.predict(kDt, stop, 1.0, &still);
+  EXPECT_LT((still.road_tilt_world - state.road_tilt_world).norm(), 1e-15);
+  EXPECT_LT(
+      (still.covariance().block<2, 2>(row, row) - state.covariance().block<2, 2>(row, row)).norm(),
+      1e-15);
+
+  TwistData twist;
+  twist.v_imu = Eigen::Vector3d(30.0, 0.0, 0.0);  // 3 m in kDt, no turn
+  FilterState moved = state;
+  propagator.predict(kDt, twist, 1.0, &moved);
+  const double f = std::exp(-3.0 / 200.0);
+  EXPECT_LT((moved.road_tilt_world - f * state.road_tilt_world).norm(), 1e-12);
+  const Eigen::Matrix2d expected_block = f * f * state.covariance().block<2, 2>(row, row) +
+                                         (1.0 - f * f) * 0.05 * 0.05 * Eigen::Matrix2d::Identity();
+  EXPECT_LT((moved.covariance().block<2, 2>(row, row) - expected_block).norm(), 1e-12);
+  // The pose's cross-covariance with the tilt scales by f.
+  EXPECT_LT(
+      (moved.covariance().block<6, 2>(0, row) - f * state.covariance().block<6, 2>(0, row)).norm(),
+      1e-12);
+
+  // Far along, the tilt forgets its start: stationary std tilt_sigma, mean 0.
+  for (int k = 0; k < 1000; ++k) propagator.predict(kDt, twist, 1.0, &moved);
+  EXPECT_NEAR(moved.covariance()(row, row), 0.05 * 0.05, 1e-8);
+  EXPECT_LT(moved.road_tilt_world.norm(), 1e-7);
+}
+
 }  // namespace
 }  // namespace ekf_vislam

@@ -31,6 +31,8 @@ StateLayout layoutFor(const VislamOptions& options) {
   layout.clone_dim = clone && options.mode == EstimatorMode::kSlam ? StateLayout::kPoseDim : 0;
   layout.reported_covariance =
       options.noise.report_track_correlation && options.mode != EstimatorMode::kDeadReckoning;
+  layout.tilt_dim =
+      options.vehicle.tilt_sigma > 0.0 && options.mode == EstimatorMode::kSlam ? 2 : 0;
   return layout;
 }
 
@@ -41,6 +43,7 @@ VislamEstimator::VislamEstimator(const VislamOptions& options)
       state_(layoutFor(*options_)),
       screening_(*options_),
       propagator_(*options_),
+      tilt_updater_(*options_),
       updater_(*options_),
       landmarks_(*options_),
       repeated_handler_(*options_),
@@ -71,6 +74,7 @@ StatePrior VislamEstimator::prior() const {
   prior.disparity_offset_sigma = o.intrinsic.disparity_offset_prior_sigma;
   prior.baseline_scale_sigma = o.intrinsic.baseline_scale_prior_sigma;
   prior.track_drift_rate_sigma = o.track_drift.rate_prior_sigma;
+  prior.road_tilt_sigma = o.vehicle.body_tilt_sigma;
   return prior;
 }
 
@@ -90,6 +94,7 @@ void VislamEstimator::initializeState() {
   last_frame_stamp_ = 0.0;
   held_twist_ = TwistData();
   propagator_.resetTwistEstimates();
+  tilt_updater_.reset();
   state_.reset(prior());
   repeated_handler_.clear();
   if (has_calibration_) camera_ = scaledStereoCamera(nominal_calibration_, 0.0);
@@ -181,6 +186,7 @@ void VislamEstimator::advanceTo(double stamp, const TwistData& twist, double twi
   }
   propagator_.predict(dt, twist, noise_scale, &state_);
   time_ = stamp;
+  tilt_updater_.update(time_, &state_);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -409,6 +415,10 @@ Matrix6d VislamEstimator::correctedTwistCovariance() const {
 double VislamEstimator::baselineScaleSigma() const {
   const int row = state_.layout().scaleRow();
   return state_.layout().scale_dim > 0 ? std::sqrt(state_.covariance()(row, row)) : 0.0;
+}
+
+double VislamEstimator::roadTiltDegrees() const {
+  return std::asin(std::min(1.0, state_.road_tilt_world.norm())) * 180.0 / M_PI;
 }
 
 double VislamEstimator::disparityOffsetSigma() const {

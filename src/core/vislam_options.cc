@@ -77,6 +77,11 @@ void visitVislamOptions(Options& o, Visitor& v) {
   v.number("vehicle/lateral_velocity_sigma", o.vehicle.lateral_velocity_sigma, Bound::kNonNegative);
   v.number("vehicle/vertical_velocity_sigma", o.vehicle.vertical_velocity_sigma,
            Bound::kNonNegative);
+  v.number("vehicle/tilt_sigma", o.vehicle.tilt_sigma, Bound::kNonNegative);
+  v.number("vehicle/tilt_correlation_distance", o.vehicle.tilt_correlation_distance,
+           Bound::kPositive);
+  v.number("vehicle/body_tilt_sigma", o.vehicle.body_tilt_sigma, Bound::kPositive);
+  v.number("vehicle/tilt_update_period", o.vehicle.tilt_update_period, Bound::kPositive);
 
   auto& landmarks = o.landmarks;
   v.number("landmarks/min_disparity_px", landmarks.min_disparity_px, Bound::kPositive);

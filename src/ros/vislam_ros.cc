@@ -533,6 +533,7 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
   status.add("track_correlation", estimator.trackCorrelation());
   status.add("twist_travel_yaw_deg", travel.yawDegrees());
   status.add("twist_travel_pitch_deg", travel.pitchDegrees());
+  status.add("road_tilt_deg", estimator.roadTiltDegrees());
   status.add("observations_rejected", stats.observationsRejected());
   for (int i = 0; i < static_cast<int>(Counter::kCount); ++i) {
     status.add(counterName(static_cast<Counter>(i)), stats.get(static_cast<Counter>(i)));

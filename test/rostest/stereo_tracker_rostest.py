@@ -103,7 +103,10 @@ class StereoTrackerPipelineTest(unittest.TestCase):
     def test_01_features(self):
         features = list(self.features)
         log('%d feature messages, %d images' % (len(features), len(self.images)))
-        self.assertEqual(len(features), FRAMES)  # a pair late for any reason waits
+        # A pair late for any reason waits; should one go missing, say where it went.
+        _, tracker = self.latest_status('stereo tracker')
+        self.assertEqual(len(features), FRAMES, 'tracker diagnostics: %s' % sorted(
+            (k, v) for k, v in tracker.items() if k.startswith(('pairs', 'images', 'frames'))))
         image_stamps = set(s.to_nsec() for s in self.images)
         ids_seen = {}
         for msg in features:

@@ -294,8 +294,10 @@ class VislamPipelineTest(unittest.TestCase):
         for key in ('twist_rate_hz', 'feature_rate_hz', 'update_ms_last', 'update_ms_p99',
                     'active_landmarks', 'total_landmarks', 'state_dimension',
                     'observation_gated', 'observation_disparity', 'frame_no_calibration',
-                    'twist_travel_yaw_deg', 'twist_travel_pitch_deg'):
+                    'twist_travel_yaw_deg', 'twist_travel_pitch_deg', 'road_tilt_deg'):
             self.assertIn(key, keys)
+        # The simulated road is within 1.5 degrees of level; the estimate must say so.
+        self.assertLess(float(keys['road_tilt_deg']), 4.0)
         # The simulated twist travels along its x: the vehicle prior's assumption holds.
         self.assertLess(abs(float(keys['twist_travel_pitch_deg'])), 1.0)
         self.assertLess(abs(float(keys['twist_travel_yaw_deg'])), 1.0)

@@ -1,10 +1,10 @@
-// The EKF state: named variables (pose, twist bias, twist rotation, stereo calibration, pose
-// clone, landmarks), their means and one joint covariance. No ROS.
+// The EKF state: named variables (pose, twist bias, twist rotation, stereo calibration, track
+// drift rate, road tilt, pose clone, landmarks), their means and one joint covariance. No ROS.
 //
 // Error definitions (doc/estimator.md): pose world_T_imu = exp(eps^) world_T_imu_mean with
 // eps = [rho; phi] (world frame, translation first); bias b_true = b_mean + db; twist rotation
 // R_m = exp(theta^) R_m_mean; disparity offset, baseline-scale error and track drift rate
-// additive; the clone like
+// additive; road tilt additive; the clone like
 // the pose; landmark i: p_i = exp(phi^) p_i_mean + xi_i in SLAM mode (right-invariant error),
 // p_i = p_i_mean + xi_i otherwise.
 #pragma once
@@ -18,7 +18,8 @@
 namespace ekf_vislam {
 
 /// Which variables the state holds and where their rows are. Order: pose, bias, twist rotation,
-/// disparity offset, baseline scale, track drift rate, clone, then the landmarks (3 rows each).
+/// disparity offset, baseline scale, track drift rate, road tilt, clone, then the landmarks (3
+/// rows each).
 struct StateLayout {
   static constexpr int kPoseRow = 0;
   static constexpr int kPoseDim = 6;
@@ -28,6 +29,7 @@ struct StateLayout {
   int disparity_dim = 0;  ///< 1 when the disparity offset is estimated
   int scale_dim = 0;      ///< 1 when the baseline scale is estimated
   int drift_dim = 0;      ///< 3 when the track drift rate is estimated
+  int tilt_dim = 0;       ///< 2 with the road tilt (vehicle/tilt_sigma > 0)
   int clone_dim = 0;      ///< 6 when the pose clone has rows (repeated frames, SLAM mode)
   /// A second covariance, the reported one, is carried beside the one the gains use
   /// (noise/report_track_correlation): same propagation, augmentation and marginalization; its
@@ -42,8 +44,10 @@ struct StateLayout {
   int disparityRow() const { return calibrationRow(); }
   int scaleRow() const { return calibrationRow() + disparity_dim; }
   int driftRow() const { return calibrationRow() + calibrationDim(); }
-  /// States between the pose and the clone: bias, twist rotation, calibration, track drift.
-  int auxDim() const { return biasDim() + rotation_dim + calibrationDim() + drift_dim; }
+  int tiltRow() const { return driftRow() + drift_dim; }
+  /// States between the pose and the clone: bias, twist rotation, calibration, track drift,
+  /// road tilt.
+  int auxDim() const { return biasDim() + rotation_dim + calibrationDim() + drift_dim + tilt_dim; }
   int cloneRow() const { return kPoseDim + auxDim(); }
   /// Rows before the first landmark.
   int headDim() const { return cloneRow() + clone_dim; }
@@ -60,6 +64,7 @@ struct StatePrior {
   double disparity_offset_sigma = 0.0;
   double baseline_scale_sigma = 0.0;
   double track_drift_rate_sigma = 0.0;  ///< rad/s, each IMU axis
+  double road_tilt_sigma = 0.0;         ///< rad, each world axis
 };
 
 class FilterState {
@@ -98,6 +103,9 @@ class FilterState {
   /// Rate (rad/s, IMU axes) at which the feature tracks turn away from their points: an
   /// observation of age a (s since its landmark started) shows the point at exp(a w^) p_imu.
   Eigen::Vector3d track_drift_rate_imu = Eigen::Vector3d::Zero();
+  /// Tilt of the road under the vehicle: the world-x and world-y components of the road's
+  /// normal (0 on a road as level as the first pose); the vehicle's up axis follows it.
+  Eigen::Vector2d road_tilt_world = Eigen::Vector2d::Zero();
   Eigen::Vector3d landmark(size_t index) const {
     return landmark_means_.segment<3>(layout_.landmarkRow(index));
   }

@@ -1,5 +1,6 @@
 // Prediction of the filter state with a body-frame twist: the twist correction (bias, twist
-// rotation, vehicle prior), its noise and the covariance propagation. No ROS.
+// rotation, vehicle prior), its noise, the covariance propagation and the road tilt's
+// Gauss-Markov step. No ROS.
 #pragma once
 
 #include "ekf_vislam/core/filter_state.h"
@@ -69,6 +70,8 @@ class Propagator {
   Eigen::MatrixXd twistJacobian(const FilterState& state, const TwistData& twist,
                                 const Vector6d& u) const;
   void addRandomWalks(double dt, FilterState* state) const;
+  /// The road tilt's Gauss-Markov step over `distance` m travelled (vehicle/).
+  void propagateRoadTilt(double distance, FilterState* state) const;
   void addRandomWalks(double dt, const StateLayout& layout, Eigen::Block<Eigen::MatrixXd> S) const;
   double period() const { return std::max(1e-3, sample_period_); }
 

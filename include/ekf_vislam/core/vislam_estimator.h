@@ -14,7 +14,8 @@
 // is H_phi = 0, H_rho = -H_landmark: the filter stays consistent whatever the linearization point.
 // Outputs (map covariances, pose covariance) are converted to ordinary additive errors.
 
-// The estimator orchestrates small components: InputScreening, Propagator, LandmarkManager,
+// The estimator orchestrates small components: InputScreening, Propagator, VehicleTiltUpdater
+// (the road tilt prior, SLAM mode), LandmarkManager,
 // StereoUpdater (through state_helper's generic EKF operations on a FilterState),
 // RepeatedFrameHandler and HealthMonitor.
 //
@@ -37,6 +38,7 @@
 #include "ekf_vislam/core/stereo_camera.h"
 #include "ekf_vislam/core/stereo_updater.h"
 #include "ekf_vislam/core/types.h"
+#include "ekf_vislam/core/vehicle_tilt_updater.h"
 #include "ekf_vislam/core/vislam_options.h"
 
 #include <Eigen/Core>
@@ -95,6 +97,9 @@ class VislamEstimator {
   /// zero when not estimated).
   const Eigen::Vector3d& trackDriftRate() const { return state_.track_drift_rate_imu; }
   double baselineScaleSigma() const;
+  /// Tilt of the road under the vehicle against the first pose's level, degrees (vehicle/
+  /// tilt_sigma; 0 without the road tilt in the state).
+  double roadTiltDegrees() const;
   /// Frame-to-frame correlation of the tracks' residuals (noise/report_track_correlation; 0
   /// until enough tracks were seen twice) and the factor (1 + rho) / (1 - rho) on the pixel
   /// variance of the reported covariance.
@@ -141,6 +146,7 @@ class VislamEstimator {
   FilterState state_;
   InputScreening screening_;
   Propagator propagator_;
+  VehicleTiltUpdater tilt_updater_;
   StereoUpdater updater_;
   LandmarkManager landmarks_;
   RepeatedFrameHandler repeated_handler_;

@@ -125,12 +125,19 @@ struct TrackDriftOptions {
   double rate_random_walk = 0.0;   ///< rad/s/sqrt(s)
 };
 
-/// vehicle/: ground-vehicle (non-holonomic) prior on the IMU-frame velocity (x forward). The
-/// measured lateral (y) and vertical (z) velocity is fused with a zero-mean prior of this std
-/// before it drives the prediction. 0 = no prior on that axis.
+/// vehicle/: ground-vehicle priors. The measured lateral (y) and vertical (z) velocity (IMU frame,
+/// x forward) is fused with a zero-mean prior of its std before it drives the prediction (0 = no
+/// prior on that axis). The vehicle's tilt (roll and pitch against the world's horizontal plane,
+/// the first pose being level) follows the road: a Gauss-Markov process over the distance
+/// travelled, with the body's own tilt on its suspension about it (doc/estimator.md, "Road
+/// tilt"). tilt_sigma 0 = no tilt prior.
 struct VehicleOptions {
-  double lateral_velocity_sigma = 0.1;   ///< m/s
-  double vertical_velocity_sigma = 0.1;  ///< m/s
+  double lateral_velocity_sigma = 0.1;       ///< m/s
+  double vertical_velocity_sigma = 0.1;      ///< m/s
+  double tilt_sigma = 0.05;                  ///< rad, std of the road's tilt from the start's
+  double tilt_correlation_distance = 200.0;  ///< m, over which the road's tilt decorrelates
+  double body_tilt_sigma = 0.01;             ///< rad, the body's tilt about the road's
+  double tilt_update_period = 1.0;           ///< s between two tilt pseudo-observations
 };
 
 /// landmarks/: initialization, gating and the life cycle of landmarks.

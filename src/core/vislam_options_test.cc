@@ -115,6 +115,36 @@ TEST(VislamOptions, ModeNamesRoundTrip) {
   EXPECT_FALSE(parseMode("SLAM ", &unused));
 }
 
+TEST(YamlParameterSource, KeysAreTheLeavesOfTheMaps) {
+  const YamlParameterSource source = YamlParameterSource::fromString(
+      "mode: slam\nnoise: {pixel_sigma: 2, merge_stereo_rows: true}\n"
+      "ros:\n  calibration: {fx: 700, cam_T_imu: [1, 0]}\n  empty:\n");
+  EXPECT_EQ(source.keys(),
+            (std::vector<std::string>{"mode", "noise/merge_stereo_rows", "noise/pixel_sigma",
+                                      "ros/calibration/cam_T_imu", "ros/calibration/fx"}));
+}
+
+TEST(ParameterSource, UnknownKeysAreNamedWithTheNearestKnownOne) {
+  const YamlParameterSource source = YamlParameterSource::fromString(
+      "noise: {pixel_sigma: 2, pixl_sigma: 3}\nvehicle: {tilt_sigm: 0}\n"
+      "ros: {calibration: {fx: 700}}\nsomething_else: 1\n");
+  std::vector<std::string> known;
+  appendKeyNames(vislamOptionKeys(), &known);
+  const std::vector<std::string> unknown = unknownKeys(source, known, {"ros/calibration/"});
+  EXPECT_EQ(unknown,
+            (std::vector<std::string>{"noise/pixl_sigma", "something_else", "vehicle/tilt_sigm"}));
+  EXPECT_EQ(describeUnknownKeys(unknown, known),
+            "unknown keys ignored: noise/pixl_sigma (noise/pixel_sigma?), something_else, "
+            "vehicle/tilt_sigm (vehicle/tilt_sigma?)");
+  EXPECT_EQ(describeUnknownKeys({}, known), "");
+  // The shipped file holds the core's keys and the ROS layer's (ros/): none of the core's is
+  // unknown to it.
+  const YamlParameterSource shipped(std::string(EKF_VISLAM_SOURCE_DIR) + "/config/default.yaml");
+  for (const std::string& key : unknownKeys(shipped, known)) {
+    EXPECT_EQ(key.rfind("ros/", 0), 0u) << key;
+  }
+}
+
 TEST(YamlParameterSource, MissingFileAndSyntaxErrorsAreReported) {
   const YamlParameterSource missing("/nonexistent/ekf_vislam.yaml");
   EXPECT_FALSE(missing.ok());

@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <sstream>
 
 namespace ekf_vislam {
@@ -45,6 +46,27 @@ bool YamlParameterSource::lookup(const std::string& key, YAML::Node* node) const
   }
   node->reset(current);
   return true;
+}
+
+namespace {
+void collectKeys(const YAML::Node& node, const std::string& prefix,
+                 std::vector<std::string>* keys) {
+  if (!node.IsMap()) {
+    if (!prefix.empty() && !node.IsNull()) keys->push_back(prefix);
+    return;
+  }
+  for (const auto& entry : node) {
+    const std::string name = entry.first.as<std::string>();
+    collectKeys(entry.second, prefix.empty() ? name : prefix + "/" + name, keys);
+  }
+}
+}  // namespace
+
+std::vector<std::string> YamlParameterSource::keys() const {
+  std::vector<std::string> keys;
+  if (root_) collectKeys(*root_, "", &keys);
+  std::sort(keys.begin(), keys.end());
+  return keys;
 }
 
 bool YamlParameterSource::has(const std::string& key) const {

@@ -401,6 +401,15 @@ TEST(RosOptions, StringFormOfCamTImu) {
   EXPECT_EQ(target.validate(), "");
 }
 
+TEST(RosOptions, ShippedConfigHasNoUnknownKeyAndATypoIsNamed) {
+  const YamlParameterSource shipped(std::string(EKF_VISLAM_SOURCE_DIR) + "/config/default.yaml");
+  ASSERT_TRUE(shipped.ok()) << shipped.error();
+  EXPECT_EQ(unknownEstimatorKeys(shipped), "");
+  EXPECT_EQ(unknownEstimatorKeys(YamlParameterSource::fromString(
+                "ros: {publish_tff: false, calibration: {fx: 700}}\nvehicle: {tilt_sigma: 0}\n")),
+            "unknown key ignored: ros/publish_tff (ros/publish_tf?)");
+}
+
 TEST(RosOptions, ShippedConfigHasEveryKeyAndEveryBoundedKeyIsChecked) {
   const YamlParameterSource shipped(std::string(EKF_VISLAM_SOURCE_DIR) + "/config/default.yaml");
   ASSERT_TRUE(shipped.ok()) << shipped.error();

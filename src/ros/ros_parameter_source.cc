@@ -2,6 +2,7 @@
 
 #include <XmlRpcValue.h>
 
+#include <algorithm>
 #include <sstream>
 
 namespace ekf_vislam {
@@ -65,6 +66,19 @@ bool RosParameterSource::getString(const std::string& key, std::string* value) c
 
 std::string RosParameterSource::describe() const {
   return "ROS parameters under " + nh_.getNamespace();
+}
+
+std::vector<std::string> RosParameterSource::keys() const {
+  std::vector<std::string> all, keys;
+  if (!nh_.getParamNames(all)) return keys;
+  const std::string prefix = nh_.getNamespace() + "/";
+  for (const std::string& name : all) {
+    if (name.size() > prefix.size() && name.compare(0, prefix.size(), prefix) == 0) {
+      keys.push_back(name.substr(prefix.size()));
+    }
+  }
+  std::sort(keys.begin(), keys.end());
+  return keys;
 }
 
 }  // namespace ekf_vislam

@@ -49,6 +49,10 @@ StereoTrackerRos::StereoTrackerRos(const ros::NodeHandle& nh, const ros::NodeHan
     ROS_FATAL("%s: invalid parameters: %s", name_.c_str(), error.c_str());
     throw std::runtime_error("invalid parameters: " + error);
   }
+  const std::string unknown = unknownTrackerKeys(source);
+  if (!unknown.empty()) {
+    ROS_WARN("%s: %s: %s", name_.c_str(), source.describe().c_str(), unknown.c_str());
+  }
   ROS_INFO("%s: tracker options (from %s):\n%s", name_.c_str(), source.describe().c_str(),
            describeOptions(options_).c_str());
   time_jumps_ = TimeJumpDetector(ros_options_.time_jump_reset, 2);

@@ -31,6 +31,10 @@ VislamRos::VislamRos(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, cons
     ROS_FATAL("%s: invalid parameters: %s", name_.c_str(), why.c_str());
     throw std::runtime_error("invalid parameters: " + why);
   }
+  unknown_parameters_ = unknownEstimatorKeys(source);
+  if (!unknown_parameters_.empty()) {
+    ROS_WARN("%s: %s: %s", name_.c_str(), source.describe().c_str(), unknown_parameters_.c_str());
+  }
   ROS_INFO("%s: effective options (from %s):\n%s\n%s", name_.c_str(), source.describe().c_str(),
            describeOptions(options_).c_str(), describeOptions(ros_options_).c_str());
 
@@ -513,6 +517,7 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
   }
   status.add("mode", modeName(options_.mode));
   status.add("calibration", calibration_status_);
+  status.add("unknown_parameters", unknown_parameters_.empty() ? "none" : unknown_parameters_);
   status.add("twist_rate_hz", twist_rate);
   status.add("feature_rate_hz", feature_rate);
   status.add("twists_received", twists_received_);

@@ -141,4 +141,11 @@ std::vector<OptionKeyList::Key> vislamRosOptionKeys() {
   return list.keys();
 }
 
+std::string unknownEstimatorKeys(const ParameterSource& source) {
+  std::vector<std::string> known;
+  appendKeyNames(vislamOptionKeys(), &known);
+  appendKeyNames(vislamRosOptionKeys(), &known);
+  return describeUnknownKeys(unknownKeys(source, known, {"ros/calibration/"}), known);
+}
+
 }  // namespace ekf_vislam

@@ -138,6 +138,8 @@ bool loadOptions(const std::string& path, TrackerOptions* options, std::string* 
       return false;
     }
     if (!parseTrackerOptions(source, options, error)) return false;
+    const std::string unknown = unknownTrackerKeys(source);
+    if (!unknown.empty()) std::cerr << "track_stereo_images: " << path << ": " << unknown << "\n";
   }
   *error = options->validate();
   return error->empty();

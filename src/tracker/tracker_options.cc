@@ -107,4 +107,17 @@ std::vector<OptionKeyList::Key> trackerOptionKeys() {
   return list.keys();
 }
 
+const std::vector<std::string>& trackerRosKeyNames() {
+  static const std::vector<std::string> names = {
+      "ros/queue_size",     "ros/max_stamp_difference", "ros/use_twist",
+      "ros/max_twist_wait", "ros/diagnostic_period",    "ros/time_jump_reset"};
+  return names;
+}
+
+std::string unknownTrackerKeys(const ParameterSource& source) {
+  std::vector<std::string> known = trackerRosKeyNames();
+  appendKeyNames(trackerOptionKeys(), &known);
+  return describeUnknownKeys(unknownKeys(source, known), known);
+}
+
 }  // namespace ekf_vislam

@@ -21,6 +21,15 @@ TEST(TrackerOptions, ShippedFileEqualsTheDefaults) {
   EXPECT_EQ(describeOptions(options), describeOptions(TrackerOptions()));
 }
 
+TEST(TrackerOptions, ShippedFileHasNoUnknownKeyAndATypoIsNamed) {
+  YamlParameterSource source(std::string(EKF_VISLAM_SOURCE_DIR) + "/config/tracker.yaml");
+  ASSERT_TRUE(source.ok()) << source.error();
+  EXPECT_EQ(unknownTrackerKeys(source), "");
+  EXPECT_EQ(unknownTrackerKeys(YamlParameterSource::fromString(
+                "ros: {use_twist: true, queue_sise: 3}\ndetector: {grid_cols: 4}\n")),
+            "unknown key ignored: ros/queue_sise (ros/queue_size?)");
+}
+
 TEST(TrackerOptions, ParsesAndRejects) {
   TrackerOptions options;
   std::string error;

@@ -296,6 +296,7 @@ class VislamPipelineTest(unittest.TestCase):
                     'observation_gated', 'observation_disparity', 'frame_no_calibration',
                     'twist_travel_yaw_deg', 'twist_travel_pitch_deg', 'road_tilt_deg'):
             self.assertIn(key, keys)
+        self.assertIn('vehicle/tilt_sigm (vehicle/tilt_sigma?)', keys['unknown_parameters'])
         # The simulated road is within 1.5 degrees of level; the estimate must say so.
         self.assertLess(float(keys['road_tilt_deg']), 4.0)
         # The simulated twist travels along its x: the vehicle prior's assumption holds.

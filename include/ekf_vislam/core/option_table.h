@@ -126,4 +126,10 @@ class OptionKeyList {
   std::vector<Key> keys_;
 };
 
+/// The names of `keys` ("noise/pixel_sigma", ...), appended to `names`.
+inline void appendKeyNames(const std::vector<OptionKeyList::Key>& keys,
+                           std::vector<std::string>* names) {
+  for (const OptionKeyList::Key& key : keys) names->push_back(key.name);
+}
+
 }  // namespace ekf_vislam

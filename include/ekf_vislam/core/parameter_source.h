@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 namespace ekf_vislam {
 
@@ -19,6 +20,19 @@ class ParameterSource {
   virtual bool getString(const std::string& key, std::string* value) const = 0;
   /// Human-readable origin for error messages, e.g. "config/default.yaml".
   virtual std::string describe() const = 0;
+  /// Every key the source holds a value for (maps are walked, anything else is a value), sorted.
+  virtual std::vector<std::string> keys() const = 0;
 };
+
+/// The keys of `source` that are neither in `known` nor below one of `known_groups` (e.g.
+/// "ros/calibration/"): typing mistakes, which would otherwise be ignored in silence.
+std::vector<std::string> unknownKeys(const ParameterSource& source,
+                                     const std::vector<std::string>& known,
+                                     const std::vector<std::string>& known_groups = {});
+
+/// "" when `unknown` is empty, else one line naming each key and the known key nearest to it:
+/// "unknown keys ignored: vehicle/tilt_sigm (vehicle/tilt_sigma?)".
+std::string describeUnknownKeys(const std::vector<std::string>& unknown,
+                                const std::vector<std::string>& known);
 
 }  // namespace ekf_vislam

@@ -30,6 +30,7 @@ class YamlParameterSource : public ParameterSource {
   bool getBool(const std::string& key, bool* value) const override;
   bool getString(const std::string& key, std::string* value) const override;
   std::string describe() const override { return origin_; }
+  std::vector<std::string> keys() const override;
 
  private:
   YamlParameterSource() = default;

@@ -24,6 +24,8 @@ class RosParameterSource : public ParameterSource {
   /// Accepts a list of numbers too, returned space-separated (e.g. calibration/cam_T_imu).
   bool getString(const std::string& key, std::string* value) const override;
   std::string describe() const override;
+  /// The parameters below the node handle's namespace, relative to it.
+  std::vector<std::string> keys() const override;
 
  private:
   ros::NodeHandle nh_;

@@ -106,6 +106,8 @@ class VislamRos {
   sensor_msgs::CameraInfo::ConstPtr right_info_;
   std::string camera_frame_;
   std::string calibration_status_ = "waiting for camera_info and tf";
+  /// Parameters in the private namespace that no option reads (typing mistakes), or "".
+  std::string unknown_parameters_;
   std::string rejected_calibration_;  ///< last refused calibration message (logged once each)
   ros::WallTime first_input_;
   bool calibration_wait_over_ = false;

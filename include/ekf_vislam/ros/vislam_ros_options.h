@@ -50,4 +50,9 @@ std::string describeOptions(const VislamRosOptions& options);
 /// Every key of the ros/ key table (the ros/calibration/ group aside).
 std::vector<OptionKeyList::Key> vislamRosOptionKeys();
 
+/// The keys of an estimator configuration (config/default.yaml: the core's options, ros/ and
+/// ros/calibration/) that `source` holds but nothing reads, as one line to warn with ("" when
+/// none; parameter_source.h).
+std::string unknownEstimatorKeys(const ParameterSource& source);
+
 }  // namespace ekf_vislam

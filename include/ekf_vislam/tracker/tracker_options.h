@@ -96,4 +96,11 @@ std::string describeOptions(const TrackerOptions& options);
 /// Every key of the table ("detector/type", ...), with its kind and range.
 std::vector<OptionKeyList::Key> trackerOptionKeys();
 
+/// The keys of config/tracker.yaml's ros/ group, which the nodelet reads (StereoTrackerRos).
+const std::vector<std::string>& trackerRosKeyNames();
+
+/// The keys of a tracker configuration (the table and the ros/ group) that `source` holds but
+/// nothing reads, as one line to warn with ("" when none; parameter_source.h).
+std::string unknownTrackerKeys(const ParameterSource& source);
+
 }  // namespace ekf_vislam

@@ -1,7 +1,6 @@
 #include "ekf_vislam/core/vehicle_tilt_updater.h"
 
 #include "ekf_vislam/core/se3.h"
-#include "ekf_vislam/core/state_helper.h"
 
 #include <vector>
 
@@ -17,11 +16,11 @@ TiltObservation observeTilt(const Eigen::Matrix3d& world_R_imu,
   return obs;
 }
 
-bool VehicleTiltUpdater::update(double time, FilterState* state) {
+std::optional<UpdateStatus> VehicleTiltUpdater::update(double time, FilterState* state) {
   const StateLayout& layout = state->layout();
-  if (layout.tilt_dim == 0) return false;
+  if (layout.tilt_dim == 0) return std::nullopt;
   if (last_update_time_ == kNever) last_update_time_ = time;
-  if (time - last_update_time_ < options_->vehicle.tilt_update_period) return false;
+  if (time - last_update_time_ < options_->vehicle.tilt_update_period) return std::nullopt;
   last_update_time_ = time;
   const Eigen::Matrix3d world_R_imu = se3::inverse(state->imu_T_world).topLeftCorner<3, 3>();
   const TiltObservation obs = observeTilt(world_R_imu, state->road_tilt_world);
@@ -31,8 +30,7 @@ bool VehicleTiltUpdater::update(double time, FilterState* state) {
       {{StateLayout::kPoseRow, H_pose}, {layout.tiltRow(), -Eigen::MatrixXd::Identity(2, 2)}}};
   // The body's tilt is no track error: the reported covariance takes the same noise.
   const double variance = options_->vehicle.body_tilt_sigma * options_->vehicle.body_tilt_sigma;
-  return state_helper::update(state, jacobians, obs.residual, variance, true, variance).status ==
-         UpdateStatus::kApplied;
+  return state_helper::update(state, jacobians, obs.residual, variance, true, variance).status;
 }
 
 }  // namespace ekf_vislam

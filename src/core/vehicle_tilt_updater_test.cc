@@ -62,14 +62,14 @@ TEST(VehicleTiltUpdater, UpdatesOncePerPeriodOfFilterTime) {
   const VislamOptions options = tiltOptions();
   VehicleTiltUpdater updater(options);
   FilterState state = tiltState();
-  EXPECT_FALSE(updater.update(10.0, &state));  // the first call starts the period
-  EXPECT_FALSE(updater.update(10.5, &state));
-  EXPECT_TRUE(updater.update(11.0, &state));
-  EXPECT_FALSE(updater.update(11.9, &state));
-  EXPECT_TRUE(updater.update(12.2, &state));
+  EXPECT_EQ(updater.update(10.0, &state), std::nullopt);  // the first call starts the period
+  EXPECT_EQ(updater.update(10.5, &state), std::nullopt);
+  EXPECT_EQ(updater.update(11.0, &state), UpdateStatus::kApplied);
+  EXPECT_EQ(updater.update(11.9, &state), std::nullopt);
+  EXPECT_EQ(updater.update(12.2, &state), UpdateStatus::kApplied);
   updater.reset();
-  EXPECT_FALSE(updater.update(20.0, &state));
-  EXPECT_TRUE(updater.update(21.0, &state));
+  EXPECT_EQ(updater.update(20.0, &state), std::nullopt);
+  EXPECT_EQ(updater.update(21.0, &state), UpdateStatus::kApplied);
 }
 
 TEST(VehicleTiltUpdater, DoesNothingWithoutTheRoadTiltInTheState) {
@@ -80,8 +80,8 @@ TEST(VehicleTiltUpdater, DoesNothingWithoutTheRoadTiltInTheState) {
   state.reset(StatePrior());
   state.imu_T_world = se3::exp((Vector6d() << 0, 0, 0, 0.1, 0, 0).finished());
   const Eigen::Matrix4d before = state.imu_T_world;
-  EXPECT_FALSE(updater.update(0.0, &state));
-  EXPECT_FALSE(updater.update(5.0, &state));
+  EXPECT_EQ(updater.update(0.0, &state), std::nullopt);
+  EXPECT_EQ(updater.update(5.0, &state), std::nullopt);
   EXPECT_EQ(state.imu_T_world, before);
 }
 
@@ -101,7 +101,7 @@ TEST(VehicleTiltUpdater, AnUncertainTiltIsPulledToTheRoadAndAnUncertainRoadToThe
     S.block<3, 3>(6, 6).diagonal().setConstant(1e-4);  // gyro bias, uncorrelated
     VehicleTiltUpdater updater(options);
     updater.update(0.0, &state);
-    ASSERT_TRUE(updater.update(1.0, &state));
+    ASSERT_EQ(updater.update(1.0, &state), UpdateStatus::kApplied);
     const Eigen::Vector3d up = se3::inverse(state.imu_T_world).block<3, 1>(0, 2);
     const double body_var = 0.01 * 0.01;
     if (vehicle_uncertain) {
@@ -135,7 +135,7 @@ TEST(VehicleTiltUpdater, TheReportedCovarianceTakesTheSameNoise) {
   state.imu_T_world = se3::inverse(se3::exp(pose));
   VehicleTiltUpdater updater(options);
   updater.update(0.0, &state);
-  ASSERT_TRUE(updater.update(1.0, &state));
+  ASSERT_EQ(updater.update(1.0, &state), UpdateStatus::kApplied);
   EXPECT_LT((state.covariance(0) - state.covariance(1)).norm(), 1e-12);
   EXPECT_LT(state.covariance(0).trace(), (1e-3 * A * A.transpose()).trace());
 }

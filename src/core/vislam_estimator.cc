@@ -186,7 +186,8 @@ void VislamEstimator::advanceTo(double stamp, const TwistData& twist, double twi
   }
   propagator_.predict(dt, twist, noise_scale, &state_);
   time_ = stamp;
-  tilt_updater_.update(time_, &state_);
+  const std::optional<UpdateStatus> tilt = tilt_updater_.update(time_, &state_);
+  if (tilt && *tilt != UpdateStatus::kApplied) stats_.increment(Counter::kUpdateNonFinite);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -7,15 +7,18 @@
 #pragma once
 
 #include "ekf_vislam/core/filter_state.h"
+#include "ekf_vislam/core/state_helper.h"
 #include "ekf_vislam/core/vislam_options.h"
 
 #include <Eigen/Core>
 
+#include <optional>
+
 namespace ekf_vislam {
 
-/// The tilt pseudo-observation at one pose: residual (observed 0 minus predicted up-axis
-/// horizontal part minus road tilt) and its Jacobian with respect to the pose's rotation error
-/// phi (world axes); the Jacobian with respect to the road tilt is -I.
+/// The tilt pseudo-observation at one pose, h = (horizontal part of the IMU's up axis, world
+/// axes) - (road tilt), observed as 0: the residual -h and the Jacobian of h with respect to the
+/// pose's rotation error phi (world axes); the Jacobian with respect to the road tilt is -I.
 struct TiltObservation {
   Eigen::Vector2d residual = Eigen::Vector2d::Zero();
   Eigen::Matrix<double, 2, 3> H_phi = Eigen::Matrix<double, 2, 3>::Zero();
@@ -32,8 +35,9 @@ class VehicleTiltUpdater {
   /// The next update waits a full period again (filter reset).
   void reset() { last_update_time_ = kNever; }
   /// At filter time `time`: applies the pseudo-observation when the state holds the road tilt
-  /// and tilt_update_period s have passed since the last one. True when applied.
-  bool update(double time, FilterState* state);
+  /// and tilt_update_period s have passed since the last one; its outcome, or nothing when none
+  /// was due.
+  std::optional<UpdateStatus> update(double time, FilterState* state);
 
  private:
   static constexpr double kNever = -1e300;

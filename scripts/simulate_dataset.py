@@ -82,7 +82,8 @@ def main(argv=None):
     options = {name: getattr(args, name) for name in (
         'frames', 'length_m', 'pixel_noise', 'pixel_correlation', 'outlier_rate',
         'velocity_noise', 'gyro_noise', 'gyro_bias', 'rate_hz', 'start_time', 'speed_min',
-        'speed_max', 'max_yaw_rate', 'roll_amplitude', 'pitch_amplitude', 'target_obs', 'track_loss', 'landmark_density', 'max_depth')}
+        'speed_max', 'max_yaw_rate', 'roll_amplitude', 'pitch_amplitude', 'target_obs',
+        'track_loss', 'landmark_density', 'max_depth')}
     try:
         result = simulator.simulate(args.seed, **options)
     except ValueError as exc:

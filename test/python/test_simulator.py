@@ -187,7 +187,7 @@ class DeterminismTest(unittest.TestCase):
 
     def test_hills(self):
         # A hilly drive: the vehicle's tilt against the first pose's level reaches several
-        # degrees, and the geometry and the measurements stay consistent.
+        # degrees, and the ground truth stays the integrated true twist.
         flat = simulator.simulate(7, frames=300)
         hilly = simulator.simulate(7, frames=300, roll_amplitude=3.0, pitch_amplitude=6.0)
 

@@ -231,6 +231,11 @@ RunSummary EstimatorRunner::summary() const {
   s.extra["twist_travel_yaw_deg"] = estimator_.travelDirection().yawDegrees();
   s.extra["twist_travel_pitch_deg"] = estimator_.travelDirection().pitchDegrees();
   s.extra["road_tilt_deg"] = estimator_.roadTiltDegrees();
+  // Observations that updated the filter per feature frame (few: sparseObservationsHint).
+  const EstimatorStats& stats = estimator_.stats();
+  s.extra["observations_per_frame"] =
+      static_cast<double>(stats.get(Counter::kObservationUpdate)) /
+      static_cast<double>(std::max<uint64_t>(1, stats.get(Counter::kFrameUsed)));
   const Vector6d bias = estimator_.twistBias();
   const Eigen::Vector3d& drift = estimator_.trackDriftRate();
   for (int i = 0; i < 3; ++i) {

@@ -30,6 +30,26 @@ TEST(DisagreementHint, ManyGatedNameTheFractionAndTheLikelyCauses) {
   EXPECT_NE(disagreementHint(11, 39), "");  // 22 % of 50
 }
 
+TEST(SparseObservationsHint, DenseOrShortRunsSayNothing) {
+  // The KITTI course files with every id: 47-49 updates per frame.
+  EXPECT_EQ(sparseObservationsHint(52000, 1100), "");
+  EXPECT_EQ(sparseObservationsHint(800, 100), "");  // exactly the threshold: not below it
+  EXPECT_EQ(sparseObservationsHint(0, 99), "");     // too few frames to say
+}
+
+TEST(SparseObservationsHint, FewPerFrameSayThatTheCovarianceIsOptimistic) {
+  // 5 % of the ids: about 2.4 updates per frame.
+  const std::string hint = sparseObservationsHint(2640, 1100);
+  EXPECT_NE(hint.find("2.40 observations per frame"), std::string::npos) << hint;
+  EXPECT_NE(hint.find("covariance"), std::string::npos) << hint;
+  EXPECT_EQ(hint.find("dead reckoning"), std::string::npos) << hint;
+  // 1 % of the ids: about 0.5 per frame, where SLAM did harm with a good twist.
+  const std::string harmful = sparseObservationsHint(550, 1100);
+  EXPECT_NE(harmful.find("0.50 observations per frame"), std::string::npos) << harmful;
+  EXPECT_NE(harmful.find("dead reckoning"), std::string::npos) << harmful;
+  EXPECT_NE(sparseObservationsHint(0, 100), "");  // no update at all
+}
+
 // A twist frame mounted `pitch` rad off the travel: 400 moving samples.
 TravelDirectionEstimator pitchedTravel(double pitch) {
   TravelDirectionEstimator travel(1.0);

@@ -331,8 +331,8 @@ def _track(rng, points, world_T_imu, opts):
     """
     num = len(world_T_imu)
     wobble, _ = _smooth_signal(rng, (100.0, 400.0))
-    target = np.maximum(20, np.round(opts['target_obs'] * (1.0 + 0.25 * wobble(np.arange(num)))))
-    max_new = max(10, int(opts['target_obs']) // 2)
+    target = np.maximum(1, np.round(opts['target_obs'] * (1.0 + 0.25 * wobble(np.arange(num)))))
+    max_new = max(1, min(10, int(opts['target_obs'])), int(opts['target_obs']) // 2)
     reuse_after = int(opts['reuse_ids_after'])
     free_ids, ended_ids = [], collections.deque()  # heap of reusable ids; (frame, id) pending
     # Only the points near the pose can be visible: project those (same result as all points).

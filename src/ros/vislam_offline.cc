@@ -269,6 +269,11 @@ void printSummary(const EstimatorRunner& runner, const std::string& out_dir) {
   const std::string travel = travelDirectionHint(runner.estimator().travelDirection(),
                                                  runner.estimator().options().vehicle);
   if (!travel.empty()) std::fprintf(stderr, "vislam_offline: warning: %s\n", travel.c_str());
+  if (runner.estimator().options().mode != EstimatorMode::kDeadReckoning) {
+    const std::string sparse = sparseObservationsHint(stats.get(Counter::kObservationUpdate),
+                                                      stats.get(Counter::kFrameUsed));
+    if (!sparse.empty()) std::fprintf(stderr, "vislam_offline: warning: %s\n", sparse.c_str());
+  }
 }
 
 int run(int argc, char** argv) {

@@ -487,6 +487,7 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
   const TravelDirectionEstimator& travel = estimator.travelDirection();
   const std::string travel_hint = travelDirectionHint(travel, options_.vehicle);
   if (!travel_hint.empty()) ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), travel_hint.c_str());
+  updateObservationRate(stats);
 
   const double since_twist = (now - last_twist_).toSec();
   const double since_features = (now - last_features_).toSec();
@@ -512,6 +513,9 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
                    "the twist does not travel along its x axis: the vehicle prior removes a part "
                    "of the velocity (see the log)");
+  } else if (!sparse_hint_.empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   "few observations per frame: the covariance is likely too small (see the log)");
   } else {
     status.summary(diagnostic_msgs::DiagnosticStatus::OK, "running");
   }
@@ -539,6 +543,7 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
   status.add("twist_travel_yaw_deg", travel.yawDegrees());
   status.add("twist_travel_pitch_deg", travel.pitchDegrees());
   status.add("road_tilt_deg", estimator.roadTiltDegrees());
+  status.add("observations_per_frame", observations_per_frame_);
   status.add("observations_rejected", stats.observationsRejected());
   for (int i = 0; i < static_cast<int>(Counter::kCount); ++i) {
     status.add(counterName(static_cast<Counter>(i)), stats.get(static_cast<Counter>(i)));
@@ -547,6 +552,21 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
   status.add("odometry_non_finite", odometry_non_finite_);
   status.add("sequencer_late", runner_->sequencerLate());
   status.add("sequencer_buffered", runner_->buffered());
+}
+
+void VislamRos::updateObservationRate(const EstimatorStats& stats) {
+  const uint64_t frames = stats.get(Counter::kFrameUsed) - rate_window_frames_;
+  if (frames < kSparseHintMinFrames) return;
+  const uint64_t updates = stats.get(Counter::kObservationUpdate) - rate_window_updates_;
+  rate_window_frames_ += frames;
+  rate_window_updates_ += updates;
+  observations_per_frame_ = static_cast<double>(updates) / static_cast<double>(frames);
+  sparse_hint_ = options_.mode == EstimatorMode::kDeadReckoning
+                     ? std::string()
+                     : sparseObservationsHint(updates, frames);
+  if (!sparse_hint_.empty()) {
+    ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), sparse_hint_.c_str());
+  }
 }
 
 // ---------------------------------------------------------------------------------------------

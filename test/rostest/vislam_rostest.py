@@ -9,6 +9,7 @@ recordings and the saved files; the reset test runs last (it replays part of the
 
 Set EKF_VISLAM_KEEP_TEST_DIR=1 to keep the temporary folder (its path is logged).
 """
+import json
 import math
 import os
 import shutil
@@ -294,8 +295,16 @@ class VislamPipelineTest(unittest.TestCase):
         for key in ('twist_rate_hz', 'feature_rate_hz', 'update_ms_last', 'update_ms_p99',
                     'active_landmarks', 'total_landmarks', 'state_dimension',
                     'observation_gated', 'observation_disparity', 'frame_no_calibration',
-                    'twist_travel_yaw_deg', 'twist_travel_pitch_deg', 'road_tilt_deg'):
+                    'twist_travel_yaw_deg', 'twist_travel_pitch_deg', 'road_tilt_deg',
+                    'observations_per_frame'):
             self.assertIn(key, keys)
+        # Windows of 100 frames: the simulated drive updates with far more than the 8 per frame
+        # below which the node warns that its covariance is likely too small; the offline run
+        # counts the same.
+        self.assertGreater(float(keys['observations_per_frame']), 20.0)
+        with open(os.path.join(self.offline_dir, 'stats.json')) as f:
+            self.assertGreater(json.load(f)['observations_per_frame'], 20.0)
+        self.assertFalse(any('few observations' in s.message for s in statuses))
         self.assertIn('vehicle/tilt_sigm (vehicle/tilt_sigma?)', keys['unknown_parameters'])
         # The simulated road is within 1.5 degrees of level; the estimate must say so.
         self.assertLess(float(keys['road_tilt_deg']), 4.0)

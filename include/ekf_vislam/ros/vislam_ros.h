@@ -83,6 +83,9 @@ class VislamRos {
   void visualizationTimer(const ros::WallTimerEvent&);
   void diagnosticsTimer(const ros::WallTimerEvent&);
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
+  /// Closes the observation-rate window once it holds kSparseHintMinFrames frames: sets
+  /// observations_per_frame_ and sparse_hint_ (warned in the log).
+  void updateObservationRate(const EstimatorStats& stats);
 
   bool resetService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response);
   /// After a reset: path and markers cleared, odometry time starts again (locked).
@@ -130,6 +133,11 @@ class VislamRos {
   bool diverging_ = false;
   uint64_t gated_at_last_diag_ = 0;    ///< observations gated, for the disagreement hint
   uint64_t updated_at_last_diag_ = 0;  ///< observations used in updates, likewise
+  // Observations per frame over windows of at least kSparseHintMinFrames frames.
+  uint64_t rate_window_frames_ = 0;       ///< frames used when the window started
+  uint64_t rate_window_updates_ = 0;      ///< observations used in updates, likewise
+  double observations_per_frame_ = -1.0;  ///< over the last full window (-1: none yet)
+  std::string sparse_hint_;               ///< sparseObservationsHint of that window
   double last_update_ms_ = 0.0;
   int last_processed_count_ = 0;
 

@@ -1,0 +1,53 @@
+"""vislam_offline's warning when few observations update the filter (sparseObservationsHint)."""
+import json
+import os
+import subprocess
+import unittest
+
+import ekf_test_paths as paths
+from ekf_vislam_tools import package, simulator
+
+TO_BAG = os.path.join(paths.SCRIPTS_DIR, 'dataset_to_bag.py')
+WARNING = 'observations per frame updated the filter'
+
+
+class SparseObservationsWarningTest(unittest.TestCase):
+    def setUp(self):
+        self.offline = package.vislam_offline_path()
+        if self.offline is None:
+            self.skipTest('vislam_offline not built')
+        self.tmp = paths.make_temp_dir(self)
+
+    def run_offline(self, name, target_obs, mode='slam'):
+        """Simulates 200 frames tracking about target_obs features per frame; returns the run's
+        stderr and stats.json."""
+        arrays = simulator.dataset_arrays(simulator.simulate(4, frames=200, target_obs=target_obs))
+        npz = paths.write_npz(self.tmp, name + '.npz', arrays)
+        bag = os.path.join(self.tmp, name + '.bag')
+        subprocess.run([paths.PYTHON, TO_BAG, npz, bag], check=True, capture_output=True)
+        out = os.path.join(self.tmp, name + '_' + mode)
+        proc = subprocess.run([self.offline, '--bag', bag, '--mode', mode, '--out', out],
+                              capture_output=True, text=True)
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        with open(os.path.join(out, 'stats.json')) as f:
+            return proc.stderr, json.load(f)
+
+    def test_few_observations_per_frame_are_named(self):
+        stderr, stats = self.run_offline('sparse', target_obs=3)
+        self.assertGreater(stats['observations_per_frame'], 0.5)
+        self.assertLess(stats['observations_per_frame'], 8.0)
+        self.assertIn(WARNING, stderr)
+        self.assertIn('covariance', stderr)
+        # Dead reckoning updates nothing and claims nothing from the tracks: no warning.
+        stderr, stats = self.run_offline('sparse', target_obs=3, mode='deadreckoning')
+        self.assertEqual(stats['observations_per_frame'], 0.0)
+        self.assertNotIn(WARNING, stderr)
+
+    def test_dense_tracks_say_nothing(self):
+        stderr, stats = self.run_offline('dense', target_obs=70)
+        self.assertGreater(stats['observations_per_frame'], 20.0)
+        self.assertNotIn(WARNING, stderr)
+
+
+if __name__ == '__main__':
+    unittest.main()

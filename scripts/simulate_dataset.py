@@ -35,6 +35,13 @@ def parse_args(argv):
     noise.add_argument('--pixel-correlation', type=float, default=d['pixel_correlation'],
                        metavar='RHO', help='drifting tracks: correlation of a track\'s pixel '
                        'error from one frame to the next, AR(1) (default %(default)s: white)')
+    noise.add_argument('--drift-expansion', type=float, default=d['drift_expansion'],
+                       metavar='E', help='systematic track drift: px per frame of a track\'s age '
+                       'per unit of normalized image x, in u (KITTI course tracks: 0.18-0.28; '
+                       'default %(default)s)')
+    noise.add_argument('--drift-v', type=float, default=d['drift_v'], metavar='D',
+                       help='systematic track drift in v, px per frame of age (KITTI course '
+                       'tracks: -0.04 to -0.06; default %(default)s)')
     noise.add_argument('--outlier-rate', type=float, default=d['outlier_rate'], metavar='R',
                        help='fraction of gross outlier observations (default %(default)s)')
     noise.add_argument('--velocity-noise', type=float, default=d['velocity_noise'], metavar='V',
@@ -80,7 +87,8 @@ def parse_args(argv):
 def main(argv=None):
     args = parse_args(sys.argv[1:] if argv is None else argv)
     options = {name: getattr(args, name) for name in (
-        'frames', 'length_m', 'pixel_noise', 'pixel_correlation', 'outlier_rate',
+        'frames', 'length_m', 'pixel_noise', 'pixel_correlation', 'drift_expansion', 'drift_v',
+        'outlier_rate',
         'velocity_noise', 'gyro_noise', 'gyro_bias', 'rate_hz', 'start_time', 'speed_min',
         'speed_max', 'max_yaw_rate', 'roll_amplitude', 'pitch_amplitude', 'target_obs',
         'track_loss', 'landmark_density', 'max_depth')}

@@ -65,6 +65,12 @@ DEFAULT_OPTIONS = {
     'pixel_noise': 1.0,        # std of each pixel coordinate, px
     'pixel_correlation': 0.0,  # drifting tracks: a track's pixel error is AR(1) with this
                                # correlation from one frame to the next (std pixel_noise); 0: white
+    'drift_expansion': 0.0,    # systematic drift of the tracks, as measured on the KITTI course
+                               # tracks (0.18-0.28): px per frame of age per unit of normalized
+                               # image x, added to u_left and u_right (an outward drift that also
+                               # grows the disparity); 0: none
+    'drift_v': 0.0,            # px per frame of age added to v (KITTI course tracks: -0.04 to
+                               # -0.06, upward); 0: none
     'outlier_rate': 0.03,      # fraction of observations replaced by gross outliers
     'velocity_noise': 0.5,     # std of each linear velocity component, m/s
     'gyro_noise': 0.05,        # std of each angular velocity component, rad/s
@@ -406,6 +412,23 @@ def _pixel_errors(rng, obs_frame, obs_id, opts):
     return errors
 
 
+def _track_drift(z_true, obs_frame, obs_id, opts):
+    """Systematic drift of every observation (n,4): after `age` frames of its track, u_left and
+    u_right move by age drift_expansion x (x: the point's normalized image coordinate in that
+    camera) and both rows by age drift_v. Zero when both options are 0."""
+    drift = np.zeros((obs_id.size, 4))
+    if (opts['drift_expansion'] == 0.0 and opts['drift_v'] == 0.0) or obs_id.size == 0:
+        return drift
+    first_frame = np.full(int(obs_id.max()) + 1, np.iinfo(np.int64).max, dtype=np.int64)
+    np.minimum.at(first_frame, obs_id, obs_frame)
+    age = (obs_frame - first_frame[obs_id]).astype(float)
+    fx, cx = KITTI_K[0, 0], KITTI_K[0, 2]
+    for col in (0, 2):
+        drift[:, col] = age * opts['drift_expansion'] * (z_true[:, col] - cx) / fx
+    drift[:, 1] = drift[:, 3] = age * opts['drift_v']
+    return drift
+
+
 def _measure_pixels(rng, z_true, obs_frame, obs_id, opts):
     """Pixel noise on every coordinate, and gross outliers -> (z (n,4), is_outlier (n,)).
 
@@ -416,7 +439,8 @@ def _measure_pixels(rng, z_true, obs_frame, obs_id, opts):
     width, height = KITTI_IMAGE_SIZE
     limits = np.array([width - 1, height - 1, width - 1, height - 1], float)
     n = z_true.shape[0]
-    z = z_true + _pixel_errors(rng, obs_frame, obs_id, opts)
+    z = z_true + _pixel_errors(rng, obs_frame, obs_id, opts) + _track_drift(z_true, obs_frame,
+                                                                             obs_id, opts)
     is_outlier = rng.random(n) < opts['outlier_rate']
     idx = np.flatnonzero(is_outlier)
     negative = rng.random(idx.size) < 1.0 / 3.0

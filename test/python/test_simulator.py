@@ -100,6 +100,37 @@ class SimulatorTest(unittest.TestCase):
         self.assertAlmostEqual(residual.std(), 1.0, delta=0.1)
         self.assertAlmostEqual(lag_one_correlation(r), 0.85, delta=0.03)
 
+    def test_systematic_drift_grows_with_the_track_age(self):
+        r = simulator.simulate(7, frames=200, pixel_noise=0.0, outlier_rate=0.0,
+                               drift_expansion=0.25, drift_v=-0.05)
+        observed = observed_mask(r['features'])
+        error = r['features'] - r['features_true']
+        fx, cx = simulator.KITTI_K[0, 0], simulator.KITTI_K[0, 2]
+        for track in np.flatnonzero(observed.sum(axis=1) >= 5)[:50]:
+            frames = np.flatnonzero(observed[track])
+            age = frames - frames[0]
+            true = r['features_true'][:, track, frames]
+            np.testing.assert_allclose(error[0, track, frames], age * 0.25 * (true[0] - cx) / fx,
+                                       atol=1e-9)
+            np.testing.assert_allclose(error[2, track, frames], age * 0.25 * (true[2] - cx) / fx,
+                                       atol=1e-9)
+            np.testing.assert_allclose(error[[1, 3]][:, track, frames],
+                                       np.vstack([age * -0.05] * 2), atol=1e-9)
+        # Outward in u, so the disparity grows with the age too.
+        disparity_error = error[0] - error[2]
+        self.assertGreater(disparity_error[observed].mean(), 0.0)
+        # Off by default: the default drive's arrays are those without the options.
+        plain = simulator.simulate(7, frames=50)
+        zero = simulator.simulate(7, frames=50, drift_expansion=0.0, drift_v=0.0)
+        np.testing.assert_array_equal(plain['features'], zero['features'])
+
+    def test_few_observations_per_frame(self):
+        # Below the 20 per frame the simulator once floored the target at.
+        for target in (2, 5):
+            stats = simulator.statistics(simulator.simulate(7, frames=300,
+                                                            target_obs=target)['features'])
+            self.assertAlmostEqual(stats['obs_per_frame'].mean(), target, delta=0.3 * target)
+
     def test_noiseless_observations_are_observable(self):
         z = self.result['features_true'][:, self.observed]
         width, height = self.result['image_size']

@@ -1,0 +1,75 @@
+#!/usr/bin/python3
+"""Plays a synthetic drive with about 3 tracked features per frame through the nodelet: the node
+names the sparse regime in /diagnostics (see vislam_sparse.test)."""
+import os
+import shutil
+import sys
+import tempfile
+import unittest
+
+import rospkg
+import rospy
+import rostest
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from vislam_rostest import ESTIMATOR_INPUTS, PLAY_RATE, run  # noqa: E402
+
+from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
+
+PKG = 'ekf_vislam'
+FRAMES = 300
+
+
+class VislamSparseTest(unittest.TestCase):
+    @classmethod
+    def on_diagnostics(cls, msg):
+        for status in msg.status:
+            if status.name.endswith('estimator'):
+                cls.statuses.append(status)
+
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('vislam_sparse_rostest', anonymous=True)
+        cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_sparse_')
+        package = rospkg.RosPack().get_path(PKG)
+        prefix = os.path.join(cls.tmp, 'sparse')
+        run(['/usr/bin/python3', os.path.join(package, 'scripts', 'simulate_dataset.py'),
+             '--seed', '6', '--out', prefix, '--frames', str(FRAMES), '--target-obs', '3'])
+        run(['/usr/bin/python3', os.path.join(package, 'scripts', 'dataset_to_bag.py'),
+             prefix + '.npz', prefix + '.bag'])
+        cls.statuses = []
+        rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics, queue_size=100)
+        rospy.wait_for_service('/vislam/save', timeout=60.0)
+        play_bag(prefix + '.bag', '/vislam_sparse_player', PLAY_RATE,
+                 {topic: ('/vislam_manager',) for topic in ESTIMATOR_INPUTS})
+
+        def frames_in():
+            values = cls.values(-1) if cls.statuses else {}
+            return int(values.get('frames_received', 0)) >= FRAMES
+        wait_until(frames_in, 30.0)
+        # One more period closes the last window.
+        count = len(cls.statuses)
+        wait_until(lambda: len(cls.statuses) > count + 1, 10.0)
+
+    @classmethod
+    def values(cls, index):
+        return {kv.key: kv.value for kv in cls.statuses[index].values}
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.tmp, ignore_errors=True)
+
+    def test_observations_per_frame_are_reported(self):
+        per_frame = float(self.values(-1)['observations_per_frame'])
+        self.assertGreater(per_frame, 0.5)
+        self.assertLess(per_frame, 8.0)
+
+    def test_status_warns_of_an_optimistic_covariance(self):
+        warned = [s for s in self.statuses if 'few observations per frame' in s.message]
+        self.assertTrue(warned, [s.message for s in self.statuses])
+        self.assertTrue(all(s.level == DiagnosticStatus.WARN for s in warned))
+
+
+if __name__ == '__main__':
+    rostest.rosrun(PKG, 'vislam_sparse', VislamSparseTest)

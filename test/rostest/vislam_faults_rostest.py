@@ -10,7 +10,6 @@ import tempfile
 import time
 import unittest
 
-import rospkg
 import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray
@@ -18,7 +17,7 @@ from nav_msgs.msg import Odometry
 from std_srvs.srv import Trigger
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import ESTIMATOR_INPUTS, PLAY_RATE, log, run  # noqa: E402
+from vislam_rostest import ESTIMATOR_INPUTS, PLAY_RATE, log, simulated_bag  # noqa: E402
 
 from ekf_vislam_tools import metrics, trajectory  # noqa: E402
 from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
@@ -66,12 +65,8 @@ class VislamFaultsTest(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node('vislam_faults_rostest', anonymous=True)
         cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_faults_')
-        package = rospkg.RosPack().get_path(PKG)
         prefix = os.path.join(cls.tmp, 'sim')
-        run(['/usr/bin/python3', os.path.join(package, 'scripts', 'simulate_dataset.py'),
-             '--seed', '5', '--out', prefix, '--frames', '300'])
-        run(['/usr/bin/python3', os.path.join(package, 'scripts', 'dataset_to_bag.py'),
-             prefix + '.npz', prefix + '.bag'])
+        simulated_bag(prefix, 5, 300)
         cls.groundtruth = prefix + '_groundtruth.tum'
         cls.bag = os.path.join(cls.tmp, 'faulty.bag')
         cls.expected = inject_faults(prefix + '.bag', cls.bag)

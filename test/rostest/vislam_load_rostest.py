@@ -19,7 +19,7 @@ import rostest
 from std_srvs.srv import Trigger
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import ESTIMATOR_INPUTS, log, read_tum, run  # noqa: E402
+from vislam_rostest import ESTIMATOR_INPUTS, log, read_tum, run, simulated_bag  # noqa: E402
 
 from ekf_vislam_tools.bag_playback import resume_when_connected, start_player  # noqa: E402
 
@@ -59,11 +59,8 @@ class LoadTest(unittest.TestCase):
                  os.path.join(data, '0027.npz'), cls.bag])
         else:
             cls.source = 'synthetic drive (no course data)'
-            prefix = os.path.join(cls.tmp, 'sim')
-            run(['/usr/bin/python3', os.path.join(package, 'scripts', 'simulate_dataset.py'),
-                 '--seed', '4', '--out', prefix, '--frames', '600'])
-            run(['/usr/bin/python3', os.path.join(package, 'scripts', 'dataset_to_bag.py'),
-                 prefix + '.npz', cls.bag])
+            # As long as 0027 (110 s, 11 s at 10x): room for every pause (8.2 s).
+            cls.bag = simulated_bag(os.path.join(cls.tmp, 'sim'), 4, 1100)
         log('playing %s at %gx with %d pauses of %g s' % (cls.source, RATE, PAUSES, PAUSE_S))
         cls.offline = os.path.join(cls.tmp, 'offline')
         log(run(['rosrun', PKG, 'vislam_offline', '--bag', cls.bag, '--out', cls.offline]).strip())

@@ -62,6 +62,17 @@ def run(cmd, timeout=300):
     return result.stdout
 
 
+def simulated_bag(prefix, seed, frames, *options):
+    """A simulated drive (simulate_dataset.py with `options`) and its bag: PREFIX.npz,
+    PREFIX_groundtruth.tum and PREFIX.bag (ground truth recorded in it too)."""
+    scripts = os.path.join(rospkg.RosPack().get_path(PKG), 'scripts')
+    run(['/usr/bin/python3', os.path.join(scripts, 'simulate_dataset.py'), '--seed', str(seed),
+         '--out', prefix, '--frames', str(frames)] + list(options))
+    run(['/usr/bin/python3', os.path.join(scripts, 'dataset_to_bag.py'), prefix + '.npz',
+         prefix + '.bag', '--groundtruth', prefix + '_groundtruth.tum'])
+    return prefix + '.bag'
+
+
 def read_tum(path):
     """(N,) stamps and (N, 7) [x y z qx qy qz qw] of a TUM file (N may be 0)."""
     rows = [line.split() for line in open(path) if line.strip() and not line.startswith('#')]
@@ -147,15 +158,10 @@ class VislamPipelineTest(unittest.TestCase):
         rospy.init_node('vislam_rostest', anonymous=True)
         cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_rostest_')
         log('working in %s' % cls.tmp)
-        package = rospkg.RosPack().get_path(PKG)
         prefix = os.path.join(cls.tmp, 'sim')
-        cls.bag = prefix + '.bag'
         cls.groundtruth = prefix + '_groundtruth.tum'
         t0 = time.time()
-        run(['/usr/bin/python3', os.path.join(package, 'scripts', 'simulate_dataset.py'),
-             '--seed', str(SEED), '--out', prefix, '--frames', str(FRAMES)])
-        run(['/usr/bin/python3', os.path.join(package, 'scripts', 'dataset_to_bag.py'),
-             prefix + '.npz', cls.bag, '--groundtruth', cls.groundtruth])
+        cls.bag = simulated_bag(prefix, SEED, FRAMES)
         cls.offline_dir = os.path.join(cls.tmp, 'offline')
         log(run(['rosrun', PKG, 'vislam_offline', '--bag', cls.bag, '--out',
                  cls.offline_dir]).strip())

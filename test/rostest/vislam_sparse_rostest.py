@@ -7,13 +7,12 @@ import sys
 import tempfile
 import unittest
 
-import rospkg
 import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import ESTIMATOR_INPUTS, PLAY_RATE, run  # noqa: E402
+from vislam_rostest import ESTIMATOR_INPUTS, PLAY_RATE, simulated_bag  # noqa: E402
 
 from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
 
@@ -32,16 +31,11 @@ class VislamSparseTest(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node('vislam_sparse_rostest', anonymous=True)
         cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_sparse_')
-        package = rospkg.RosPack().get_path(PKG)
-        prefix = os.path.join(cls.tmp, 'sparse')
-        run(['/usr/bin/python3', os.path.join(package, 'scripts', 'simulate_dataset.py'),
-             '--seed', '6', '--out', prefix, '--frames', str(FRAMES), '--target-obs', '3'])
-        run(['/usr/bin/python3', os.path.join(package, 'scripts', 'dataset_to_bag.py'),
-             prefix + '.npz', prefix + '.bag'])
+        bag = simulated_bag(os.path.join(cls.tmp, 'sparse'), 6, FRAMES, '--target-obs', '3')
         cls.statuses = []
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics, queue_size=100)
         rospy.wait_for_service('/vislam/save', timeout=60.0)
-        play_bag(prefix + '.bag', '/vislam_sparse_player', PLAY_RATE,
+        play_bag(bag, '/vislam_sparse_player', PLAY_RATE,
                  {topic: ('/vislam_manager',) for topic in ESTIMATOR_INPUTS})
 
         def frames_in():

@@ -34,7 +34,7 @@ std::string sparseObservationsHint(uint64_t observations_updated, uint64_t frame
     text << ", and below " << kHarmfulObservationsPerFrame
          << " per frame SLAM can be less accurate than the twist alone (dead reckoning)";
   }
-  text << ". More tracked features per frame (the feature source, landmarks/max_depth) help";
+  text << ". Track more features per frame if the feature source allows";
   return text.str();
 }
 

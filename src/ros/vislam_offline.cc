@@ -269,7 +269,7 @@ void printSummary(const EstimatorRunner& runner, const std::string& out_dir) {
   const std::string travel = travelDirectionHint(runner.estimator().travelDirection(),
                                                  runner.estimator().options().vehicle);
   if (!travel.empty()) std::fprintf(stderr, "vislam_offline: warning: %s\n", travel.c_str());
-  if (runner.estimator().options().mode != EstimatorMode::kDeadReckoning) {
+  if (runner.estimator().options().mode == EstimatorMode::kSlam) {
     const std::string sparse = sparseObservationsHint(stats.get(Counter::kObservationUpdate),
                                                       stats.get(Counter::kFrameUsed));
     if (!sparse.empty()) std::fprintf(stderr, "vislam_offline: warning: %s\n", sparse.c_str());

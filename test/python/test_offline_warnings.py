@@ -38,9 +38,12 @@ class SparseObservationsWarningTest(unittest.TestCase):
         self.assertLess(stats['observations_per_frame'], 8.0)
         self.assertIn(WARNING, stderr)
         self.assertIn('covariance', stderr)
-        # Dead reckoning updates nothing and claims nothing from the tracks: no warning.
+        # Dead reckoning updates nothing, mapping leaves the pose to the twist: no warning.
         stderr, stats = self.run_offline('sparse', target_obs=3, mode='deadreckoning')
         self.assertEqual(stats['observations_per_frame'], 0.0)
+        self.assertNotIn(WARNING, stderr)
+        stderr, stats = self.run_offline('sparse', target_obs=3, mode='mapping')
+        self.assertGreater(stats['observations_per_frame'], 0.5)
         self.assertNotIn(WARNING, stderr)
 
     def test_dense_tracks_say_nothing(self):

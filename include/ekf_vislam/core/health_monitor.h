@@ -31,11 +31,11 @@ std::string travelDirectionHint(const TravelDirectionEstimator& travel,
 
 /// A hint when few observations update the filter: on average fewer than
 /// kSparseObservationsPerFrame per feature frame, over at least kSparseHintMinFrames frames
-/// (SLAM and mapping; the caller leaves dead reckoning out). Measured on the KITTI course tracks
-/// (doc/experiments.md, landmark study): about 10 updates per frame gave a position NEES of
-/// 2.2-4.9, 5 per frame up to 7.9, 2-2.7 per frame up to 10.8 (3 is consistent); below
-/// kHarmfulObservationsPerFrame SLAM was 1.3-1.8x the dead reckoning's ATE with a good twist.
-/// Empty otherwise.
+/// (SLAM mode; the callers leave the other modes out: their pose is the twist's). Measured on the
+/// KITTI course tracks (doc/experiments.md, landmark study): about 10 updates per frame gave a
+/// position NEES of 2.2-4.9, 5 per frame up to 7.9, 2-2.7 per frame up to 10.8 (3 is
+/// consistent); below kHarmfulObservationsPerFrame SLAM was 1.3-1.8x the dead reckoning's ATE
+/// with a good twist. Empty otherwise.
 constexpr double kSparseObservationsPerFrame = 8.0;
 constexpr double kHarmfulObservationsPerFrame = 1.0;
 constexpr uint64_t kSparseHintMinFrames = 100;

@@ -59,8 +59,11 @@ def one_run(job, data, out, binary, config):
     t, T = trajectory.read_tum(os.path.join(run_dir, 'trajectory.tum'))
     t_gt, T_gt = trajectory.read_tum(gt)
     m = metrics.evaluate_trajectory(t, T, t_gt, T_gt)
+    with open(os.path.join(run_dir, 'stats.json')) as f:
+        observations_per_frame = json.load(f).get('observations_per_frame')
     result = dict(sequence=sequence, twist=twist, fraction=fraction, seed=seed, mode=mode,
-                  ate_m=m['ate_rmse_m'], rpe_percent=m['rpe_percent'])
+                  ate_m=m['ate_rmse_m'], rpe_percent=m['rpe_percent'],
+                  observations_per_frame=observations_per_frame)
     result.update(consistency(run_dir, t, T, t_gt, T_gt))
     return result
 
@@ -79,17 +82,22 @@ def summarize(results, fractions):
                 ate = [r['ate_m'] for r in slam]
                 ratio = [r['ate_m'] / d for r, d in zip(sorted(slam, key=lambda r: r['seed']), dr)]
                 nees = [r.get('nees_position') for r in slam if r.get('nees_position') is not None]
+                per_frame = [r['observations_per_frame'] for r in slam
+                             if r.get('observations_per_frame') is not None]
                 row = dict(sequence=sequence, twist=twist, fraction=fraction,
                            slam_ate_mean=float(np.mean(ate)), slam_ate_max=float(np.max(ate)),
                            dr_ate_mean=float(np.mean(dr)), ratio_mean=float(np.mean(ratio)),
                            ratio_max=float(np.max(ratio)),
-                           nees_position=float(np.mean(nees)) if nees else None)
+                           nees_position=float(np.mean(nees)) if nees else None,
+                           observations_per_frame=float(np.mean(per_frame)) if per_frame else None)
                 rows.append(row)
                 cells.append([sequence, twist, '%d %%' % round(100 * fraction),
+                              fmt(row['observations_per_frame'], '.1f'),
                               fmt(row['slam_ate_mean'], '.2f'), fmt(row['slam_ate_max'], '.2f'),
                               fmt(row['dr_ate_mean'], '.2f'), fmt(row['ratio_mean'], '.2f'),
                               fmt(row['ratio_max'], '.2f'), fmt(row['nees_position'], '.1f')])
-    header = ['sequence', 'twist', 'ids kept', 'SLAM ATE mean m', 'max m', 'DR ATE m',
+    header = ['sequence', 'twist', 'ids kept', 'updates per frame', 'SLAM ATE mean m', 'max m',
+              'DR ATE m',
               'SLAM/DR mean', 'max', 'NEES pos']
     return rows, markdown_table(header, cells)
 

@@ -38,6 +38,20 @@ std::string sparseObservationsHint(uint64_t observations_updated, uint64_t frame
   return text.str();
 }
 
+std::string roadTiltHint(double road_tilt_deg, const VehicleOptions& vehicle) {
+  const double prior_deg = vehicle.tilt_sigma * 180.0 / M_PI;
+  if (!(vehicle.tilt_sigma > 0.0) || !(road_tilt_deg > kTiltHintSigmas * prior_deg)) return "";
+  std::ostringstream text;
+  text.precision(1);
+  text << std::fixed << "the road's tilt is estimated at " << road_tilt_deg
+       << " deg from the start's level, more than " << kTiltHintSigmas << " times its prior ("
+       << "vehicle/tilt_sigma: " << prior_deg
+       << " deg): the road is steeper than the prior allows (then raise tilt_sigma), or drifting "
+          "tracks are turning the vehicle's roll and pitch; either way its height is not to be "
+          "trusted";
+  return text.str();
+}
+
 std::string travelDirectionHint(const TravelDirectionEstimator& travel,
                                 const VehicleOptions& vehicle) {
   if (travel.samples() < kTravelHintMinSamples) return "";

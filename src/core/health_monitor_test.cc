@@ -50,6 +50,21 @@ TEST(SparseObservationsHint, FewPerFrameSayThatTheCovarianceIsOptimistic) {
   EXPECT_NE(sparseObservationsHint(0, 100), "");  // no update at all
 }
 
+TEST(RoadTiltHint, SpeaksBeyondThreePriorSigmas) {
+  VehicleOptions vehicle;  // tilt_sigma 0.05 rad: 2.9 degrees, the hint from 8.6
+  // The KITTI course files with every id end at 0.47 (0027) and 1.22 (0022) degrees.
+  EXPECT_EQ(roadTiltHint(1.22, vehicle), "");
+  EXPECT_EQ(roadTiltHint(8.5, vehicle), "");
+  // The KITTI-360 course file: 28.3 degrees.
+  const std::string hint = roadTiltHint(28.26, vehicle);
+  EXPECT_NE(hint.find("28.3 deg"), std::string::npos) << hint;
+  EXPECT_NE(hint.find("vehicle/tilt_sigma: 2.9 deg"), std::string::npos) << hint;
+  EXPECT_NE(hint.find("height"), std::string::npos) << hint;
+  // Without the prior there is nothing to leave.
+  vehicle.tilt_sigma = 0.0;
+  EXPECT_EQ(roadTiltHint(28.26, vehicle), "");
+}
+
 // A twist frame mounted `pitch` rad off the travel: 400 moving samples.
 TravelDirectionEstimator pitchedTravel(double pitch) {
   TravelDirectionEstimator travel(1.0);

@@ -273,6 +273,9 @@ void printSummary(const EstimatorRunner& runner, const std::string& out_dir) {
     const std::string sparse = sparseObservationsHint(stats.get(Counter::kObservationUpdate),
                                                       stats.get(Counter::kFrameUsed));
     if (!sparse.empty()) std::fprintf(stderr, "vislam_offline: warning: %s\n", sparse.c_str());
+    const std::string tilt =
+        roadTiltHint(runner.estimator().roadTiltDegrees(), runner.estimator().options().vehicle);
+    if (!tilt.empty()) std::fprintf(stderr, "vislam_offline: warning: %s\n", tilt.c_str());
   }
 }
 

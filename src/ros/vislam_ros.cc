@@ -488,6 +488,8 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
   const std::string travel_hint = travelDirectionHint(travel, options_.vehicle);
   if (!travel_hint.empty()) ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), travel_hint.c_str());
   updateObservationRate(stats);
+  const std::string tilt_hint = roadTiltHint(estimator.roadTiltDegrees(), options_.vehicle);
+  if (!tilt_hint.empty()) ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), tilt_hint.c_str());
 
   const double since_twist = (now - last_twist_).toSec();
   const double since_features = (now - last_features_).toSec();
@@ -513,6 +515,9 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
                    "the twist does not travel along its x axis: the vehicle prior removes a part "
                    "of the velocity (see the log)");
+  } else if (!tilt_hint.empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   "the road tilt left its prior: the height is not to be trusted (see the log)");
   } else if (!sparse_hint_.empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
                    "few observations per frame: the covariance is likely too small (see the log)");

@@ -1,4 +1,5 @@
-"""vislam_offline's warning when few observations update the filter (sparseObservationsHint)."""
+"""vislam_offline's warnings about the regime: few observations updating the filter
+(sparseObservationsHint) and a road tilt beyond its prior (roadTiltHint)."""
 import json
 import os
 import subprocess
@@ -9,19 +10,21 @@ from ekf_vislam_tools import package, simulator
 
 TO_BAG = os.path.join(paths.SCRIPTS_DIR, 'dataset_to_bag.py')
 WARNING = 'observations per frame updated the filter'
+TILT_WARNING = "the road's tilt is estimated at"
 
 
-class SparseObservationsWarningTest(unittest.TestCase):
+class RegimeWarningsTest(unittest.TestCase):
     def setUp(self):
         self.offline = package.vislam_offline_path()
         if self.offline is None:
             self.skipTest('vislam_offline not built')
         self.tmp = paths.make_temp_dir(self)
 
-    def run_offline(self, name, target_obs, mode='slam'):
-        """Simulates 200 frames tracking about target_obs features per frame; returns the run's
+    def run_offline(self, name, target_obs, mode='slam', seed=4, frames=200, **options):
+        """Simulates a drive tracking about target_obs features per frame; returns the run's
         stderr and stats.json."""
-        arrays = simulator.dataset_arrays(simulator.simulate(4, frames=200, target_obs=target_obs))
+        arrays = simulator.dataset_arrays(simulator.simulate(seed, frames=frames,
+                                                             target_obs=target_obs, **options))
         npz = paths.write_npz(self.tmp, name + '.npz', arrays)
         bag = os.path.join(self.tmp, name + '.bag')
         subprocess.run([paths.PYTHON, TO_BAG, npz, bag], check=True, capture_output=True)
@@ -50,6 +53,17 @@ class SparseObservationsWarningTest(unittest.TestCase):
         stderr, stats = self.run_offline('dense', target_obs=70)
         self.assertGreater(stats['observations_per_frame'], 20.0)
         self.assertNotIn(WARNING, stderr)
+        self.assertLess(stats['road_tilt_deg'], 3.0)
+        self.assertNotIn(TILT_WARNING, stderr)
+
+    def test_a_road_steeper_than_the_prior_is_named(self):
+        # Roll and pitch up to 4 and 10 degrees: this drive ends 10.7 degrees from the start's
+        # level, beyond three times the 2.9-degree prior, and the estimate follows it.
+        stderr, stats = self.run_offline('steep', target_obs=70, seed=3, frames=400,
+                                         roll_amplitude=4.0, pitch_amplitude=10.0)
+        self.assertGreater(stats['road_tilt_deg'], 8.6)
+        self.assertIn(TILT_WARNING, stderr)
+        self.assertIn('tilt_sigma', stderr)
 
 
 if __name__ == '__main__':

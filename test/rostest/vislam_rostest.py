@@ -311,6 +311,7 @@ class VislamPipelineTest(unittest.TestCase):
         with open(os.path.join(self.offline_dir, 'stats.json')) as f:
             self.assertGreater(json.load(f)['observations_per_frame'], 20.0)
         self.assertFalse(any('few observations' in s.message for s in statuses))
+        self.assertFalse(any('road tilt' in s.message for s in statuses))
         self.assertIn('vehicle/tilt_sigm (vehicle/tilt_sigma?)', keys['unknown_parameters'])
         # The simulated road is within 1.5 degrees of level; the estimate must say so.
         self.assertLess(float(keys['road_tilt_deg']), 4.0)

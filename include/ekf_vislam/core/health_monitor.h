@@ -41,6 +41,14 @@ constexpr double kHarmfulObservationsPerFrame = 1.0;
 constexpr uint64_t kSparseHintMinFrames = 100;
 std::string sparseObservationsHint(uint64_t observations_updated, uint64_t frames);
 
+/// A hint when the road tilt state (vehicle/tilt_sigma, SLAM mode) lies more than
+/// kTiltHintSigmas prior standard deviations from the start's level: either the road is steeper
+/// than the prior allows, or drifting tracks are turning the vehicle's roll and pitch (the
+/// KITTI-360 course file: 28.3 degrees against a 2.9-degree prior, its height 207.5 m off after
+/// 1350 m); its height is then not to be trusted. Empty when the prior is off or the tilt within.
+constexpr double kTiltHintSigmas = 3.0;
+std::string roadTiltHint(double road_tilt_deg, const VehicleOptions& vehicle);
+
 class HealthMonitor {
  public:
   explicit HealthMonitor(const VislamOptions& options) : options_(&options) {}

@@ -374,12 +374,16 @@ class VislamPipelineTest(unittest.TestCase):
         # Processing continues: replay the first seconds of the bag (its time starts again).
         before = self.recorder.odometry_count(NODELET)
         self.play(['--duration', '5'])
+        # At least one ~odometry per stamp of the 5 s (50 frames): twist-rate predictions and
+        # frame updates share the topic, and one that would go back in time is not published,
+        # so under load (callbacks of the two topics racing) fewer than two per stamp arrive.
         self.assertTrue(wait_until(
-            lambda: self.recorder.odometry_count(NODELET) >= before + 90, 10.0),
+            lambda: self.recorder.odometry_count(NODELET) >= before + 45, 20.0),
             'odometry did not resume after the reset')
         wait_until(lambda: time.time() - self.recorder.last_odometry_wall() > 1.5, 10.0)
         with self.recorder.lock:
             after = [msg for _, msg in self.recorder.odometry[NODELET][before:]]
+        log('after the reset: %d ~odometry messages for 5 s of data' % len(after))
         first = after[0].pose.pose.position
         # The first message after the reset starts the filter again at the identity.
         self.assertLess(math.sqrt(first.x ** 2 + first.y ** 2 + first.z ** 2), 1e-6)

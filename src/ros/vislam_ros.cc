@@ -460,8 +460,7 @@ void VislamRos::diagnosticsTimer(const ros::WallTimerEvent&) { diagnostics_->for
 
 void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) {
   std::lock_guard<std::mutex> lock(mutex_);
-  const VislamEstimator& estimator = runner_->estimator();
-  const EstimatorStats& stats = estimator.stats();
+  const EstimatorStats& stats = runner_->estimator().stats();
   const ros::WallTime now = ros::WallTime::now();
   const double dt = std::max(1e-3, (now - last_diag_).toSec());
   const double twist_rate = static_cast<double>(twists_received_ - twists_at_last_diag_) / dt;
@@ -473,57 +472,73 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
       stats.get(Counter::kDivergenceRecovery) + stats.get(Counter::kUpdateNonFinite);
   diverging_ = divergence > divergence_at_last_diag_;
   divergence_at_last_diag_ = divergence;
+  setSummary(collectHints(stats, dt), now, status);
+  addDiagnosticValues(twist_rate, feature_rate, status);
+}
+
+VislamRos::DiagnosticHints VislamRos::collectHints(const EstimatorStats& stats, double dt) {
+  const VislamEstimator& estimator = runner_->estimator();
+  DiagnosticHints hints;
   // Inputs that contradict each other (twist axes against the camera tf, calibration, stamps)
   // show as many gated observations, period after period.
   const uint64_t gated = stats.get(Counter::kObsGated);
   const uint64_t updated = stats.get(Counter::kObservationUpdate);
-  const std::string disagreement =
+  hints.disagreement =
       disagreementHint(gated - gated_at_last_diag_, updated - updated_at_last_diag_);
   gated_at_last_diag_ = gated;
   updated_at_last_diag_ = updated;
-  if (!disagreement.empty()) {
-    ROS_WARN_THROTTLE(30.0, "%s: in the last %.1f s %s", name_.c_str(), dt, disagreement.c_str());
+  if (!hints.disagreement.empty()) {
+    ROS_WARN_THROTTLE(30.0, "%s: in the last %.1f s %s", name_.c_str(), dt,
+                      hints.disagreement.c_str());
   }
-  const TravelDirectionEstimator& travel = estimator.travelDirection();
-  const std::string travel_hint = travelDirectionHint(travel, options_.vehicle);
-  if (!travel_hint.empty()) ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), travel_hint.c_str());
+  hints.travel = travelDirectionHint(estimator.travelDirection(), options_.vehicle);
+  if (!hints.travel.empty()) {
+    ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), hints.travel.c_str());
+  }
+  hints.tilt = roadTiltHint(estimator.roadTiltDegrees(), options_.vehicle);
+  if (!hints.tilt.empty()) ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), hints.tilt.c_str());
   updateObservationRate(stats);
-  const std::string tilt_hint = roadTiltHint(estimator.roadTiltDegrees(), options_.vehicle);
-  if (!tilt_hint.empty()) ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), tilt_hint.c_str());
+  return hints;
+}
 
-  const double since_twist = (now - last_twist_).toSec();
-  const double since_features = (now - last_features_).toSec();
-  const bool calibrated = estimator.hasCalibration();
+void VislamRos::setSummary(const DiagnosticHints& hints, const ros::WallTime& now,
+                           diagnostic_updater::DiagnosticStatusWrapper& status) const {
+  using diagnostic_msgs::DiagnosticStatus;
+  const bool needs_features = options_.mode != EstimatorMode::kDeadReckoning;
   if (diverging_) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR,
-                   "divergence detected (recovery applied)");
+    status.summary(DiagnosticStatus::ERROR, "divergence detected (recovery applied)");
   } else if (twists_received_ == 0) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no imu/twist received yet");
-  } else if (since_twist > ros_options_.input_timeout) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "imu/twist stopped");
-  } else if (options_.mode != EstimatorMode::kDeadReckoning && !calibrated) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
-                   "no calibration: " + calibration_status_);
-  } else if (options_.mode != EstimatorMode::kDeadReckoning &&
-             since_features > ros_options_.input_timeout) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "stereo/features stopped");
-  } else if (!disagreement.empty()) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+    status.summary(DiagnosticStatus::WARN, "no imu/twist received yet");
+  } else if ((now - last_twist_).toSec() > ros_options_.input_timeout) {
+    status.summary(DiagnosticStatus::WARN, "imu/twist stopped");
+  } else if (needs_features && !runner_->estimator().hasCalibration()) {
+    status.summary(DiagnosticStatus::WARN, "no calibration: " + calibration_status_);
+  } else if (needs_features && (now - last_features_).toSec() > ros_options_.input_timeout) {
+    status.summary(DiagnosticStatus::WARN, "stereo/features stopped");
+  } else if (!hints.disagreement.empty()) {
+    status.summary(DiagnosticStatus::WARN,
                    "many observations gated: do the twist, the camera tf and the stamps agree? "
                    "(see the log)");
-  } else if (!travel_hint.empty()) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+  } else if (!hints.travel.empty()) {
+    status.summary(DiagnosticStatus::WARN,
                    "the twist does not travel along its x axis: the vehicle prior removes a part "
                    "of the velocity (see the log)");
-  } else if (!tilt_hint.empty()) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+  } else if (!hints.tilt.empty()) {
+    status.summary(DiagnosticStatus::WARN,
                    "the road tilt left its prior: the height is not to be trusted (see the log)");
   } else if (!sparse_hint_.empty()) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+    status.summary(DiagnosticStatus::WARN,
                    "few observations per frame: the covariance is likely too small (see the log)");
   } else {
-    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "running");
+    status.summary(DiagnosticStatus::OK, "running");
   }
+}
+
+void VislamRos::addDiagnosticValues(double twist_rate, double feature_rate,
+                                    diagnostic_updater::DiagnosticStatusWrapper& status) const {
+  const VislamEstimator& estimator = runner_->estimator();
+  const EstimatorStats& stats = estimator.stats();
+  const TravelDirectionEstimator& travel = estimator.travelDirection();
   status.add("mode", modeName(options_.mode));
   status.add("calibration", calibration_status_);
   status.add("unknown_parameters", unknown_parameters_.empty() ? "none" : unknown_parameters_);

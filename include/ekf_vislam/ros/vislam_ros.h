@@ -83,6 +83,20 @@ class VislamRos {
   void visualizationTimer(const ros::WallTimerEvent&);
   void diagnosticsTimer(const ros::WallTimerEvent&);
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
+  /// What the log and the status say about the inputs and the regime (empty: nothing).
+  struct DiagnosticHints {
+    std::string disagreement;  ///< many observations gated in the last period
+    std::string travel;        ///< the twist travels off its x axis
+    std::string tilt;          ///< the road tilt left its prior
+  };
+  /// The hints of this period, each warned (throttled) in the log.
+  DiagnosticHints collectHints(const EstimatorStats& stats, double dt);
+  /// The status level and message: the most serious condition first.
+  void setSummary(const DiagnosticHints& hints, const ros::WallTime& now,
+                  diagnostic_updater::DiagnosticStatusWrapper& status) const;
+  /// Every key of the status (rates, timing, landmarks, calibration, counters).
+  void addDiagnosticValues(double twist_rate, double feature_rate,
+                           diagnostic_updater::DiagnosticStatusWrapper& status) const;
   /// Closes the observation-rate window once it holds kSparseHintMinFrames frames: sets
   /// observations_per_frame_ and sparse_hint_ (warned in the log).
   void updateObservationRate(const EstimatorStats& stats);

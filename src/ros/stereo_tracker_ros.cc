@@ -22,21 +22,6 @@ constexpr double kCameraInfoPatience = 1.0;  // s of image time pairs wait befor
 constexpr const char* kNoCameraInfo =
     "no camera_info yet on stereo/left/camera_info and stereo/right/camera_info";
 
-bool readRosOptions(const ros::NodeHandle& pnh, StereoTrackerRosOptions* o, std::string* why) {
-  pnh.param("ros/queue_size", o->queue_size, o->queue_size);
-  pnh.param("ros/max_stamp_difference", o->max_stamp_difference, o->max_stamp_difference);
-  pnh.param("ros/use_twist", o->use_twist, o->use_twist);
-  pnh.param("ros/max_twist_wait", o->max_twist_wait, o->max_twist_wait);
-  pnh.param("ros/diagnostic_period", o->diagnostic_period, o->diagnostic_period);
-  pnh.param("ros/time_jump_reset", o->time_jump_reset, o->time_jump_reset);
-  if (o->queue_size < 1) *why = "ros/queue_size must be >= 1";
-  if (!(o->max_stamp_difference >= 0)) *why = "ros/max_stamp_difference must be >= 0";
-  if (!(o->max_twist_wait >= 0)) *why = "ros/max_twist_wait must be >= 0";
-  if (!(o->time_jump_reset >= 0)) *why = "ros/time_jump_reset must be >= 0";
-  if (!(o->diagnostic_period > 0)) *why = "ros/diagnostic_period must be > 0";
-  return why->empty();
-}
-
 }  // namespace
 
 StereoTrackerRos::StereoTrackerRos(const ros::NodeHandle& nh, const ros::NodeHandle& pnh,
@@ -45,7 +30,7 @@ StereoTrackerRos::StereoTrackerRos(const ros::NodeHandle& nh, const ros::NodeHan
   RosParameterSource source(pnh_);
   std::string error;
   if (!parseTrackerOptions(source, &options_, &error) || !(error = options_.validate()).empty() ||
-      !readRosOptions(pnh_, &ros_options_, &error)) {
+      !parseTrackerRosOptions(source, &ros_options_, &error)) {
     ROS_FATAL("%s: invalid parameters: %s", name_.c_str(), error.c_str());
     throw std::runtime_error("invalid parameters: " + error);
   }

@@ -57,6 +57,17 @@ void visitTrackerOptions(Options& o, Visitor& v) {
   v.number("ransac/max_pnp_depth_m", o.max_pnp_depth_m, Bound::kPositive);
 }
 
+/// The key table of the nodelet's ros/ options. `Options` is StereoTrackerRosOptions or const.
+template <typename Options, typename Visitor>
+void visitTrackerRosOptions(Options& o, Visitor& v) {
+  v.integer("ros/queue_size", o.queue_size, Bound::kAtLeastOne);
+  v.number("ros/max_stamp_difference", o.max_stamp_difference, Bound::kNonNegative);
+  v.flag("ros/use_twist", o.use_twist);
+  v.number("ros/max_twist_wait", o.max_twist_wait, Bound::kNonNegative);
+  v.number("ros/diagnostic_period", o.diagnostic_period, Bound::kPositive);
+  v.number("ros/time_jump_reset", o.time_jump_reset, Bound::kNonNegative);
+}
+
 }  // namespace
 
 bool parseTrackerOptions(const ParameterSource& source, TrackerOptions* options,
@@ -107,16 +118,33 @@ std::vector<OptionKeyList::Key> trackerOptionKeys() {
   return list.keys();
 }
 
-const std::vector<std::string>& trackerRosKeyNames() {
-  static const std::vector<std::string> names = {
-      "ros/queue_size",     "ros/max_stamp_difference", "ros/use_twist",
-      "ros/max_twist_wait", "ros/diagnostic_period",    "ros/time_jump_reset"};
-  return names;
+bool parseTrackerRosOptions(const ParameterSource& source, StereoTrackerRosOptions* options,
+                            std::string* error) {
+  OptionReader reader(source, error);
+  StereoTrackerRosOptions o = *options;
+  visitTrackerRosOptions(o, reader);
+  if (!reader.ok()) return false;
+  OptionValidator validator;
+  visitTrackerRosOptions(static_cast<const StereoTrackerRosOptions&>(o), validator);
+  if (!validator.error().empty()) {
+    if (error) *error = source.describe() + ": " + validator.error();
+    return false;
+  }
+  *options = o;
+  return true;
+}
+
+std::vector<OptionKeyList::Key> trackerRosOptionKeys() {
+  const StereoTrackerRosOptions defaults;
+  OptionKeyList list;
+  visitTrackerRosOptions(defaults, list);
+  return list.keys();
 }
 
 std::string unknownTrackerKeys(const ParameterSource& source) {
-  std::vector<std::string> known = trackerRosKeyNames();
+  std::vector<std::string> known;
   appendKeyNames(trackerOptionKeys(), &known);
+  appendKeyNames(trackerRosOptionKeys(), &known);
   return describeUnknownKeys(unknownKeys(source, known), known);
 }
 

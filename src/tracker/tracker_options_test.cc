@@ -30,6 +30,36 @@ TEST(TrackerOptions, ShippedFileHasNoUnknownKeyAndATypoIsNamed) {
             "unknown key ignored: ros/queue_sise (ros/queue_size?)");
 }
 
+TEST(TrackerRosOptions, ShippedFileEqualsTheDefaultsAndRangesAreChecked) {
+  YamlParameterSource source(std::string(EKF_VISLAM_SOURCE_DIR) + "/config/tracker.yaml");
+  ASSERT_TRUE(source.ok()) << source.error();
+  const std::vector<OptionKeyList::Key> keys = trackerRosOptionKeys();
+  EXPECT_EQ(keys.size(), 6u);
+  for (const OptionKeyList::Key& key : keys) {
+    EXPECT_TRUE(source.has(key.name)) << key.name << " is not documented in config/tracker.yaml";
+  }
+  StereoTrackerRosOptions options;
+  std::string error;
+  ASSERT_TRUE(parseTrackerRosOptions(source, &options, &error)) << error;
+  EXPECT_EQ(options.queue_size, 200);
+  EXPECT_TRUE(options.use_twist);
+  const YamlParameterSource changed =
+      YamlParameterSource::fromString("ros: {queue_size: 7, use_twist: false}\n");
+  ASSERT_TRUE(parseTrackerRosOptions(changed, &options, &error)) << error;
+  EXPECT_EQ(options.queue_size, 7);
+  EXPECT_FALSE(options.use_twist);
+  // Each range the nodelet has always checked: the options stay as they were.
+  for (const char* bad : {"ros: {queue_size: 0}\n", "ros: {max_stamp_difference: -0.1}\n",
+                          "ros: {max_twist_wait: -1}\n", "ros: {time_jump_reset: -1}\n",
+                          "ros: {diagnostic_period: 0}\n"}) {
+    error.clear();
+    EXPECT_FALSE(parseTrackerRosOptions(YamlParameterSource::fromString(bad), &options, &error))
+        << bad;
+    EXPECT_NE(error.find("ros/"), std::string::npos) << error;
+    EXPECT_EQ(options.queue_size, 7);
+  }
+}
+
 TEST(TrackerOptions, ParsesAndRejects) {
   TrackerOptions options;
   std::string error;

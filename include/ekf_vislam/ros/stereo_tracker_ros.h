@@ -31,16 +31,6 @@
 
 namespace ekf_vislam {
 
-/// ROS-only options, read from the private namespace under ros/ (see config/tracker.yaml).
-struct StereoTrackerRosOptions {
-  int queue_size = 200;                 ///< image, synchronizer and waiting-pair queues
-  double max_stamp_difference = 0.002;  ///< s, left and right stamps further apart: unsynchronized
-  bool use_twist = true;                ///< predict KLT start points from imu/twist (needs tf)
-  double max_twist_wait = 0.5;          ///< s of message time a pair waits for the twist stream
-  double diagnostic_period = 1.0;       ///< s
-  double time_jump_reset = 1.0;         ///< s back on one input: the tracker restarts (0 = off)
-};
-
 class StereoTrackerRos {
  public:
   /// Reads the tracker options from `pnh` (throws std::runtime_error when invalid).

@@ -96,8 +96,24 @@ std::string describeOptions(const TrackerOptions& options);
 /// Every key of the table ("detector/type", ...), with its kind and range.
 std::vector<OptionKeyList::Key> trackerOptionKeys();
 
-/// The keys of config/tracker.yaml's ros/ group, which the nodelet reads (StereoTrackerRos).
-const std::vector<std::string>& trackerRosKeyNames();
+/// The nodelet's own options (config/tracker.yaml's ros/ group; StereoTrackerRos). Plain data:
+/// the offline tool reads the same file and must know these keys too.
+struct StereoTrackerRosOptions {
+  int queue_size = 200;                 ///< image, synchronizer and waiting-pair queues
+  double max_stamp_difference = 0.002;  ///< s, left and right stamps further apart: unsynchronized
+  bool use_twist = true;                ///< predict KLT start points from imu/twist (needs tf)
+  double max_twist_wait = 0.5;          ///< s of message time a pair waits for the twist stream
+  double diagnostic_period = 1.0;       ///< s
+  double time_jump_reset = 1.0;         ///< s back on one input: the tracker restarts (0 = off)
+};
+
+/// Fills *options from the ros/ keys present in `source` and checks their ranges; false and
+/// *error set (leaving *options unchanged) on a wrong type or a value out of range.
+bool parseTrackerRosOptions(const ParameterSource& source, StereoTrackerRosOptions* options,
+                            std::string* error);
+
+/// Every key of the ros/ table ("ros/queue_size", ...).
+std::vector<OptionKeyList::Key> trackerRosOptionKeys();
 
 /// The keys of a tracker configuration (the table and the ros/ group) that `source` holds but
 /// nothing reads, as one line to warn with ("" when none; parameter_source.h).

@@ -20,8 +20,9 @@ std::string disagreementHint(uint64_t gated, uint64_t updated) {
   return text.str();
 }
 
-std::string sparseObservationsHint(uint64_t observations_updated, uint64_t frames) {
-  if (frames < kSparseHintMinFrames) return "";
+std::string sparseObservationsHint(EstimatorMode mode, uint64_t observations_updated,
+                                   uint64_t frames) {
+  if (mode != EstimatorMode::kSlam || frames < kSparseHintMinFrames) return "";
   const double per_frame = static_cast<double>(observations_updated) / static_cast<double>(frames);
   if (per_frame >= kSparseObservationsPerFrame) return "";
   std::ostringstream text;

@@ -32,22 +32,26 @@ TEST(DisagreementHint, ManyGatedNameTheFractionAndTheLikelyCauses) {
 
 TEST(SparseObservationsHint, DenseOrShortRunsSayNothing) {
   // The KITTI course files with every id: 47-49 updates per frame.
-  EXPECT_EQ(sparseObservationsHint(52000, 1100), "");
-  EXPECT_EQ(sparseObservationsHint(800, 100), "");  // exactly the threshold: not below it
-  EXPECT_EQ(sparseObservationsHint(0, 99), "");     // too few frames to say
+  EXPECT_EQ(sparseObservationsHint(EstimatorMode::kSlam, 52000, 1100), "");
+  EXPECT_EQ(sparseObservationsHint(EstimatorMode::kSlam, 800, 100),
+            "");  // exactly the threshold: not below it
+  EXPECT_EQ(sparseObservationsHint(EstimatorMode::kSlam, 0, 99), "");  // too few frames to say
 }
 
 TEST(SparseObservationsHint, FewPerFrameSayThatTheCovarianceIsOptimistic) {
   // 5 % of the ids: about 2.4 updates per frame.
-  const std::string hint = sparseObservationsHint(2640, 1100);
+  const std::string hint = sparseObservationsHint(EstimatorMode::kSlam, 2640, 1100);
   EXPECT_NE(hint.find("2.40 observations per frame"), std::string::npos) << hint;
   EXPECT_NE(hint.find("covariance"), std::string::npos) << hint;
   EXPECT_EQ(hint.find("dead reckoning"), std::string::npos) << hint;
   // 1 % of the ids: about 0.5 per frame, where SLAM did harm with a good twist.
-  const std::string harmful = sparseObservationsHint(550, 1100);
+  const std::string harmful = sparseObservationsHint(EstimatorMode::kSlam, 550, 1100);
   EXPECT_NE(harmful.find("0.50 observations per frame"), std::string::npos) << harmful;
   EXPECT_NE(harmful.find("dead reckoning"), std::string::npos) << harmful;
-  EXPECT_NE(sparseObservationsHint(0, 100), "");  // no update at all
+  EXPECT_NE(sparseObservationsHint(EstimatorMode::kSlam, 0, 100), "");  // no update at all
+  // In dead reckoning and mapping the pose is the twist's: nothing to say.
+  EXPECT_EQ(sparseObservationsHint(EstimatorMode::kMapping, 550, 1100), "");
+  EXPECT_EQ(sparseObservationsHint(EstimatorMode::kDeadReckoning, 0, 1100), "");
 }
 
 TEST(RoadTiltHint, SpeaksBeyondThreePriorSigmas) {

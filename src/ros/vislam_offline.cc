@@ -263,19 +263,16 @@ void printSummary(const EstimatorRunner& runner, const std::string& out_dir) {
                                           stats.get(Counter::kObservationInitialized)),
                static_cast<unsigned long>(stats.observationsRejected()), times.mean(),
                times.percentile(0.99), summary.wall_s, p.x(), p.y(), p.z(), out_dir.c_str());
-  const std::string hint =
-      disagreementHint(stats.get(Counter::kObsGated), stats.get(Counter::kObservationUpdate));
-  if (!hint.empty()) std::fprintf(stderr, "vislam_offline: warning: %s\n", hint.c_str());
-  const std::string travel = travelDirectionHint(runner.estimator().travelDirection(),
-                                                 runner.estimator().options().vehicle);
-  if (!travel.empty()) std::fprintf(stderr, "vislam_offline: warning: %s\n", travel.c_str());
-  if (runner.estimator().options().mode == EstimatorMode::kSlam) {
-    const std::string sparse = sparseObservationsHint(stats.get(Counter::kObservationUpdate),
-                                                      stats.get(Counter::kFrameUsed));
-    if (!sparse.empty()) std::fprintf(stderr, "vislam_offline: warning: %s\n", sparse.c_str());
-    const std::string tilt =
-        roadTiltHint(runner.estimator().roadTiltDegrees(), runner.estimator().options().vehicle);
-    if (!tilt.empty()) std::fprintf(stderr, "vislam_offline: warning: %s\n", tilt.c_str());
+  const VislamEstimator& estimator = runner.estimator();
+  const VislamOptions& options = estimator.options();
+  const std::string hints[] = {
+      disagreementHint(stats.get(Counter::kObsGated), stats.get(Counter::kObservationUpdate)),
+      travelDirectionHint(estimator.travelDirection(), options.vehicle),
+      sparseObservationsHint(options.mode, stats.get(Counter::kObservationUpdate),
+                             stats.get(Counter::kFrameUsed)),
+      roadTiltHint(estimator.roadTiltDegrees(), options.vehicle)};
+  for (const std::string& hint : hints) {
+    if (!hint.empty()) std::fprintf(stderr, "vislam_offline: warning: %s\n", hint.c_str());
   }
 }
 

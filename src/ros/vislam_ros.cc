@@ -581,8 +581,7 @@ void VislamRos::updateObservationRate(const EstimatorStats& stats) {
   rate_window_frames_ += frames;
   rate_window_updates_ += updates;
   observations_per_frame_ = static_cast<double>(updates) / static_cast<double>(frames);
-  sparse_hint_ =
-      options_.mode == EstimatorMode::kSlam ? sparseObservationsHint(updates, frames) : "";
+  sparse_hint_ = sparseObservationsHint(options_.mode, updates, frames);
   if (!sparse_hint_.empty()) {
     ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), sparse_hint_.c_str());
   }

@@ -31,7 +31,7 @@ std::string travelDirectionHint(const TravelDirectionEstimator& travel,
 
 /// A hint when few observations update the filter: on average fewer than
 /// kSparseObservationsPerFrame per feature frame, over at least kSparseHintMinFrames frames
-/// (SLAM mode; the callers leave the other modes out: their pose is the twist's). Measured on the
+/// (SLAM mode only: in the other modes the pose is the twist's). Measured on the
 /// KITTI course tracks (doc/experiments.md, landmark study): about 10 updates per frame gave a
 /// position NEES of 2.2-4.9, 5 per frame up to 7.9, 2-2.7 per frame up to 10.8 (3 is
 /// consistent); below kHarmfulObservationsPerFrame SLAM was 1.3-1.8x the dead reckoning's ATE
@@ -39,7 +39,8 @@ std::string travelDirectionHint(const TravelDirectionEstimator& travel,
 constexpr double kSparseObservationsPerFrame = 8.0;
 constexpr double kHarmfulObservationsPerFrame = 1.0;
 constexpr uint64_t kSparseHintMinFrames = 100;
-std::string sparseObservationsHint(uint64_t observations_updated, uint64_t frames);
+std::string sparseObservationsHint(EstimatorMode mode, uint64_t observations_updated,
+                                   uint64_t frames);
 
 /// A hint when the road tilt state (vehicle/tilt_sigma, SLAM mode) lies more than
 /// kTiltHintSigmas prior standard deviations from the start's level: either the road is steeper

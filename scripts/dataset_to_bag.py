@@ -54,10 +54,13 @@ def parse_args(argv):
                         help='keep the stored twist even when it turns the other way than the '
                              'images (by default such a twist is turned by a half turn about x '
                              'into the extrinsic\'s axes)')
-    parser.add_argument('--twist-type', choices=sorted(bag_writer.TWIST_TYPES),
+    parser.add_argument('--twist-type',
+                        choices=sorted(bag_writer.TWIST_TYPES) + [bag_writer.IMU_ODOMETRY],
                         default='twist_stamped',
                         help='message type of /imu/twist (default %(default)s; the estimator\'s '
-                        'ros/twist_type must match)')
+                        'ros/twist_type must match); imu_odometry: no /imu/twist but /imu/data '
+                        '(sensor_msgs/Imu) and /wheel/odometry (nav_msgs/Odometry of base_link, '
+                        'with a lever arm in /tf_static), for the twist combiner')
     parser.add_argument('--twist-covariance', type=float, nargs=2, metavar=('V', 'W'),
                         help='with twist_with_covariance or odometry: a diagonal covariance of '
                         'per-sample std V m/s and W rad/s (default: all zero, none given)')

@@ -154,16 +154,13 @@ bool parseVislamOptions(const ParameterSource& source, VislamOptions* options, s
 }
 
 std::string describeOptions(const VislamOptions& options) {
-  OptionDescriber describer;
-  visitVislamOptions(options, describer);
-  return describer.text();
+  return describeOptionTable(options,
+                             [](auto& o, auto& visitor) { visitVislamOptions(o, visitor); });
 }
 
 std::vector<OptionKeyList::Key> vislamOptionKeys() {
-  const VislamOptions defaults;
-  OptionKeyList list;
-  visitVislamOptions(defaults, list);
-  return list.keys();
+  return optionTableKeys<VislamOptions>(
+      [](auto& options, auto& visitor) { visitVislamOptions(options, visitor); });
 }
 
 }  // namespace ekf_vislam

@@ -11,6 +11,10 @@ Topics and frames (message time = header stamp = dataset time stamp):
   ``/stereo/left/camera_info`` and ``/stereo/right/camera_info`` (sensor_msgs/CameraInfo,
   rectified), ``/stereo/features`` (ekf_vislam/StereoFeatureArray, frame ``camera_left``, the
   observed features of the frame, id = column index of the features array);
+- with twist type ``imu_odometry``, instead of ``/imu/twist``: ``/imu/data`` (sensor_msgs/Imu,
+  frame ``imu``: the angular velocity) and ``/wheel/odometry`` (nav_msgs/Odometry, child
+  ``base_link``: the linear velocity of that frame, placed at IMU_T_BASE, announced in
+  /tf_static), the two inputs of the twist combiner;
 - with ground truth: ``/groundtruth/odometry`` (nav_msgs/Odometry, frame ``world``, child
   ``imu``), re-anchored so that the first pose is the identity, interleaved in time order.
 """
@@ -23,7 +27,7 @@ import rosbag
 import rospy
 from geometry_msgs.msg import TransformStamped, TwistStamped, TwistWithCovarianceStamped
 from nav_msgs.msg import Odometry
-from sensor_msgs.msg import CameraInfo
+from sensor_msgs.msg import CameraInfo, Imu
 from tf2_msgs.msg import TFMessage
 
 from ekf_vislam.msg import StereoFeature, StereoFeatureArray
@@ -35,11 +39,24 @@ TOPIC_LEFT_INFO = '/stereo/left/camera_info'
 TOPIC_RIGHT_INFO = '/stereo/right/camera_info'
 TOPIC_FEATURES = '/stereo/features'
 TOPIC_GROUNDTRUTH = '/groundtruth/odometry'
+TOPIC_IMU = '/imu/data'
+TOPIC_WHEEL_ODOMETRY = '/wheel/odometry'
 
 FRAME_WORLD = 'world'
 FRAME_IMU = 'imu'
 FRAME_CAMERA_LEFT = 'camera_left'
 FRAME_CAMERA_RIGHT = 'camera_right'
+FRAME_BASE = 'base_link'
+FRAME_ODOM = 'odom'
+
+#: imu_T_base of the wheel odometry's frame in ``imu_odometry`` bags: 1.2 m behind the IMU,
+#: 0.1 m to its left, 0.4 m below, turned 3 degrees in yaw (a lever arm the combiner must undo).
+IMU_T_BASE = np.eye(4)
+IMU_T_BASE[:3, :3] = se3.so3_exp(np.array([0.0, 0.0, math.radians(3.0)]))
+IMU_T_BASE[:3, 3] = [-1.2, 0.1, -0.4]
+
+#: The twist type that writes a gyro and a wheel odometry instead of /imu/twist.
+IMU_ODOMETRY = 'imu_odometry'
 
 DEFAULT_CALLERID = '/dataset_to_bag'
 
@@ -75,14 +92,18 @@ def _set_pose(pose, T):
     orientation.x, orientation.y, orientation.z, orientation.w = (float(x) for x in q)
 
 
-def tf_static_msg(dataset, stamp):
-    """/tf_static: imu -> camera_left (imu_T_cam) and camera_left -> camera_right (+b along x)."""
+def tf_static_msg(dataset, stamp, with_base=False):
+    """/tf_static: imu -> camera_left (imu_T_cam) and camera_left -> camera_right (+b along x);
+    with_base: also imu -> base_link (IMU_T_BASE)."""
     imu_T_cam = se3.inverse(dataset.cam_T_imu)
     left_T_right = np.eye(4)
     left_T_right[0, 3] = dataset.b
     msg = TFMessage()
-    for parent, child, parent_T_child in ((FRAME_IMU, FRAME_CAMERA_LEFT, imu_T_cam),
-                                          (FRAME_CAMERA_LEFT, FRAME_CAMERA_RIGHT, left_T_right)):
+    transforms = [(FRAME_IMU, FRAME_CAMERA_LEFT, imu_T_cam),
+                  (FRAME_CAMERA_LEFT, FRAME_CAMERA_RIGHT, left_T_right)]
+    if with_base:
+        transforms.append((FRAME_IMU, FRAME_BASE, IMU_T_BASE))
+    for parent, child, parent_T_child in transforms:
         tf = TransformStamped()
         tf.header.stamp = stamp
         tf.header.frame_id = parent
@@ -122,6 +143,40 @@ def twist_msg(dataset, k, stamp, twist_type='twist_stamped', covariance=None):
     twist.linear.x, twist.linear.y, twist.linear.z = (float(x) for x in dataset.v[:, k])
     twist.angular.x, twist.angular.y, twist.angular.z = (float(x) for x in dataset.w[:, k])
     return msg
+
+
+def imu_odometry_msgs(dataset, k, stamp, covariance=None):
+    """(Imu, Odometry) of frame k: the gyro (angular velocity in ``imu``) and the wheel odometry
+    (the velocity of ``base_link``, at IMU_T_BASE, in its own axes: v_base = R^T (v_imu - p x
+    w_imu)), whose combination is the dataset's twist. covariance: 6x6 of [v; w] per sample
+    (None: the Imu's marked unknown, the odometry's all zero)."""
+    v_imu, w_imu = dataset.v[:, k], dataset.w[:, k]
+    R, p = IMU_T_BASE[:3, :3], IMU_T_BASE[:3, 3]
+    imu = Imu()
+    imu.header.stamp = stamp
+    imu.header.frame_id = FRAME_IMU
+    imu.orientation_covariance[0] = -1.0
+    imu.linear_acceleration_covariance[0] = -1.0
+    imu.angular_velocity.x, imu.angular_velocity.y, imu.angular_velocity.z = (
+        float(x) for x in w_imu)
+    odometry = Odometry()
+    odometry.header.stamp = stamp
+    odometry.header.frame_id = FRAME_ODOM
+    odometry.child_frame_id = FRAME_BASE
+    odometry.pose.pose.orientation.w = 1.0
+    linear = odometry.twist.twist.linear
+    linear.x, linear.y, linear.z = (float(x) for x in R.T @ (v_imu - np.cross(p, w_imu)))
+    angular = odometry.twist.twist.angular
+    angular.x, angular.y, angular.z = (float(x) for x in R.T @ w_imu)
+    if covariance is None:
+        imu.angular_velocity_covariance[0] = -1.0
+    else:
+        covariance = np.asarray(covariance, dtype=float)
+        imu.angular_velocity_covariance = [float(x) for x in covariance[3:, 3:].ravel()]
+        odometry_covariance = np.zeros((6, 6))
+        odometry_covariance[:3, :3] = R.T @ covariance[:3, :3] @ R
+        odometry.twist.covariance = [float(x) for x in odometry_covariance.ravel()]
+    return imu, odometry
 
 
 def camera_info_msgs(dataset, stamp):
@@ -202,7 +257,13 @@ def _frame_messages(dataset, twist_type, twist_covariance):
     for k in range(dataset.num_frames):
         stamp = to_ros_time(dataset.t[k])
         left, right = camera_info_msgs(dataset, stamp)
-        yield stamp, 0, TOPIC_TWIST, twist_msg(dataset, k, stamp, twist_type, twist_covariance)
+        if twist_type == IMU_ODOMETRY:
+            imu, odometry = imu_odometry_msgs(dataset, k, stamp, twist_covariance)
+            yield stamp, 0, TOPIC_IMU, imu
+            yield stamp, 0, TOPIC_WHEEL_ODOMETRY, odometry
+        else:
+            yield stamp, 0, TOPIC_TWIST, twist_msg(dataset, k, stamp, twist_type,
+                                                   twist_covariance)
         yield stamp, 0, TOPIC_LEFT_INFO, left
         yield stamp, 0, TOPIC_RIGHT_INFO, right
         yield stamp, 0, TOPIC_FEATURES, features_msg(dataset, k, stamp,
@@ -217,11 +278,11 @@ def _groundtruth_messages(groundtruth):
 
 
 def iter_messages(dataset, groundtruth=None, twist_type='twist_stamped', twist_covariance=None):
-    """Yield (topic, msg, stamp) in bag order: /tf_static, then per frame twist (of twist_type),
-    left and right camera_info, features; ground truth (t, world_T_imu) interleaved by time (after
-    the frame's messages at equal stamps)."""
+    """Yield (topic, msg, stamp) in bag order: /tf_static, then per frame twist (of twist_type;
+    IMU_ODOMETRY: gyro and wheel odometry), left and right camera_info, features; ground truth
+    (t, world_T_imu) interleaved by time (after the frame's messages at equal stamps)."""
     first = to_ros_time(dataset.t[0])
-    yield TOPIC_TF_STATIC, tf_static_msg(dataset, first), first
+    yield TOPIC_TF_STATIC, tf_static_msg(dataset, first, twist_type == IMU_ODOMETRY), first
     streams = [_frame_messages(dataset, twist_type, twist_covariance)]
     if groundtruth is not None:
         streams.append(_groundtruth_messages(groundtruth))

@@ -7,6 +7,7 @@
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
+#include <sensor_msgs/Imu.h>
 #include <tf2/buffer_core.h>
 #include <tf2/exceptions.h>
 #include <tf2_msgs/TFMessage.h>
@@ -102,6 +103,57 @@ void BagReader::setTwistFrames(
   imu_frame_ = imu_frame;
   static_transforms_ = static_transforms;
   imu_T_child_frame_.clear();
+  imu_T_frame_cache_.clear();
+}
+
+void BagReader::useTwistCombiner(const TwistCombinerOptions& options, double time_jump_reset) {
+  combiner_ = std::make_unique<TwistCombiner>(options);
+  combiner_time_jumps_ = TimeJumpDetector(time_jump_reset, 2);
+}
+
+bool BagReader::imuTFrame(const std::string& frame, Eigen::Isometry3d* imu_T_frame,
+                          std::string* error) {
+  if (frame.empty() || frame == imu_frame_) {
+    imu_T_frame->setIdentity();
+    return true;
+  }
+  const auto cached = imu_T_frame_cache_.find(frame);
+  if (cached != imu_T_frame_cache_.end()) {
+    *imu_T_frame = cached->second;
+    return true;
+  }
+  if (!lookupStaticTransform(static_transforms_, imu_frame_, frame, imu_T_frame, error)) {
+    return false;
+  }
+  imu_T_frame_cache_[frame] = *imu_T_frame;
+  return true;
+}
+
+bool BagReader::combineTwist(const rosbag::MessageInstance& m, const Callback& callback,
+                             double fraction, std::string* error) {
+  Eigen::Isometry3d imu_T_frame;
+  if (m.getTopic() == topics_.imu_data) {
+    auto imu = m.instantiate<sensor_msgs::Imu>();
+    if (!imu) {
+      if (error) *error = topics_.imu_data + " is not sensor_msgs/Imu";
+      return false;
+    }
+    if (combiner_time_jumps_.jumpedBack(0, imu->header.stamp.toSec())) combiner_->reset();
+    if (!imuTFrame(imu->header.frame_id, &imu_T_frame, error)) return false;
+    combiner_->addAngularVelocity(
+        ros_conversions::toAngularVelocitySample(*imu, imu_T_frame.linear()));
+  } else {
+    auto odometry = m.instantiate<nav_msgs::Odometry>();
+    if (!odometry) {
+      if (error) *error = topics_.wheel_odometry + " is not nav_msgs/Odometry";
+      return false;
+    }
+    if (combiner_time_jumps_.jumpedBack(1, odometry->header.stamp.toSec())) combiner_->reset();
+    if (!imuTFrame(odometry->child_frame_id, &imu_T_frame, error)) return false;
+    combiner_->addLinearVelocity(ros_conversions::toLinearVelocitySample(*odometry, imu_T_frame));
+  }
+  for (TwistData& twist : combiner_->takeReady()) callback(Measurement(twist), fraction);
+  return true;
 }
 
 bool BagReader::convertTwist(const rosbag::MessageInstance& m, TwistData* twist,
@@ -135,13 +187,19 @@ bool BagReader::convertTwist(const rosbag::MessageInstance& m, TwistData* twist,
 
 bool BagReader::forEachMeasurement(const Callback& callback, std::string* error) {
   try {
-    rosbag::View view(
-        *bag_, rosbag::TopicQuery(std::vector<std::string>{topics_.twist, topics_.features}));
+    const std::vector<std::string> twist_topics =
+        combiner_ ? std::vector<std::string>{topics_.imu_data, topics_.wheel_odometry}
+                  : std::vector<std::string>{topics_.twist};
+    std::vector<std::string> read = twist_topics;
+    read.push_back(topics_.features);
+    rosbag::View view(*bag_, rosbag::TopicQuery(read));
     const double begin = view.getBeginTime().toSec();
     const double span = std::max(1e-9, view.getEndTime().toSec() - begin);
     for (const rosbag::MessageInstance& m : view) {
       const double fraction = (m.getTime().toSec() - begin) / span;
-      if (m.getTopic() == topics_.twist) {
+      if (combiner_ && m.getTopic() != topics_.features) {
+        if (!combineTwist(m, callback, fraction, error)) return false;
+      } else if (m.getTopic() == topics_.twist) {
         TwistData twist;
         if (!convertTwist(m, &twist, error)) return false;
         callback(Measurement(twist), fraction);

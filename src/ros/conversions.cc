@@ -87,6 +87,42 @@ TwistData toTwistData(const nav_msgs::Odometry& msg, const Eigen::Isometry3d& im
   return imu;
 }
 
+geometry_msgs::TwistWithCovarianceStamped toTwistWithCovarianceMsg(const TwistData& twist,
+                                                                   const std::string& frame_id) {
+  geometry_msgs::TwistWithCovarianceStamped msg;
+  const geometry_msgs::TwistStamped plain = toTwistMsg(twist, frame_id);
+  msg.header = plain.header;
+  msg.twist.twist = plain.twist;
+  toCovarianceMsg(twist.covariance, &msg.twist.covariance);
+  return msg;
+}
+
+AngularVelocitySample toAngularVelocitySample(const sensor_msgs::Imu& msg,
+                                              const Eigen::Matrix3d& R_imu_from_msg) {
+  AngularVelocitySample sample;
+  sample.stamp = msg.header.stamp.toSec();
+  const Eigen::Vector3d w_msg(msg.angular_velocity.x, msg.angular_velocity.y,
+                              msg.angular_velocity.z);
+  sample.w_imu = R_imu_from_msg * w_msg;
+  if (msg.angular_velocity_covariance[0] != -1.0) {
+    const Eigen::Matrix3d covariance =
+        Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(
+            msg.angular_velocity_covariance.data());
+    sample.covariance = R_imu_from_msg * covariance * R_imu_from_msg.transpose();
+  }
+  return sample;
+}
+
+LinearVelocitySample toLinearVelocitySample(const nav_msgs::Odometry& msg,
+                                            const Eigen::Isometry3d& imu_T_child) {
+  LinearVelocitySample sample;
+  sample.stamp = msg.header.stamp.toSec();
+  sample.v_base << msg.twist.twist.linear.x, msg.twist.twist.linear.y, msg.twist.twist.linear.z;
+  sample.covariance = fromCovarianceMsg(msg.twist.covariance).topLeftCorner<3, 3>();
+  sample.imu_T_base = imu_T_child;
+  return sample;
+}
+
 geometry_msgs::TwistStamped toTwistMsg(const TwistData& twist, const std::string& frame_id) {
   geometry_msgs::TwistStamped msg;
   msg.header.stamp = toRosTime(twist.stamp);

@@ -93,6 +93,51 @@ TEST(Conversions, TwistWithCovarianceTakesAFiniteNonZeroCovariance) {
   EXPECT_FALSE(twist.hasCovariance());  // the configured noise is used
 }
 
+TEST(Conversions, ImuAndWheelOdometryBecomeTheCombinerSamples) {
+  sensor_msgs::Imu imu;
+  imu.header.stamp = ros::Time(7, 500000000);
+  imu.angular_velocity.x = 0.1;
+  imu.angular_velocity.y = -0.2;
+  imu.angular_velocity.z = 0.3;
+  imu.angular_velocity_covariance[0] = -1.0;  // unknown
+  const Eigen::Matrix3d R = se3::expSO3(Eigen::Vector3d(0.0, 0.0, M_PI / 2));
+  AngularVelocitySample gyro = rc::toAngularVelocitySample(imu, R);
+  EXPECT_DOUBLE_EQ(gyro.stamp, 7.5);
+  EXPECT_LT((gyro.w_imu - R * Eigen::Vector3d(0.1, -0.2, 0.3)).norm(), 1e-15);
+  EXPECT_TRUE(gyro.covariance.isZero(0.0));
+  imu.angular_velocity_covariance = {1e-4, 0, 0, 0, 2e-4, 0, 0, 0, 3e-4};
+  gyro = rc::toAngularVelocitySample(imu, R);
+  // Rotated a quarter turn about z: x and y variances swap.
+  EXPECT_NEAR(gyro.covariance(0, 0), 2e-4, 1e-18);
+  EXPECT_NEAR(gyro.covariance(1, 1), 1e-4, 1e-18);
+  EXPECT_NEAR(gyro.covariance(2, 2), 3e-4, 1e-18);
+
+  nav_msgs::Odometry odometry;
+  odometry.header.stamp = ros::Time(8, 0);
+  odometry.child_frame_id = "base_link";
+  odometry.twist.twist.linear.x = 4.0;
+  odometry.twist.covariance[0] = 0.01;
+  odometry.twist.covariance[35] = 9.0;  // the angular part is not the wheel sample's
+  Eigen::Isometry3d imu_T_base = Eigen::Isometry3d::Identity();
+  imu_T_base.translation() = Eigen::Vector3d(-1.0, 0.0, -0.5);
+  const LinearVelocitySample wheel = rc::toLinearVelocitySample(odometry, imu_T_base);
+  EXPECT_DOUBLE_EQ(wheel.stamp, 8.0);
+  EXPECT_EQ(wheel.v_base, Eigen::Vector3d(4.0, 0.0, 0.0));
+  EXPECT_DOUBLE_EQ(wheel.covariance(0, 0), 0.01);
+  EXPECT_DOUBLE_EQ(wheel.covariance.sum(), 0.01);
+  EXPECT_TRUE(wheel.imu_T_base.isApprox(imu_T_base));
+
+  TwistData twist;
+  twist.stamp = 9.25;
+  twist.v_imu = Eigen::Vector3d(1, 2, 3);
+  twist.covariance(4, 4) = 0.5;
+  const geometry_msgs::TwistWithCovarianceStamped msg = rc::toTwistWithCovarianceMsg(twist, "imu");
+  EXPECT_EQ(msg.header.frame_id, "imu");
+  EXPECT_DOUBLE_EQ(msg.header.stamp.toSec(), 9.25);
+  EXPECT_DOUBLE_EQ(msg.twist.twist.linear.z, 3.0);
+  EXPECT_DOUBLE_EQ(msg.twist.covariance[4 * 6 + 4], 0.5);
+}
+
 TEST(Conversions, OdometryTwistInAnotherFrameMatchesRigidBodyMotion) {
   // The child frame C sits at p in the IMU frame I, rotated by R. A rigid body moving with the
   // child's twist: the IMU's twist from finite differences of world_T_imu = world_T_child

@@ -59,7 +59,15 @@ StereoTrackerRos::StereoTrackerRos(const ros::NodeHandle& nh, const ros::NodeHan
   right_info_sub_ =
       nh_.subscribe("stereo/right/camera_info", queue, &StereoTrackerRos::rightInfoCallback, this);
   if (ros_options_.use_twist) {
-    twist_sub_ = nh_.subscribe("imu/twist", 20 * queue, &StereoTrackerRos::twistCallback, this);
+    if (ros_options_.twist_type == "odometry") {
+      twist_sub_ =
+          nh_.subscribe("imu/twist", 20 * queue, &StereoTrackerRos::odometryTwistCallback, this);
+    } else if (ros_options_.twist_type == "twist_with_covariance") {
+      twist_sub_ = nh_.subscribe("imu/twist", 20 * queue,
+                                 &StereoTrackerRos::twistWithCovarianceCallback, this);
+    } else {
+      twist_sub_ = nh_.subscribe("imu/twist", 20 * queue, &StereoTrackerRos::twistCallback, this);
+    }
   }
   left_sub_.subscribe(nh_, "stereo/left/image_rect", queue);
   right_sub_.subscribe(nh_, "stereo/right/image_rect", queue);
@@ -81,14 +89,28 @@ void StereoTrackerRos::rightInfoCallback(const sensor_msgs::CameraInfoConstPtr& 
 }
 
 void StereoTrackerRos::twistCallback(const geometry_msgs::TwistStampedConstPtr& msg) {
+  addTwist(msg->header.stamp, msg->twist, msg->header.frame_id);
+}
+
+void StereoTrackerRos::twistWithCovarianceCallback(
+    const geometry_msgs::TwistWithCovarianceStampedConstPtr& msg) {
+  addTwist(msg->header.stamp, msg->twist.twist, msg->header.frame_id);
+}
+
+void StereoTrackerRos::odometryTwistCallback(const nav_msgs::OdometryConstPtr& msg) {
+  // The twist of child_frame_id; its rotation is what the KLT prediction uses.
+  addTwist(msg->header.stamp, msg->twist.twist, msg->child_frame_id);
+}
+
+void StereoTrackerRos::addTwist(const ros::Time& ros_stamp, const geometry_msgs::Twist& t,
+                                const std::string& frame) {
   std::lock_guard<std::mutex> lock(mutex_);
-  restartIfTimeJumped(1, msg->header.stamp);
-  const double stamp = msg->header.stamp.toSec();
+  restartIfTimeJumped(1, ros_stamp);
+  const double stamp = ros_stamp.toSec();
   if (!twists_.empty() && stamp <= twists_.back().stamp) return;
-  const geometry_msgs::Twist& t = msg->twist;
   twists_.push_back({stamp, Eigen::Vector3d(t.linear.x, t.linear.y, t.linear.z),
                      Eigen::Vector3d(t.angular.x, t.angular.y, t.angular.z)});
-  twist_frame_ = msg->header.frame_id;
+  twist_frame_ = frame;
   // Keep what the oldest waiting pair and the last tracked one may still need.
   double keep_from = stamp - kTwistHistory;
   if (prev_stamp_ > 0) keep_from = std::min(keep_from, prev_stamp_);

@@ -3,6 +3,10 @@
 //   rosrun ekf_vislam vislam_offline --bag IN.bag --out DIR [--mode slam|mapping|deadreckoning]
 //       [--config FILE] [--imu-frame NAME] [--twist-topic T] [--features-topic T]
 //       [--left-info-topic T] [--right-info-topic T] [--tf-static-topic T]
+//       [--imu-topic T] [--wheel-odometry-topic T] [--combiner-config FILE]
+//
+// A bag without the twist topic but with a gyro (sensor_msgs/Imu) and a wheel odometry
+// (nav_msgs/Odometry) gets its twist from TwistCombiner, as twist_combiner_node makes it live.
 //
 // Feeds the estimator through the same conversions, MeasurementSequencer and EstimatorRunner as
 // the nodelet, so the nodelet's trajectory on the same bag is the same.
@@ -41,10 +45,14 @@ const char* kUsage =
     "usage: vislam_offline --bag IN.bag --out DIR [--mode slam|mapping|deadreckoning]\n"
     "                      [--config FILE] [--imu-frame NAME] [--twist-topic T]\n"
     "                      [--features-topic T] [--left-info-topic T] [--right-info-topic T]\n"
-    "                      [--tf-static-topic T]\n"
+    "                      [--tf-static-topic T] [--imu-topic T] [--wheel-odometry-topic T]\n"
+    "                      [--combiner-config FILE]\n"
     "Runs the EKF on a bag without a roscore and writes DIR/trajectory.tum (world_T_imu after\n"
     "every feature frame), DIR/landmarks.csv and DIR/stats.json. --mode overrides the config's\n"
-    "mode; the default config is config/default.yaml of the ekf_vislam package.\n";
+    "mode; the default config is config/default.yaml of the ekf_vislam package. A bag with no\n"
+    "twist topic but a gyro (--imu-topic, /imu/data) and a wheel odometry\n"
+    "(--wheel-odometry-topic, /wheel/odometry) gets its twist combined from them (options:\n"
+    "--combiner-config, default the built-in ones of config/twist_combiner.yaml).\n";
 
 bool fileExists(const std::string& path) {
   struct stat info;
@@ -111,7 +119,10 @@ std::optional<int> parseArguments(int argc, char** argv, Arguments* args) {
                                               "--features-topic",
                                               "--left-info-topic",
                                               "--right-info-topic",
-                                              "--tf-static-topic"};
+                                              "--tf-static-topic",
+                                              "--imu-topic",
+                                              "--wheel-odometry-topic",
+                                              "--combiner-config"};
   for (int i = 1; i < argc; ++i) {
     std::string flag = argv[i];
     if (flag == "-h" || flag == "--help") {
@@ -172,6 +183,32 @@ bool loadOptions(Arguments& args, VislamOptions* options, VislamRosOptions* ros_
   return true;
 }
 
+/// The combiner options of `path` ("" = the built-in defaults, those of
+/// config/twist_combiner.yaml). False with *error.
+bool loadCombinerOptions(const std::string& path, TwistCombinerOptions* options,
+                         std::string* error) {
+  if (path.empty()) return true;
+  YamlParameterSource source(path);
+  if (!source.ok()) {
+    *error = "cannot read combiner config " + source.error();
+    return false;
+  }
+  return parseTwistCombinerOptions(source, options, error);
+}
+
+void printCombinerSummary(const TwistCombiner& combiner) {
+  const TwistCombinerCounters& c = combiner.counters();
+  std::fprintf(stderr,
+               "vislam_offline: twist combiner: %lu gyro and %lu wheel samples in, %lu twists "
+               "out, %lu with the wheel velocity held, %lu dropped (no wheel velocity), %lu "
+               "refused\n",
+               static_cast<unsigned long>(c.angular_received),
+               static_cast<unsigned long>(c.linear_received), static_cast<unsigned long>(c.twists),
+               static_cast<unsigned long>(c.velocity_held),
+               static_cast<unsigned long>(c.dropped_no_velocity),
+               static_cast<unsigned long>(c.rejected_non_finite + c.rejected_not_increasing));
+}
+
 BagTopics topicsFrom(Arguments& args) {
   BagTopics topics;
   if (!args["--twist-topic"].empty()) topics.twist = args["--twist-topic"];
@@ -179,26 +216,41 @@ BagTopics topicsFrom(Arguments& args) {
   if (!args["--left-info-topic"].empty()) topics.left_info = args["--left-info-topic"];
   if (!args["--right-info-topic"].empty()) topics.right_info = args["--right-info-topic"];
   if (!args["--tf-static-topic"].empty()) topics.tf_static = args["--tf-static-topic"];
+  if (!args["--imu-topic"].empty()) topics.imu_data = args["--imu-topic"];
+  if (!args["--wheel-odometry-topic"].empty()) {
+    topics.wheel_odometry = args["--wheel-odometry-topic"];
+  }
   return topics;
 }
 
-/// Every topic present and of its type (the twist: any of the three of ros/twist_type).
+/// True when the bag has no twist but a gyro and a wheel odometry to combine one from.
+bool combinesTwist(const BagReader& bag, const BagTopics& topics) {
+  return bag.messageCount(topics.twist) == 0 && bag.messageCount(topics.imu_data) > 0 &&
+         bag.messageCount(topics.wheel_odometry) > 0;
+}
+
+/// Every topic present and of its type (the twist: any of the three of ros/twist_type, or the
+/// gyro and wheel odometry it is combined from).
 bool checkBagTopics(const BagReader& bag, const BagTopics& topics, bool needs_features,
-                    std::string* error) {
+                    bool combined, std::string* error) {
   if (topics.twist == topics.features) {
     *error = "the twist and feature topics must differ";
     return false;
   }
   std::vector<std::string> required = {topics.twist};
+  if (combined) required = {topics.imu_data, topics.wheel_odometry};
   if (needs_features) required.push_back(topics.features);
   for (const std::string& topic : required) {
     if (bag.messageCount(topic) == 0) {
-      *error = "no messages on " + topic;
+      *error = "no messages on " + topic +
+               (combined ? ""
+                         : " (nor on both " + topics.imu_data + " and " + topics.wheel_odometry +
+                               " to combine a twist from)");
       return false;
     }
   }
   const std::string twist_type = bag.dataType(topics.twist);
-  if (twist_type != "geometry_msgs/TwistStamped" &&
+  if (!combined && twist_type != "geometry_msgs/TwistStamped" &&
       twist_type != "geometry_msgs/TwistWithCovarianceStamped" &&
       twist_type != "nav_msgs/Odometry") {
     *error = topics.twist + " holds " + twist_type +
@@ -210,7 +262,9 @@ bool checkBagTopics(const BagReader& bag, const BagTopics& topics, bool needs_fe
       {topics.features, "ekf_vislam/StereoFeatureArray"},
       {topics.left_info, "sensor_msgs/CameraInfo"},
       {topics.right_info, "sensor_msgs/CameraInfo"},
-      {topics.tf_static, "tf2_msgs/TFMessage"}};
+      {topics.tf_static, "tf2_msgs/TFMessage"},
+      {topics.imu_data, "sensor_msgs/Imu"},
+      {topics.wheel_odometry, "nav_msgs/Odometry"}};
   for (const auto& [topic, type] : expected_types) {
     const std::string actual = bag.dataType(topic);
     if (!actual.empty() && actual != type) {
@@ -288,12 +342,23 @@ int run(int argc, char** argv) {
   BagReader bag;
   if (!bag.open(args["--bag"], topics, &error)) return fail(error);
   const bool needs_features = options.mode != EstimatorMode::kDeadReckoning;
-  if (!checkBagTopics(bag, topics, needs_features, &error)) {
+  const bool combined = combinesTwist(bag, topics);
+  if (!checkBagTopics(bag, topics, needs_features, combined, &error)) {
     return fail("bag " + args["--bag"] + ": " + error);
   }
   BagCalibrationData data;
   if (!bag.readCalibrationData(&data, &error)) return fail(error);
   bag.setTwistFrames(ros_options.imu_frame, data.static_transforms);
+  if (combined) {
+    TwistCombinerOptions combiner_options;
+    if (!loadCombinerOptions(args["--combiner-config"], &combiner_options, &error)) {
+      return fail(error);
+    }
+    bag.useTwistCombiner(combiner_options, ros_options.time_jump_reset);
+    std::cerr << "vislam_offline: no " << topics.twist << ": the twist is combined from "
+              << topics.imu_data << " and " << topics.wheel_odometry << " ("
+              << describeTwistCombinerOptions(combiner_options) << ")\n";
+  }
   EstimatorRunner runner(options, {ros_options.sequencer_max_delay,
                                    static_cast<size_t>(ros_options.sequencer_max_buffered)});
   StereoCalibration calibration;
@@ -331,6 +396,7 @@ int run(int argc, char** argv) {
   runner.flush();
   if (!runner.save(args["--out"], &error)) return fail(error);
   printSummary(runner, args["--out"]);
+  if (const TwistCombiner* combiner = bag.twistCombiner()) printCombinerSummary(*combiner);
   return 0;
 }
 

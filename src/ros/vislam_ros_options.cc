@@ -135,10 +135,8 @@ std::string describeOptions(const VislamRosOptions& o) {
 }
 
 std::vector<OptionKeyList::Key> vislamRosOptionKeys() {
-  const VislamRosOptions defaults;
-  OptionKeyList list;
-  visitVislamRosOptions(defaults, list);
-  return list.keys();
+  return optionTableKeys<VislamRosOptions>(
+      [](auto& options, auto& visitor) { visitVislamRosOptions(options, visitor); });
 }
 
 std::string unknownEstimatorKeys(const ParameterSource& source) {

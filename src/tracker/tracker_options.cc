@@ -63,10 +63,15 @@ void visitTrackerRosOptions(Options& o, Visitor& v) {
   v.integer("ros/queue_size", o.queue_size, Bound::kAtLeastOne);
   v.number("ros/max_stamp_difference", o.max_stamp_difference, Bound::kNonNegative);
   v.flag("ros/use_twist", o.use_twist);
+  v.text("ros/twist_type", o.twist_type);
   v.number("ros/max_twist_wait", o.max_twist_wait, Bound::kNonNegative);
   v.number("ros/diagnostic_period", o.diagnostic_period, Bound::kPositive);
   v.number("ros/time_jump_reset", o.time_jump_reset, Bound::kNonNegative);
 }
+
+constexpr auto kRosTable = [](auto& options, auto& visitor) {
+  visitTrackerRosOptions(options, visitor);
+};
 
 }  // namespace
 
@@ -106,39 +111,32 @@ std::string TrackerOptions::validate() const {
 }
 
 std::string describeOptions(const TrackerOptions& options) {
-  OptionDescriber describer;
-  visitTrackerOptions(options, describer);
-  return describer.text();
+  return describeOptionTable(options,
+                             [](auto& o, auto& visitor) { visitTrackerOptions(o, visitor); });
 }
 
 std::vector<OptionKeyList::Key> trackerOptionKeys() {
-  const TrackerOptions defaults;
-  OptionKeyList list;
-  visitTrackerOptions(defaults, list);
-  return list.keys();
+  return optionTableKeys<TrackerOptions>(
+      [](auto& options, auto& visitor) { visitTrackerOptions(options, visitor); });
 }
 
 bool parseTrackerRosOptions(const ParameterSource& source, StereoTrackerRosOptions* options,
                             std::string* error) {
-  OptionReader reader(source, error);
-  StereoTrackerRosOptions o = *options;
-  visitTrackerRosOptions(o, reader);
-  if (!reader.ok()) return false;
-  OptionValidator validator;
-  visitTrackerRosOptions(static_cast<const StereoTrackerRosOptions&>(o), validator);
-  if (!validator.error().empty()) {
-    if (error) *error = source.describe() + ": " + validator.error();
-    return false;
-  }
-  *options = o;
-  return true;
+  return readOptionTable(source, kRosTable, options, error,
+                         [](const StereoTrackerRosOptions& o, OptionValidator* validator) {
+                           if (o.twist_type != "twist_stamped" &&
+                               o.twist_type != "twist_with_covariance" &&
+                               o.twist_type != "odometry") {
+                             validator->fail(
+                                 "'ros/twist_type' must be one of twist_stamped | "
+                                 "twist_with_covariance | odometry, not '" +
+                                 o.twist_type + "'");
+                           }
+                         });
 }
 
 std::vector<OptionKeyList::Key> trackerRosOptionKeys() {
-  const StereoTrackerRosOptions defaults;
-  OptionKeyList list;
-  visitTrackerRosOptions(defaults, list);
-  return list.keys();
+  return optionTableKeys<StereoTrackerRosOptions>(kRosTable);
 }
 
 std::string unknownTrackerKeys(const ParameterSource& source) {

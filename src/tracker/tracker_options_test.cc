@@ -34,7 +34,7 @@ TEST(TrackerRosOptions, ShippedFileEqualsTheDefaultsAndRangesAreChecked) {
   YamlParameterSource source(std::string(EKF_VISLAM_SOURCE_DIR) + "/config/tracker.yaml");
   ASSERT_TRUE(source.ok()) << source.error();
   const std::vector<OptionKeyList::Key> keys = trackerRosOptionKeys();
-  EXPECT_EQ(keys.size(), 6u);
+  EXPECT_EQ(keys.size(), 7u);
   for (const OptionKeyList::Key& key : keys) {
     EXPECT_TRUE(source.has(key.name)) << key.name << " is not documented in config/tracker.yaml";
   }
@@ -51,7 +51,7 @@ TEST(TrackerRosOptions, ShippedFileEqualsTheDefaultsAndRangesAreChecked) {
   // Each range the nodelet has always checked: the options stay as they were.
   for (const char* bad : {"ros: {queue_size: 0}\n", "ros: {max_stamp_difference: -0.1}\n",
                           "ros: {max_twist_wait: -1}\n", "ros: {time_jump_reset: -1}\n",
-                          "ros: {diagnostic_period: 0}\n"}) {
+                          "ros: {diagnostic_period: 0}\n", "ros: {twist_type: imu}\n"}) {
     error.clear();
     EXPECT_FALSE(parseTrackerRosOptions(YamlParameterSource::fromString(bad), &options, &error))
         << bad;

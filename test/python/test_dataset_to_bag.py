@@ -287,6 +287,33 @@ class TwistTypeTest(unittest.TestCase):
         self.assertNotEqual(proc.returncode, 0)
 
 
+    def test_imu_odometry_gives_a_gyro_and_a_wheel_odometry_whose_rigid_combination_is_the_twist(
+            self):
+        bag = os.path.join(self.tmp, 'z.bag')
+        proc = ekf_test_paths.run_script(SCRIPT, self.npz, bag, '--twist-type', 'imu_odometry',
+                                         '--twist-covariance', 0.5, 0.05)
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        messages, _, headers = read_bag(bag)
+        self.assertNotIn(bag_writer.TOPIC_TWIST, messages)
+        self.assertEqual(headers[bag_writer.TOPIC_IMU]['type'], b'sensor_msgs/Imu')
+        imu_T_base = transform_matrix(tf_by_child(messages)['base_link'].transform)
+        np.testing.assert_allclose(imu_T_base, bag_writer.IMU_T_BASE, atol=1e-12)
+        R, p = imu_T_base[:3, :3], imu_T_base[:3, 3]
+        pairs = list(zip(messages[bag_writer.TOPIC_IMU], messages[bag_writer.TOPIC_WHEEL_ODOMETRY]))
+        self.assertEqual(len(pairs), self.FRAMES)
+        for k, ((imu, _), (odometry, _)) in enumerate(pairs):
+            self.assertEqual(imu.header.stamp, odometry.header.stamp)
+            self.assertEqual((imu.header.frame_id, odometry.child_frame_id), ('imu', 'base_link'))
+            w = np.array([imu.angular_velocity.x, imu.angular_velocity.y, imu.angular_velocity.z])
+            v = odometry.twist.twist.linear
+            v_imu = R @ np.array([v.x, v.y, v.z]) + np.cross(p, w)
+            np.testing.assert_allclose(w, self.sim['rotational_velocity'][:, k], atol=1e-12)
+            np.testing.assert_allclose(v_imu, self.sim['linear_velocity'][:, k], atol=1e-9)
+            np.testing.assert_allclose(np.diag(np.reshape(imu.angular_velocity_covariance,
+                                                          (3, 3))), [0.0025] * 3)
+        self.assertEqual(pairs[0][0][0].orientation_covariance[0], -1.0)
+
+
 class ExtrinsicTest(ConverterTestCase):
     """The 2019 translation fix, its opt-out and the simulator's marker key; the later layout."""
 

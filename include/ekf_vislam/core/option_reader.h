@@ -10,6 +10,7 @@
 #include <initializer_list>
 #include <string>
 #include <utility>
+#include <vector>
 
 namespace ekf_vislam {
 
@@ -82,5 +83,50 @@ class OptionReader {
   std::string* error_;
   bool ok_ = true;
 };
+
+/// Reads the keys of a table (a generic callable table(options, visitor), option_table.h) from
+/// `source` into *options, then checks every bound and extra_checks(options, &validator) (rules
+/// a bound cannot say). False with *error naming the source and the key; *options is then
+/// unchanged.
+template <typename Options, typename Table, typename ExtraChecks>
+bool readOptionTable(const ParameterSource& source, const Table& table, Options* options,
+                     std::string* error, const ExtraChecks& extra_checks) {
+  OptionReader reader(source, error);
+  Options o = *options;
+  table(o, reader);
+  if (!reader.ok()) return false;
+  OptionValidator validator;
+  table(static_cast<const Options&>(o), validator);
+  extra_checks(static_cast<const Options&>(o), &validator);
+  if (!validator.error().empty()) {
+    if (error != nullptr) *error = source.describe() + ": " + validator.error();
+    return false;
+  }
+  *options = o;
+  return true;
+}
+
+template <typename Options, typename Table>
+bool readOptionTable(const ParameterSource& source, const Table& table, Options* options,
+                     std::string* error) {
+  return readOptionTable(source, table, options, error, [](const Options&, OptionValidator*) {});
+}
+
+/// Every key of a table, from default-constructed options.
+template <typename Options, typename Table>
+std::vector<OptionKeyList::Key> optionTableKeys(const Table& table) {
+  const Options defaults;
+  OptionKeyList list;
+  table(defaults, list);
+  return list.keys();
+}
+
+/// "group: key=value ..." lines of a table's values.
+template <typename Options, typename Table>
+std::string describeOptionTable(const Options& options, const Table& table) {
+  OptionDescriber describer;
+  table(options, describer);
+  return describer.text();
+}
 
 }  // namespace ekf_vislam

@@ -4,6 +4,8 @@
 #pragma once
 
 #include "ekf_vislam/core/measurement_sequencer.h"
+#include "ekf_vislam/core/time_jump_detector.h"
+#include "ekf_vislam/core/twist_combiner.h"
 
 #include <geometry_msgs/TransformStamped.h>
 #include <sensor_msgs/CameraInfo.h>
@@ -11,6 +13,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -28,6 +31,8 @@ struct BagTopics {
   std::string left_info = "/stereo/left/camera_info";
   std::string right_info = "/stereo/right/camera_info";
   std::string tf_static = "/tf_static";
+  std::string imu_data = "/imu/data";              ///< gyro (sensor_msgs/Imu), with the ...
+  std::string wheel_odometry = "/wheel/odometry";  ///< ... wheel odometry: combined twist
 };
 
 /// What the bag says about the calibration (first message of each camera_info topic).
@@ -60,6 +65,12 @@ class BagReader {
   void setTwistFrames(const std::string& imu_frame,
                       const std::vector<geometry_msgs::TransformStamped>& static_transforms);
 
+  /// Makes the twist from the gyro (topics.imu_data) and the wheel odometry
+  /// (topics.wheel_odometry) with a TwistCombiner, as twist_combiner_node does live (time jumps
+  /// restart it alike), instead of reading topics.twist. Call after setTwistFrames.
+  void useTwistCombiner(const TwistCombinerOptions& options, double time_jump_reset);
+  const TwistCombiner* twistCombiner() const { return combiner_.get(); }
+
   /// Every twist (TwistStamped, TwistWithCovarianceStamped or Odometry) and feature message in
   /// bag order, converted; `fraction` in [0, 1] is the progress through the bag. False (with a
   /// message) on a message of another type, or an odometry frame with no transform to the IMU.
@@ -68,6 +79,11 @@ class BagReader {
 
  private:
   bool convertTwist(const rosbag::MessageInstance& m, TwistData* twist, std::string* error);
+  /// Feeds a gyro or wheel message to the combiner and passes on the twists it completes.
+  bool combineTwist(const rosbag::MessageInstance& m, const Callback& callback, double fraction,
+                    std::string* error);
+  /// imu_frame <- frame from the static transforms (identity for the IMU frame itself).
+  bool imuTFrame(const std::string& frame, Eigen::Isometry3d* imu_T_frame, std::string* error);
 
   std::unique_ptr<rosbag::Bag> bag_;
   BagTopics topics_;
@@ -75,6 +91,9 @@ class BagReader {
   std::vector<geometry_msgs::TransformStamped> static_transforms_;
   std::string imu_T_child_frame_;  ///< child frame of the cached transform
   Eigen::Isometry3d imu_T_child_ = Eigen::Isometry3d::Identity();
+  std::unique_ptr<TwistCombiner> combiner_;
+  std::map<std::string, Eigen::Isometry3d> imu_T_frame_cache_;
+  TimeJumpDetector combiner_time_jumps_{0.0, 2};
 };
 
 /// Transform of camera_frame in imu_frame (imu_T_cam) from static transforms, chains allowed

@@ -5,6 +5,7 @@
 #include <ekf_vislam/StereoFeature.h>
 #include <ekf_vislam/StereoFeatureArray.h>
 #include "ekf_vislam/core/calibration_builder.h"
+#include "ekf_vislam/core/twist_combiner.h"
 #include "ekf_vislam/core/types.h"
 
 #include <geometry_msgs/Transform.h>
@@ -12,6 +13,7 @@
 #include <geometry_msgs/TwistWithCovarianceStamped.h>
 #include <nav_msgs/Odometry.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Imu.h>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <boost/array.hpp>
@@ -40,6 +42,19 @@ TwistData toTwistData(const geometry_msgs::TwistWithCovarianceStamped& msg,
 /// covariance goes through J = [[R, p^ R], [0, R]]. Covariance handling as above.
 TwistData toTwistData(const nav_msgs::Odometry& msg, const Eigen::Isometry3d& imu_T_child,
                       bool* covariance_invalid = nullptr);
+
+/// The combined twist as TwistWithCovarianceStamped (all-zero covariance when it has none).
+geometry_msgs::TwistWithCovarianceStamped toTwistWithCovarianceMsg(const TwistData& twist,
+                                                                   const std::string& frame_id);
+/// sensor_msgs/Imu -> the gyro sample of TwistCombiner, rotated into the IMU frame by
+/// R_imu_from_msg (identity when the message is in it). angular_velocity_covariance[0] = -1
+/// (unknown, the Imu convention) or all zero gives no covariance.
+AngularVelocitySample toAngularVelocitySample(const sensor_msgs::Imu& msg,
+                                              const Eigen::Matrix3d& R_imu_from_msg);
+/// nav_msgs/Odometry -> the wheel sample of TwistCombiner: the linear velocity of
+/// child_frame_id in its own axes, its 3x3 covariance, and where that frame is (imu_T_child).
+LinearVelocitySample toLinearVelocitySample(const nav_msgs::Odometry& msg,
+                                            const Eigen::Isometry3d& imu_T_child);
 
 /// Feature message -> core frame (stamp in seconds, features in message order).
 FeatureFrame toFeatureFrame(const ekf_vislam::StereoFeatureArray& msg);

@@ -10,10 +10,12 @@
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <geometry_msgs/TwistStamped.h>
+#include <geometry_msgs/TwistWithCovarianceStamped.h>
 #include <image_transport/image_transport.h>
 #include <message_filters/subscriber.h>
 #include <message_filters/sync_policies/approximate_time.h>
 #include <message_filters/synchronizer.h>
+#include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
@@ -55,6 +57,11 @@ class StereoTrackerRos {
   void leftInfoCallback(const sensor_msgs::CameraInfoConstPtr& msg);
   void rightInfoCallback(const sensor_msgs::CameraInfoConstPtr& msg);
   void twistCallback(const geometry_msgs::TwistStampedConstPtr& msg);
+  void twistWithCovarianceCallback(const geometry_msgs::TwistWithCovarianceStampedConstPtr& msg);
+  void odometryTwistCallback(const nav_msgs::OdometryConstPtr& msg);
+  /// One twist sample of the motion prior (any of the three message types).
+  void addTwist(const ros::Time& stamp, const geometry_msgs::Twist& twist,
+                const std::string& frame);
   /// True when `stamp` on `stream` (0 images, 1 twist) went back in time: then every track,
   /// waiting pair and twist is dropped, and tracking starts again with new ids.
   bool restartIfTimeJumped(int stream, const ros::Time& stamp);

@@ -102,6 +102,9 @@ struct StereoTrackerRosOptions {
   int queue_size = 200;                 ///< image, synchronizer and waiting-pair queues
   double max_stamp_difference = 0.002;  ///< s, left and right stamps further apart: unsynchronized
   bool use_twist = true;                ///< predict KLT start points from imu/twist (needs tf)
+  /// Message type on imu/twist, as the estimator's ros/twist_type: twist_stamped |
+  /// twist_with_covariance | odometry (its twist, in child_frame_id).
+  std::string twist_type = "twist_stamped";
   double max_twist_wait = 0.5;          ///< s of message time a pair waits for the twist stream
   double diagnostic_period = 1.0;       ///< s
   double time_jump_reset = 1.0;         ///< s back on one input: the tracker restarts (0 = off)

@@ -1,0 +1,113 @@
+// TwistCombiner: the body twist the estimator needs, made from the two sensors a ground robot
+// usually has: a gyro (angular velocity, IMU frame) and a wheel odometry (linear velocity of its
+// own frame, e.g. base_link). No ROS.
+//
+// One twist per `imu_samples_per_twist` gyro samples, stamped at the last of them: the mean
+// angular velocity of those samples (the twist at t_k drives [t_k-1, t_k] in the estimator) and
+// the linear velocity interpolated linearly between the two wheel samples around t_k, moved to
+// the IMU origin (v_imu = R v_base + p x w_imu for imu_T_base = (R, p)). A twist waits, in
+// message time only, until a wheel sample at or after its stamp has arrived: the output depends
+// on the stamps and the order of the inputs, never on wall time. When the gyro stream runs
+// `max_velocity_wait` s ahead of the wheel stream, the last wheel velocity is held (counted), and
+// a twist whose nearest wheel sample is more than `max_velocity_age` s away is dropped (counted).
+#pragma once
+
+#include "ekf_vislam/core/option_table.h"
+#include "ekf_vislam/core/parameter_source.h"
+#include "ekf_vislam/core/types.h"
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include <cstdint>
+#include <deque>
+#include <string>
+#include <vector>
+
+namespace ekf_vislam {
+
+struct TwistCombinerOptions {
+  int imu_samples_per_twist = 1;   ///< gyro samples averaged into one twist
+  double max_velocity_wait = 0.2;  ///< s of gyro time a twist waits for a later wheel sample
+  double max_velocity_age = 0.5;   ///< s: a wheel sample further from the twist is not used
+};
+
+/// Reads the combiner/ keys of `source` into *options (unset keys keep their value) and checks
+/// their ranges; false with *error naming the key.
+bool parseTwistCombinerOptions(const ParameterSource& source, TwistCombinerOptions* options,
+                               std::string* error);
+/// Every key of the combiner/ table ("combiner/imu_samples_per_twist", ...).
+std::vector<OptionKeyList::Key> twistCombinerOptionKeys();
+/// "combiner: key=value ..." lines (logged at start).
+std::string describeTwistCombinerOptions(const TwistCombinerOptions& options);
+
+/// A gyro sample, already in the IMU frame.
+struct AngularVelocitySample {
+  double stamp = 0.0;
+  Eigen::Vector3d w_imu = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  ///< rad^2/s^2; all zero: unknown
+};
+
+/// A wheel-odometry sample: the linear velocity of its own frame, in that frame's axes, and
+/// where that frame is (imu_T_base: base coordinates to IMU coordinates).
+struct LinearVelocitySample {
+  double stamp = 0.0;
+  Eigen::Vector3d v_base = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  ///< m^2/s^2; all zero: unknown
+  Eigen::Isometry3d imu_T_base = Eigen::Isometry3d::Identity();
+};
+
+struct TwistCombinerCounters {
+  uint64_t angular_received = 0;
+  uint64_t linear_received = 0;
+  uint64_t twists = 0;                   ///< twists out
+  uint64_t velocity_held = 0;            ///< twists with a wheel velocity held, not interpolated
+  uint64_t dropped_no_velocity = 0;      ///< twists without a wheel sample near enough
+  uint64_t rejected_non_finite = 0;      ///< input samples with NaN/Inf
+  uint64_t rejected_not_increasing = 0;  ///< input samples not newer than the previous one
+};
+
+class TwistCombiner {
+ public:
+  explicit TwistCombiner(const TwistCombinerOptions& options) : options_(options) {}
+
+  /// Add one sample; false (counted, *why says why) when it is refused: not finite, or not newer
+  /// than the previous sample of its stream. Twists that become complete go to takeReady().
+  bool addAngularVelocity(const AngularVelocitySample& sample, std::string* why = nullptr);
+  bool addLinearVelocity(const LinearVelocitySample& sample, std::string* why = nullptr);
+
+  /// The twists completed since the last call, in stamp order. Each carries a covariance only
+  /// when both of its sensors gave one.
+  std::vector<TwistData> takeReady();
+
+  /// Forgets every sample (time went back); the counters stay.
+  void reset();
+
+  const TwistCombinerCounters& counters() const { return counters_; }
+
+ private:
+  /// A twist's gyro part: the mean of its samples.
+  struct AngularGroup {
+    double stamp = 0.0;
+    Eigen::Vector3d w_imu = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  };
+  void closeGroupIfFull();
+  void release();
+  /// False while the group must wait for a wheel sample.
+  bool tryCombine(const AngularGroup& group, double newest_angular_stamp);
+  TwistData combine(const AngularGroup& group, const LinearVelocitySample& before,
+                    const LinearVelocitySample& after, double weight_after) const;
+  void pruneLinear(double released_stamp);
+
+  TwistCombinerOptions options_;
+  std::vector<AngularVelocitySample> open_group_;  ///< gyro samples of the twist being filled
+  std::deque<AngularGroup> waiting_;               ///< complete gyro parts, stamp order
+  std::deque<LinearVelocitySample> linear_;        ///< wheel samples, stamp order
+  std::vector<TwistData> ready_;
+  double last_angular_stamp_ = -1e300;
+  double last_linear_stamp_ = -1e300;
+  TwistCombinerCounters counters_;
+};
+
+}  // namespace ekf_vislam

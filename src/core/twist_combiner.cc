@@ -1,0 +1,198 @@
+#include "ekf_vislam/core/twist_combiner.h"
+
+#include "ekf_vislam/core/option_reader.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace ekf_vislam {
+
+namespace {
+
+template <typename Options, typename Visitor>
+void visitTwistCombinerOptions(Options& o, Visitor& v) {
+  v.integer("combiner/imu_samples_per_twist", o.imu_samples_per_twist, Bound::kAtLeastOne);
+  v.number("combiner/max_velocity_wait", o.max_velocity_wait, Bound::kNonNegative);
+  v.number("combiner/max_velocity_age", o.max_velocity_age, Bound::kPositive);
+}
+
+constexpr auto kTable = [](auto& options, auto& visitor) {
+  visitTwistCombinerOptions(options, visitor);
+};
+
+Eigen::Matrix3d skew(const Eigen::Vector3d& a) {
+  Eigen::Matrix3d a_hat;
+  a_hat << 0.0, -a.z(), a.y(), a.z(), 0.0, -a.x(), -a.y(), a.x(), 0.0;
+  return a_hat;
+}
+
+void setWhy(std::string* why, const std::string& text) {
+  if (why != nullptr) *why = text;
+}
+
+}  // namespace
+
+bool parseTwistCombinerOptions(const ParameterSource& source, TwistCombinerOptions* options,
+                               std::string* error) {
+  return readOptionTable(source, kTable, options, error);
+}
+
+std::vector<OptionKeyList::Key> twistCombinerOptionKeys() {
+  return optionTableKeys<TwistCombinerOptions>(kTable);
+}
+
+std::string describeTwistCombinerOptions(const TwistCombinerOptions& options) {
+  return describeOptionTable(options, kTable);
+}
+
+bool TwistCombiner::addAngularVelocity(const AngularVelocitySample& sample, std::string* why) {
+  ++counters_.angular_received;
+  if (!std::isfinite(sample.stamp) || !sample.w_imu.allFinite() || !sample.covariance.allFinite()) {
+    ++counters_.rejected_non_finite;
+    setWhy(why, "angular velocity or its covariance not finite");
+    return false;
+  }
+  if (sample.stamp <= last_angular_stamp_) {
+    ++counters_.rejected_not_increasing;
+    setWhy(why, "angular velocity stamp not after the previous one");
+    return false;
+  }
+  last_angular_stamp_ = sample.stamp;
+  open_group_.push_back(sample);
+  closeGroupIfFull();
+  release();
+  return true;
+}
+
+bool TwistCombiner::addLinearVelocity(const LinearVelocitySample& sample, std::string* why) {
+  ++counters_.linear_received;
+  if (!std::isfinite(sample.stamp) || !sample.v_base.allFinite() ||
+      !sample.covariance.allFinite() || !sample.imu_T_base.matrix().allFinite()) {
+    ++counters_.rejected_non_finite;
+    setWhy(why, "linear velocity or its covariance not finite");
+    return false;
+  }
+  if (sample.stamp <= last_linear_stamp_) {
+    ++counters_.rejected_not_increasing;
+    setWhy(why, "linear velocity stamp not after the previous one");
+    return false;
+  }
+  last_linear_stamp_ = sample.stamp;
+  linear_.push_back(sample);
+  release();
+  return true;
+}
+
+std::vector<TwistData> TwistCombiner::takeReady() {
+  std::vector<TwistData> out;
+  out.swap(ready_);
+  return out;
+}
+
+void TwistCombiner::reset() {
+  open_group_.clear();
+  waiting_.clear();
+  linear_.clear();
+  ready_.clear();
+  last_angular_stamp_ = -1e300;
+  last_linear_stamp_ = -1e300;
+}
+
+void TwistCombiner::closeGroupIfFull() {
+  if (static_cast<int>(open_group_.size()) < options_.imu_samples_per_twist) return;
+  AngularGroup group;
+  group.stamp = open_group_.back().stamp;
+  bool all_have_covariance = true;
+  for (const AngularVelocitySample& sample : open_group_) {
+    group.w_imu += sample.w_imu;
+    group.covariance += sample.covariance;
+    all_have_covariance = all_have_covariance && !sample.covariance.isZero(0.0);
+  }
+  const double n = static_cast<double>(open_group_.size());
+  group.w_imu /= n;
+  // The mean of n samples of independent noise: covariance / n.
+  group.covariance =
+      all_have_covariance ? Eigen::Matrix3d(group.covariance / (n * n)) : Eigen::Matrix3d::Zero();
+  waiting_.push_back(group);
+  open_group_.clear();
+}
+
+void TwistCombiner::release() {
+  while (!waiting_.empty() && tryCombine(waiting_.front(), last_angular_stamp_)) {
+    pruneLinear(waiting_.front().stamp);
+    waiting_.pop_front();
+  }
+}
+
+bool TwistCombiner::tryCombine(const AngularGroup& group, double newest_angular_stamp) {
+  const double t = group.stamp;
+  // The first wheel sample at or after t, and the last one before it.
+  auto after = std::lower_bound(
+      linear_.begin(), linear_.end(), t,
+      [](const LinearVelocitySample& sample, double stamp) { return sample.stamp < stamp; });
+  const bool has_before = after != linear_.begin();
+  if (after != linear_.end()) {
+    if (!has_before || after->stamp == t) {
+      // Nothing before t (the wheel stream starts later), or a sample exactly at t.
+      if (after->stamp - t > options_.max_velocity_age) {
+        ++counters_.dropped_no_velocity;
+        return true;
+      }
+      if (after->stamp != t) ++counters_.velocity_held;
+      ready_.push_back(combine(group, *after, *after, 0.0));
+    } else {
+      const LinearVelocitySample& before = *std::prev(after);
+      const double weight_after = (t - before.stamp) / (after->stamp - before.stamp);
+      ready_.push_back(combine(group, before, *after, weight_after));
+    }
+    ++counters_.twists;
+    return true;
+  }
+  // No wheel sample at or after t yet: wait, unless the gyro stream is too far ahead.
+  if (newest_angular_stamp - t <= options_.max_velocity_wait) return false;
+  if (!has_before || t - linear_.back().stamp > options_.max_velocity_age) {
+    ++counters_.dropped_no_velocity;
+    return true;
+  }
+  ++counters_.velocity_held;
+  ++counters_.twists;
+  ready_.push_back(combine(group, linear_.back(), linear_.back(), 0.0));
+  return true;
+}
+
+TwistData TwistCombiner::combine(const AngularGroup& group, const LinearVelocitySample& before,
+                                 const LinearVelocitySample& after, double weight_after) const {
+  // Each wheel sample moved to the IMU origin with this twist's angular velocity, then
+  // interpolated: v_imu = R v_base + p x w_imu, d v_imu / d w_imu = [p]x.
+  auto at_imu = [&group](const LinearVelocitySample& sample) {
+    const Eigen::Matrix3d R = sample.imu_T_base.linear();
+    return Eigen::Vector3d(R * sample.v_base + sample.imu_T_base.translation().cross(group.w_imu));
+  };
+  const double weight_before = 1.0 - weight_after;
+  TwistData twist;
+  twist.stamp = group.stamp;
+  twist.w_imu = group.w_imu;
+  twist.v_imu = weight_before * at_imu(before) + weight_after * at_imu(after);
+  const bool covariance_known = !group.covariance.isZero(0.0) && !before.covariance.isZero(0.0) &&
+                                !after.covariance.isZero(0.0);
+  if (covariance_known) {
+    const Eigen::Matrix3d R = before.imu_T_base.linear();
+    const Eigen::Matrix3d p_hat = skew(before.imu_T_base.translation());
+    const Eigen::Matrix3d cov_v_base =
+        weight_before * before.covariance + weight_after * after.covariance;
+    twist.covariance.topLeftCorner<3, 3>() =
+        R * cov_v_base * R.transpose() + p_hat * group.covariance * p_hat.transpose();
+    twist.covariance.topRightCorner<3, 3>() = p_hat * group.covariance;
+    twist.covariance.bottomLeftCorner<3, 3>() = group.covariance * p_hat.transpose();
+    twist.covariance.bottomRightCorner<3, 3>() = group.covariance;
+  }
+  return twist;
+}
+
+void TwistCombiner::pruneLinear(double released_stamp) {
+  // Keep the last wheel sample before the released stamp (the next twist may interpolate from
+  // it) and everything after.
+  while (linear_.size() > 1 && linear_[1].stamp <= released_stamp) linear_.pop_front();
+}
+
+}  // namespace ekf_vislam

@@ -1,0 +1,110 @@
+#!/usr/bin/python3
+"""Plays a synthetic drive with a gyro and a wheel odometry instead of a twist through the twist
+combiner and the estimator (see twist_combiner.test): live = offline, and the combined twist is
+the drive's own."""
+import os
+import shutil
+import sys
+import tempfile
+import time
+import unittest
+
+import numpy as np
+import rospkg
+import rospy
+import rostest
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import TwistWithCovarianceStamped
+from std_srvs.srv import Trigger
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from vislam_rostest import EQUALITY_TOLERANCE_M, PLAY_RATE, log, read_tum, run  # noqa: E402
+
+from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
+
+PKG = 'ekf_vislam'
+SEED = 3
+FRAMES = 300
+INPUTS = ('/imu/data', '/wheel/odometry', '/stereo/features', '/stereo/left/camera_info',
+          '/stereo/right/camera_info')
+
+
+class TwistCombinerTest(unittest.TestCase):
+    @classmethod
+    def on_diagnostics(cls, msg):
+        for status in msg.status:
+            if status.name.endswith('twist combiner'):
+                cls.statuses.append(status)
+
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('twist_combiner_rostest', anonymous=True)
+        cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_combiner_')
+        scripts = os.path.join(rospkg.RosPack().get_path(PKG), 'scripts')
+        prefix = os.path.join(cls.tmp, 'sim')
+        run(['/usr/bin/python3', os.path.join(scripts, 'simulate_dataset.py'), '--seed',
+             str(SEED), '--out', prefix, '--frames', str(FRAMES)])
+        cls.bags = {}
+        for kind, twist_type in (('direct', 'twist_stamped'), ('combined', 'imu_odometry')):
+            cls.bags[kind] = os.path.join(cls.tmp, kind + '.bag')
+            run(['/usr/bin/python3', os.path.join(scripts, 'dataset_to_bag.py'), prefix + '.npz',
+                 cls.bags[kind], '--twist-type', twist_type])
+            log(run(['rosrun', PKG, 'vislam_offline', '--bag', cls.bags[kind], '--out',
+                     os.path.join(cls.tmp, 'offline_' + kind)]).strip())
+        cls.statuses, cls.twists = [], []
+        rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics, queue_size=100)
+        rospy.Subscriber('/imu/twist', TwistWithCovarianceStamped, cls.twists.append,
+                         queue_size=5000)
+        rospy.wait_for_service('/vislam/save', timeout=60.0)
+        play_bag(cls.bags['combined'], '/twist_combiner_player', PLAY_RATE,
+                 {topic: ('/vislam_manager',) for topic in INPUTS})
+        wait_until(lambda: len(cls.twists) >= FRAMES, 30.0)
+        time.sleep(2.0)  # the estimator processes the last frame; one more diagnostics period
+        cls.saved = os.path.join(cls.tmp, 'live')
+        rospy.set_param('/vislam/ros/output_dir', cls.saved)
+        response = rospy.ServiceProxy('/vislam/save', Trigger)()
+        if not response.success:
+            raise RuntimeError('/vislam/save failed: %s' % response.message)
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.tmp, ignore_errors=True)
+
+    def trajectory(self, folder):
+        return read_tum(os.path.join(self.tmp, folder, 'trajectory.tum'))
+
+    def test_every_gyro_sample_gives_a_twist_in_the_imu_frame(self):
+        self.assertEqual(len(self.twists), FRAMES)
+        self.assertTrue(all(msg.header.frame_id == 'imu' for msg in self.twists))
+
+    def test_offline_combined_twist_equals_the_drive_twist(self):
+        t_direct, direct = self.trajectory('offline_direct')
+        t_combined, combined = self.trajectory('offline_combined')
+        self.assertEqual(len(t_combined), FRAMES)
+        np.testing.assert_array_equal(t_combined, t_direct)
+        difference = np.abs(combined[:, :3] - direct[:, :3]).max()
+        log('offline: combined twist against the drive\'s own: %.2e m' % difference)
+        self.assertLess(difference, EQUALITY_TOLERANCE_M)
+
+    def test_live_equals_offline(self):
+        t_live, live = self.trajectory('live')
+        t_offline, offline = self.trajectory('offline_combined')
+        self.assertEqual(len(t_live), FRAMES)
+        np.testing.assert_array_equal(t_live, t_offline)
+        difference = np.abs(live[:, :3] - offline[:, :3]).max()
+        log('live against offline: %.2e m' % difference)
+        self.assertLess(difference, EQUALITY_TOLERANCE_M)
+
+    def test_diagnostics_count_the_inputs(self):
+        self.assertTrue(self.statuses, 'no twist combiner status on /diagnostics')
+        values = {kv.key: kv.value for kv in self.statuses[-1].values}
+        self.assertEqual(int(values['imu_received']), FRAMES)
+        self.assertEqual(int(values['odometry_received']), FRAMES)
+        self.assertEqual(int(values['twists_published']), FRAMES)
+        for key in ('velocity_held', 'dropped_no_velocity', 'rejected_non_finite',
+                    'odometry_without_tf'):
+            self.assertEqual(int(values[key]), 0, key)
+
+
+if __name__ == '__main__':
+    rostest.rosrun(PKG, 'twist_combiner', TwistCombinerTest)

@@ -1,21 +1,12 @@
 // ekf_vislam/StereoTrackerNodelet: a thin nodelet over StereoTrackerRos.
 #include "ekf_vislam/ros/stereo_tracker_ros.h"
+#include "ekf_vislam/ros/thin_wrappers.h"
 
-#include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
-
-#include <memory>
 
 namespace ekf_vislam {
 
-class StereoTrackerNodelet : public nodelet::Nodelet {
- private:
-  void onInit() override {
-    tracker_ =
-        std::make_unique<StereoTrackerRos>(getNodeHandle(), getPrivateNodeHandle(), getName());
-  }
-  std::unique_ptr<StereoTrackerRos> tracker_;
-};
+class StereoTrackerNodelet : public WrapperNodelet<StereoTrackerRos> {};
 
 }  // namespace ekf_vislam
 

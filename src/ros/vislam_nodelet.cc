@@ -1,26 +1,12 @@
 // ekf_vislam/VislamNodelet: a thin nodelet over VislamRos.
+#include "ekf_vislam/ros/thin_wrappers.h"
 #include "ekf_vislam/ros/vislam_ros.h"
 
-#include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
-
-#include <memory>
 
 namespace ekf_vislam {
 
-class VislamNodelet : public nodelet::Nodelet {
- public:
-  ~VislamNodelet() override {
-    if (vislam_) vislam_->shutdown();  // processes what is buffered, saves when configured
-  }
-
- private:
-  void onInit() override {
-    vislam_ = std::make_unique<VislamRos>(getNodeHandle(), getPrivateNodeHandle(), getName());
-  }
-
-  std::unique_ptr<VislamRos> vislam_;
-};
+class VislamNodelet : public WrapperNodelet<VislamRos> {};
 
 }  // namespace ekf_vislam
 

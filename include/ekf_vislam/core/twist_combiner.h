@@ -28,7 +28,7 @@ namespace ekf_vislam {
 
 struct TwistCombinerOptions {
   int imu_samples_per_twist = 1;   ///< gyro samples averaged into one twist
-  double max_velocity_wait = 0.2;  ///< s of gyro time a twist waits for a later wheel sample
+  double max_velocity_wait = 1.0;  ///< s of gyro time a twist waits for a later wheel sample
   double max_velocity_age = 0.5;   ///< s: a wheel sample further from the twist is not used
 };
 

@@ -1,6 +1,7 @@
 #include "ekf_vislam/core/twist_combiner.h"
 
 #include "ekf_vislam/core/option_reader.h"
+#include "ekf_vislam/core/se3.h"
 
 #include <algorithm>
 #include <cmath>
@@ -19,12 +20,6 @@ void visitTwistCombinerOptions(Options& o, Visitor& v) {
 constexpr auto kTable = [](auto& options, auto& visitor) {
   visitTwistCombinerOptions(options, visitor);
 };
-
-Eigen::Matrix3d skew(const Eigen::Vector3d& a) {
-  Eigen::Matrix3d a_hat;
-  a_hat << 0.0, -a.z(), a.y(), a.z(), 0.0, -a.x(), -a.y(), a.x(), 0.0;
-  return a_hat;
-}
 
 void setWhy(std::string* why, const std::string& text) {
   if (why != nullptr) *why = text;
@@ -177,7 +172,7 @@ TwistData TwistCombiner::combine(const AngularGroup& group, const LinearVelocity
                                 !after.covariance.isZero(0.0);
   if (covariance_known) {
     const Eigen::Matrix3d R = before.imu_T_base.linear();
-    const Eigen::Matrix3d p_hat = skew(before.imu_T_base.translation());
+    const Eigen::Matrix3d p_hat = se3::hat(Eigen::Vector3d(before.imu_T_base.translation()));
     const Eigen::Matrix3d cov_v_base =
         weight_before * before.covariance + weight_after * after.covariance;
     twist.covariance.topLeftCorner<3, 3>() =

@@ -13,8 +13,8 @@ Topics and frames (message time = header stamp = dataset time stamp):
   observed features of the frame, id = column index of the features array);
 - with twist type ``imu_odometry``, instead of ``/imu/twist``: ``/imu/data`` (sensor_msgs/Imu,
   frame ``imu``: the angular velocity) and ``/wheel/odometry`` (nav_msgs/Odometry, child
-  ``base_link``: the linear velocity of that frame, placed at IMU_T_BASE, announced in
-  /tf_static), the two inputs of the twist combiner;
+  ``base_link``: the linear velocity of that frame, placed at IMU_T_BASE; /tf_static then
+  holds base_link -> imu too), the two inputs of the twist combiner;
 - with ground truth: ``/groundtruth/odometry`` (nav_msgs/Odometry, frame ``world``, child
   ``imu``), re-anchored so that the first pose is the identity, interleaved in time order.
 """
@@ -94,15 +94,15 @@ def _set_pose(pose, T):
 
 def tf_static_msg(dataset, stamp, with_base=False):
     """/tf_static: imu -> camera_left (imu_T_cam) and camera_left -> camera_right (+b along x);
-    with_base: also imu -> base_link (IMU_T_BASE)."""
+    with_base: also base_link -> imu (the inverse of IMU_T_BASE), as a robot's tree has it."""
     imu_T_cam = se3.inverse(dataset.cam_T_imu)
     left_T_right = np.eye(4)
     left_T_right[0, 3] = dataset.b
     msg = TFMessage()
     transforms = [(FRAME_IMU, FRAME_CAMERA_LEFT, imu_T_cam),
                   (FRAME_CAMERA_LEFT, FRAME_CAMERA_RIGHT, left_T_right)]
-    if with_base:
-        transforms.append((FRAME_IMU, FRAME_BASE, IMU_T_BASE))
+    if with_base:  # the robot's tree: base_link -> imu -> camera_left
+        transforms.insert(0, (FRAME_BASE, FRAME_IMU, se3.inverse(IMU_T_BASE)))
     for parent, child, parent_T_child in transforms:
         tf = TransformStamped()
         tf.header.stamp = stamp

@@ -1,5 +1,6 @@
 #include "ekf_vislam/ros/vislam_ros.h"
 
+#include "ekf_vislam/core/attached_frame.h"
 #include "ekf_vislam/core/health_monitor.h"
 #include "ekf_vislam/ros/conversions.h"
 #include "ekf_vislam/ros/heap_allocation.h"
@@ -358,11 +359,12 @@ void VislamRos::onProcessed(const EstimatorRunner::Processed& processed) {
     publishOdometry(last_stamp_, estimator.worldTImu(), estimator.poseCovarianceWorld(),
                     estimator.correctedTwist(), estimator.correctedTwistCovariance(), true);
   }
-  if (processed.is_frame && !runner_->trajectory().empty()) {
+  Eigen::Isometry3d imu_T_output;
+  if (processed.is_frame && !runner_->trajectory().empty() && imuTOutput(&imu_T_output)) {
     geometry_msgs::PoseStamped pose;
     pose.header.frame_id = ros_options_.world_frame;
     pose.header.stamp = ros_conversions::toRosTime(runner_->trajectory().back().stamp);
-    pose.pose = ros_conversions::toPoseMsg(runner_->trajectory().back().world_T_imu);
+    pose.pose = ros_conversions::toPoseMsg(runner_->trajectory().back().world_T_imu * imu_T_output);
     path_.poses.push_back(pose);
     path_.header.stamp = pose.header.stamp;
     path_dirty_ = true;
@@ -377,10 +379,14 @@ void VislamRos::onProcessed(const EstimatorRunner::Processed& processed) {
 void VislamRos::publishOdometry(double stamp, const Eigen::Isometry3d& world_T_imu,
                                 const Matrix6d& pose_covariance_world, const TwistData& twist,
                                 const Matrix6d& twist_covariance, bool after_update) {
+  Eigen::Isometry3d imu_T_output;
+  if (!imuTOutput(&imu_T_output)) return;
+  const AttachedFrameState output = moveToAttachedFrame(
+      imu_T_output, world_T_imu, pose_covariance_world, twist, twist_covariance);
   nav_msgs::Odometry odometry;
-  if (!ros_conversions::toOdometryMsg(stamp, ros_options_.world_frame, ros_options_.imu_frame,
-                                      world_T_imu, pose_covariance_world, twist, twist_covariance,
-                                      &odometry)) {
+  if (!ros_conversions::toOdometryMsg(stamp, ros_options_.world_frame, outputFrame(),
+                                      output.world_T_frame, output.pose_covariance_world,
+                                      output.twist, output.twist_covariance, &odometry)) {
     ++odometry_non_finite_;
     ROS_ERROR_THROTTLE(5.0, "%s: estimate not finite: odometry not published (%lu times)",
                        name_.c_str(), static_cast<unsigned long>(odometry_non_finite_));
@@ -407,13 +413,41 @@ void VislamRos::publishTf() {
   }
   geometry_msgs::TransformStamped transform;
   transform.header = last_odometry_.header;
-  transform.child_frame_id = ros_options_.imu_frame;
+  transform.child_frame_id = outputFrame();
   transform.transform.translation.x = last_odometry_.pose.pose.position.x;
   transform.transform.translation.y = last_odometry_.pose.pose.position.y;
   transform.transform.translation.z = last_odometry_.pose.pose.position.z;
   transform.transform.rotation = last_odometry_.pose.pose.orientation;
   tf_broadcaster_.sendTransform(transform);
   last_tf_stamp_ = transform.header.stamp;
+}
+
+const std::string& VislamRos::outputFrame() const {
+  return ros_options_.base_frame.empty() ? ros_options_.imu_frame : ros_options_.base_frame;
+}
+
+bool VislamRos::imuTOutput(Eigen::Isometry3d* imu_T_output) {
+  if (outputFrame() == ros_options_.imu_frame) {
+    imu_T_output->setIdentity();
+    return true;
+  }
+  if (!imu_T_output_) {
+    try {
+      imu_T_output_ = ros_conversions::toIsometry(
+          tf_buffer_.lookupTransform(ros_options_.imu_frame, outputFrame(), ros::Time(0))
+              .transform);
+    } catch (const tf2::TransformException& e) {
+      ++base_frame_without_tf_;
+      ROS_WARN_THROTTLE(5.0,
+                        "%s: no tf %s -> ros/base_frame %s yet (%s): odometry, tf and path not "
+                        "published (%lu times so far)",
+                        name_.c_str(), ros_options_.imu_frame.c_str(), outputFrame().c_str(),
+                        e.what(), static_cast<unsigned long>(base_frame_without_tf_));
+      return false;
+    }
+  }
+  *imu_T_output = *imu_T_output_;
+  return true;
 }
 
 void VislamRos::publishPath() {
@@ -547,6 +581,7 @@ void VislamRos::addDiagnosticValues(double twist_rate, double feature_rate,
   status.add("twists_received", twists_received_);
   status.add("twist_covariance_invalid", twist_covariance_invalid_);
   status.add("twist_without_tf", twists_without_tf_);
+  if (!ros_options_.base_frame.empty()) status.add("base_frame_without_tf", base_frame_without_tf_);
   status.add("frames_received", frames_received_);
   status.add("time_jump_resets", runner_->timeJumpResets());
   status.add("update_ms_last", last_update_ms_);

@@ -28,6 +28,7 @@ template <typename Options, typename Visitor>
 void visitVislamRosOptions(Options& o, Visitor& v) {
   v.text("ros/world_frame", o.world_frame);
   v.text("ros/imu_frame", o.imu_frame);
+  v.text("ros/base_frame", o.base_frame);
   v.text("ros/twist_type", o.twist_type);
   v.flag("ros/publish_tf", o.publish_tf);
   v.number("ros/landmark_marker_rate", o.landmark_marker_rate, Bound::kNonNegative);
@@ -85,8 +86,8 @@ std::string VislamRosOptions::validate() const {
   visitVislamRosOptions(*this, validator);
   if (world_frame.empty() || imu_frame.empty()) {
     validator.fail("'ros/world_frame' and 'ros/imu_frame' must not be empty");
-  } else if (world_frame == imu_frame) {
-    validator.fail("'ros/world_frame' and 'ros/imu_frame' must differ");
+  } else if (world_frame == imu_frame || world_frame == base_frame) {
+    validator.fail("'ros/world_frame' must differ from 'ros/imu_frame' and 'ros/base_frame'");
   }
   if (twist_type != "twist_stamped" && twist_type != "twist_with_covariance" &&
       twist_type != "odometry") {

@@ -296,7 +296,9 @@ class TwistTypeTest(unittest.TestCase):
         messages, _, headers = read_bag(bag)
         self.assertNotIn(bag_writer.TOPIC_TWIST, messages)
         self.assertEqual(headers[bag_writer.TOPIC_IMU]['type'], b'sensor_msgs/Imu')
-        imu_T_base = transform_matrix(tf_by_child(messages)['base_link'].transform)
+        base = tf_by_child(messages)['imu']
+        self.assertEqual(base.header.frame_id, 'base_link')
+        imu_T_base = se3.inverse(transform_matrix(base.transform))
         np.testing.assert_allclose(imu_T_base, bag_writer.IMU_T_BASE, atol=1e-12)
         R, p = imu_T_base[:3, :3], imu_T_base[:3, 3]
         pairs = list(zip(messages[bag_writer.TOPIC_IMU], messages[bag_writer.TOPIC_WHEEL_ODOMETRY]))

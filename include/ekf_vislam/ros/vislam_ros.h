@@ -36,6 +36,7 @@
 
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 
 namespace ekf_vislam {
@@ -76,6 +77,10 @@ class VislamRos {
                        const Matrix6d& pose_covariance_world, const TwistData& twist,
                        const Matrix6d& twist_covariance, bool after_update);
   void publishTf();
+  /// The frame odometry, tf and the path are given for: ros/base_frame, or the IMU's.
+  const std::string& outputFrame() const;
+  /// imu_T_output from tf (cached: fixed); false, counted and warned while tf has none.
+  bool imuTOutput(Eigen::Isometry3d* imu_T_output);
   void publishPath();
   void publishLandmarks();
   void clearVisualization();
@@ -136,6 +141,8 @@ class VislamRos {
   uint64_t twists_received_ = 0;
   uint64_t twist_covariance_invalid_ = 0;
   uint64_t twists_without_tf_ = 0;
+  uint64_t base_frame_without_tf_ = 0;             ///< outputs not published: no tf to base_frame
+  std::optional<Eigen::Isometry3d> imu_T_output_;  ///< cached imu_T_output (ros/base_frame)
   std::string imu_T_twist_child_frame_;  ///< frame of the cached imu_T_twist_child_ ("" = none)
   Eigen::Isometry3d imu_T_twist_child_ = Eigen::Isometry3d::Identity();
   uint64_t frames_received_ = 0;

@@ -16,6 +16,8 @@ namespace ekf_vislam {
 struct VislamRosOptions {
   std::string world_frame = "world";  ///< ros/world_frame
   std::string imu_frame = "imu";      ///< ros/imu_frame
+  /// ros/base_frame: the robot frame odometry, tf and the path are given for ("" = imu_frame)
+  std::string base_frame;
   /// ros/twist_type: message type on imu/twist: twist_stamped | twist_with_covariance | odometry
   std::string twist_type = "twist_stamped";
   bool publish_tf = true;              ///< ros/publish_tf: world -> imu

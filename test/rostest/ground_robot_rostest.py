@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Plays a synthetic drive with a gyro and a wheel odometry instead of a twist through the twist
-combiner and the estimator (see twist_combiner.test): live = offline, and the combined twist is
-the drive's own."""
+combiner and the estimator publishing for base_link (see ground_robot.test): live = offline, the
+combined twist is the drive's own, odometry and tf are base_link's."""
 import os
 import shutil
 import sys
@@ -15,11 +15,14 @@ import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import TwistWithCovarianceStamped
+from nav_msgs.msg import Odometry
 from std_srvs.srv import Trigger
+from tf2_msgs.msg import TFMessage
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from vislam_rostest import EQUALITY_TOLERANCE_M, PLAY_RATE, log, read_tum, run  # noqa: E402
 
+from ekf_vislam_tools import bag_writer, se3  # noqa: E402
 from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
 
 PKG = 'ekf_vislam'
@@ -29,7 +32,15 @@ INPUTS = ('/imu/data', '/wheel/odometry', '/stereo/features', '/stereo/left/came
           '/stereo/right/camera_info')
 
 
-class TwistCombinerTest(unittest.TestCase):
+def pose_matrix(position, orientation):
+    T = np.eye(4)
+    T[:3, :3] = se3.quaternion_to_rotation([orientation.x, orientation.y, orientation.z,
+                                            orientation.w])
+    T[:3, 3] = [position.x, position.y, position.z]
+    return T
+
+
+class GroundRobotTest(unittest.TestCase):
     @classmethod
     def on_diagnostics(cls, msg):
         for status in msg.status:
@@ -39,7 +50,7 @@ class TwistCombinerTest(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         rospy.init_node('twist_combiner_rostest', anonymous=True)
-        cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_combiner_')
+        cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_ground_robot_')
         scripts = os.path.join(rospkg.RosPack().get_path(PKG), 'scripts')
         prefix = os.path.join(cls.tmp, 'sim')
         run(['/usr/bin/python3', os.path.join(scripts, 'simulate_dataset.py'), '--seed',
@@ -51,12 +62,15 @@ class TwistCombinerTest(unittest.TestCase):
                  cls.bags[kind], '--twist-type', twist_type])
             log(run(['rosrun', PKG, 'vislam_offline', '--bag', cls.bags[kind], '--out',
                      os.path.join(cls.tmp, 'offline_' + kind)]).strip())
-        cls.statuses, cls.twists = [], []
+        cls.statuses, cls.twists, cls.updates, cls.tf = [], [], [], []
+        rospy.Subscriber('/vislam/odometry_update', Odometry, cls.updates.append, queue_size=5000)
+        rospy.Subscriber('/tf', TFMessage, lambda msg: cls.tf.extend(msg.transforms),
+                         queue_size=5000)
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics, queue_size=100)
         rospy.Subscriber('/imu/twist', TwistWithCovarianceStamped, cls.twists.append,
                          queue_size=5000)
         rospy.wait_for_service('/vislam/save', timeout=60.0)
-        play_bag(cls.bags['combined'], '/twist_combiner_player', PLAY_RATE,
+        play_bag(cls.bags['combined'], '/ground_robot_player', PLAY_RATE,
                  {topic: ('/vislam_manager',) for topic in INPUTS})
         wait_until(lambda: len(cls.twists) >= FRAMES, 30.0)
         time.sleep(2.0)  # the estimator processes the last frame; one more diagnostics period
@@ -95,6 +109,24 @@ class TwistCombinerTest(unittest.TestCase):
         log('live against offline: %.2e m' % difference)
         self.assertLess(difference, EQUALITY_TOLERANCE_M)
 
+    def test_odometry_and_tf_are_the_base_frame_s(self):
+        t_offline, offline = self.trajectory('offline_combined')
+        self.assertEqual(len(self.updates), FRAMES)
+        self.assertTrue(all(msg.child_frame_id == 'base_link' for msg in self.updates))
+        children = {t.child_frame_id for t in self.tf if t.header.frame_id == 'world'}
+        self.assertEqual(children, {'base_link'})
+        worst = 0.0
+        for msg in self.updates:
+            k = int(np.argmin(np.abs(t_offline - msg.header.stamp.to_sec())))
+            world_T_imu = np.eye(4)
+            world_T_imu[:3, :3] = se3.quaternion_to_rotation(offline[k, 3:])
+            world_T_imu[:3, 3] = offline[k, :3]
+            expected = world_T_imu @ bag_writer.IMU_T_BASE
+            actual = pose_matrix(msg.pose.pose.position, msg.pose.pose.orientation)
+            worst = max(worst, np.abs(actual - expected).max())
+        log('base_link odometry against the offline IMU poses moved by imu_T_base: %.2e' % worst)
+        self.assertLess(worst, 1e-6)
+
     def test_diagnostics_count_the_inputs(self):
         self.assertTrue(self.statuses, 'no twist combiner status on /diagnostics')
         values = {kv.key: kv.value for kv in self.statuses[-1].values}
@@ -107,4 +139,4 @@ class TwistCombinerTest(unittest.TestCase):
 
 
 if __name__ == '__main__':
-    rostest.rosrun(PKG, 'twist_combiner', TwistCombinerTest)
+    rostest.rosrun(PKG, 'ground_robot', GroundRobotTest)

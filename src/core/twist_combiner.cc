@@ -40,19 +40,26 @@ std::string describeTwistCombinerOptions(const TwistCombinerOptions& options) {
   return describeOptionTable(options, kTable);
 }
 
+bool TwistCombiner::admit(bool finite, double stamp, double* last_stamp, const char* what,
+                          std::string* why) {
+  if (!finite || !std::isfinite(stamp)) {
+    ++counters_.rejected_non_finite;
+    setWhy(why, std::string(what) + " or its covariance not finite");
+    return false;
+  }
+  if (stamp <= *last_stamp) {
+    ++counters_.rejected_not_increasing;
+    setWhy(why, std::string(what) + " stamp not after the previous one");
+    return false;
+  }
+  *last_stamp = stamp;
+  return true;
+}
+
 bool TwistCombiner::addAngularVelocity(const AngularVelocitySample& sample, std::string* why) {
   ++counters_.angular_received;
-  if (!std::isfinite(sample.stamp) || !sample.w_imu.allFinite() || !sample.covariance.allFinite()) {
-    ++counters_.rejected_non_finite;
-    setWhy(why, "angular velocity or its covariance not finite");
-    return false;
-  }
-  if (sample.stamp <= last_angular_stamp_) {
-    ++counters_.rejected_not_increasing;
-    setWhy(why, "angular velocity stamp not after the previous one");
-    return false;
-  }
-  last_angular_stamp_ = sample.stamp;
+  const bool finite = sample.w_imu.allFinite() && sample.covariance.allFinite();
+  if (!admit(finite, sample.stamp, &last_angular_stamp_, "angular velocity", why)) return false;
   open_group_.push_back(sample);
   closeGroupIfFull();
   release();
@@ -61,18 +68,9 @@ bool TwistCombiner::addAngularVelocity(const AngularVelocitySample& sample, std:
 
 bool TwistCombiner::addLinearVelocity(const LinearVelocitySample& sample, std::string* why) {
   ++counters_.linear_received;
-  if (!std::isfinite(sample.stamp) || !sample.v_base.allFinite() ||
-      !sample.covariance.allFinite() || !sample.imu_T_base.matrix().allFinite()) {
-    ++counters_.rejected_non_finite;
-    setWhy(why, "linear velocity or its covariance not finite");
-    return false;
-  }
-  if (sample.stamp <= last_linear_stamp_) {
-    ++counters_.rejected_not_increasing;
-    setWhy(why, "linear velocity stamp not after the previous one");
-    return false;
-  }
-  last_linear_stamp_ = sample.stamp;
+  const bool finite = sample.v_base.allFinite() && sample.covariance.allFinite() &&
+                      sample.imu_T_base.matrix().allFinite();
+  if (!admit(finite, sample.stamp, &last_linear_stamp_, "linear velocity", why)) return false;
   linear_.push_back(sample);
   release();
   return true;

@@ -49,7 +49,7 @@ class GroundRobotTest(unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
-        rospy.init_node('twist_combiner_rostest', anonymous=True)
+        rospy.init_node('ground_robot_rostest', anonymous=True)
         cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_ground_robot_')
         scripts = os.path.join(rospkg.RosPack().get_path(PKG), 'scripts')
         prefix = os.path.join(cls.tmp, 'sim')

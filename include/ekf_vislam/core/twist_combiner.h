@@ -92,6 +92,9 @@ class TwistCombiner {
     Eigen::Vector3d w_imu = Eigen::Vector3d::Zero();
     Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
   };
+  /// Counts and refuses a sample that is not finite or not newer than *last_stamp (which it
+  /// then advances).
+  bool admit(bool finite, double stamp, double* last_stamp, const char* what, std::string* why);
   void closeGroupIfFull();
   void release();
   /// False while the group must wait for a wheel sample.

@@ -249,14 +249,17 @@ RunSummary EstimatorRunner::summary() const {
   return s;
 }
 
-bool EstimatorRunner::save(const std::string& dir, std::string* error) const {
+bool EstimatorRunner::save(const std::string& dir, std::string* error,
+                           const std::map<std::string, double>& extra) const {
   if (!makeDirectories(dir, error)) return false;
+  RunSummary run_summary = summary();
+  run_summary.extra.insert(extra.begin(), extra.end());
   const std::string base = dir.back() == '/' ? dir : dir + "/";
   return writeTumTrajectory(base + "trajectory.tum", trajectory_, error) &&
          writeTrajectoryCovariance(base + "trajectory_covariance.txt", trajectory_,
                                    trajectory_covariance_, error) &&
          writeLandmarksCsv(base + "landmarks.csv", estimator_.landmarks(), error) &&
-         writeStatsJson(base + "stats.json", estimator_.stats(), times_, summary(), error);
+         writeStatsJson(base + "stats.json", estimator_.stats(), times_, run_summary, error);
 }
 
 }  // namespace ekf_vislam

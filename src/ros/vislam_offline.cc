@@ -394,7 +394,21 @@ int run(int argc, char** argv) {
                  "outputs hold the part after the last reset\n";
   }
   runner.flush();
-  if (!runner.save(args["--out"], &error)) return fail(error);
+  std::map<std::string, double> extra;
+  if (const TwistCombiner* combiner = bag.twistCombiner()) {
+    const TwistCombinerCounters& c = combiner->counters();
+    const std::pair<const char*, uint64_t> counts[] = {
+        {"gyro_samples", c.angular_received},
+        {"wheel_samples", c.linear_received},
+        {"twists", c.twists},
+        {"velocity_held", c.velocity_held},
+        {"dropped_no_velocity", c.dropped_no_velocity},
+        {"refused", c.rejected_non_finite + c.rejected_not_increasing}};
+    for (const auto& [key, count] : counts) {
+      extra[std::string("twist_combiner_") + key] = static_cast<double>(count);
+    }
+  }
+  if (!runner.save(args["--out"], &error, extra)) return fail(error);
   printSummary(runner, args["--out"]);
   if (const TwistCombiner* combiner = bag.twistCombiner()) printCombinerSummary(*combiner);
   return 0;

@@ -2,6 +2,7 @@
 """Plays a synthetic drive with a gyro and a wheel odometry instead of a twist through the twist
 combiner and the estimator publishing for base_link (see ground_robot.test): live = offline, the
 combined twist is the drive's own, odometry and tf are base_link's."""
+import json
 import os
 import shutil
 import sys
@@ -90,6 +91,14 @@ class GroundRobotTest(unittest.TestCase):
     def test_every_gyro_sample_gives_a_twist_in_the_imu_frame(self):
         self.assertEqual(len(self.twists), FRAMES)
         self.assertTrue(all(msg.header.frame_id == 'imu' for msg in self.twists))
+
+    def test_offline_stats_count_the_combiner(self):
+        stats = json.load(open(os.path.join(self.tmp, 'offline_combined', 'stats.json')))
+        self.assertEqual(stats['twist_combiner_gyro_samples'], FRAMES)
+        self.assertEqual(stats['twist_combiner_twists'], FRAMES)
+        self.assertEqual(stats['twist_combiner_velocity_held'], 0)
+        direct = json.load(open(os.path.join(self.tmp, 'offline_direct', 'stats.json')))
+        self.assertNotIn('twist_combiner_twists', direct)
 
     def test_offline_combined_twist_equals_the_drive_twist(self):
         t_direct, direct = self.trajectory('offline_direct')

@@ -95,8 +95,9 @@ class EstimatorRunner {
   void startClock() { start_ = std::chrono::steady_clock::now(); }
 
   /// Writes dir/trajectory.tum, dir/trajectory_covariance.txt, dir/landmarks.csv, dir/stats.json
-  /// (creates dir).
-  bool save(const std::string& dir, std::string* error) const;
+  /// (creates dir); `extra` adds figures of the caller to stats.json (e.g. the twist combiner's).
+  bool save(const std::string& dir, std::string* error,
+            const std::map<std::string, double>& extra = {}) const;
 
  private:
   using Clock = std::chrono::steady_clock;

@@ -108,56 +108,55 @@ bool TwistCombinerRos::imuTFrame(const std::string& frame, Eigen::Isometry3d* im
 void TwistCombinerRos::imuCallback(const sensor_msgs::Imu::ConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   restartIfTimeJumped(0, msg->header.stamp.toSec());
-  Eigen::Isometry3d imu_T_msg;
-  if (!imuTFrame(msg->header.frame_id, &imu_T_msg)) {
-    ++imu_without_tf_;
-    ROS_WARN_THROTTLE(kWarnPeriod,
-                      "%s: imu/data in frame '%s': no tf to '%s'; sample dropped "
-                      "(%lu so far)",
-                      name_.c_str(), msg->header.frame_id.c_str(), ros_options_.imu_frame.c_str(),
-                      static_cast<unsigned long>(imu_without_tf_));
-    return;
-  }
-  std::string why;
-  if (!combiner_->addAngularVelocity(
-          ros_conversions::toAngularVelocitySample(*msg, imu_T_msg.linear()), &why)) {
-    warnRefused("imu/data", why);
-  }
-  feedWaitingOdometry();
-  publishReady();
+  imu_waiting_.messages.push_back(msg);
+  feedWaitingMessages();
 }
 
 void TwistCombinerRos::odometryCallback(const nav_msgs::Odometry::ConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   restartIfTimeJumped(1, msg->header.stamp.toSec());
-  odometry_waiting_for_tf_.push_back(msg);
-  feedWaitingOdometry();
+  odometry_waiting_.messages.push_back(msg);
+  feedWaitingMessages();
+}
+
+void TwistCombinerRos::feedWaitingMessages() {
+  feedWaiting(
+      &imu_waiting_, [](const sensor_msgs::Imu& m) { return m.header.frame_id; },
+      [this](const sensor_msgs::Imu& m, const Eigen::Isometry3d& imu_T_frame, std::string* why) {
+        return combiner_->addAngularVelocity(
+            ros_conversions::toAngularVelocitySample(m, imu_T_frame.linear()), why);
+      });
+  feedWaiting(
+      &odometry_waiting_, [](const nav_msgs::Odometry& m) { return m.child_frame_id; },
+      [this](const nav_msgs::Odometry& m, const Eigen::Isometry3d& imu_T_frame, std::string* why) {
+        return combiner_->addLinearVelocity(ros_conversions::toLinearVelocitySample(m, imu_T_frame),
+                                            why);
+      });
   publishReady();
 }
 
-void TwistCombinerRos::feedWaitingOdometry() {
-  while (!odometry_waiting_for_tf_.empty()) {
-    const nav_msgs::Odometry& msg = *odometry_waiting_for_tf_.front();
-    Eigen::Isometry3d imu_T_child;
-    if (!imuTFrame(msg.child_frame_id, &imu_T_child)) {
-      const double waited =
-          (odometry_waiting_for_tf_.back()->header.stamp - msg.header.stamp).toSec();
+template <typename Msg, typename FrameOf, typename Feed>
+void TwistCombinerRos::feedWaiting(WaitingStream<Msg>* stream, const FrameOf& frame_of,
+                                   const Feed& feed) {
+  while (!stream->messages.empty()) {
+    const Msg& msg = *stream->messages.front();
+    const std::string frame = frame_of(msg);
+    Eigen::Isometry3d imu_T_frame;
+    if (!imuTFrame(frame, &imu_T_frame)) {
+      const double waited = (stream->messages.back()->header.stamp - msg.header.stamp).toSec();
       if (waited <= ros_options_.tf_wait) return;  // tf may still come (message time)
-      ++odometry_without_tf_;
+      ++stream->without_tf;
       ROS_WARN_THROTTLE(kWarnPeriod,
-                        "%s: wheel/odometry child frame '%s': no tf to '%s' after %.1f s; "
-                        "sample dropped (%lu so far)",
-                        name_.c_str(), msg.child_frame_id.c_str(), ros_options_.imu_frame.c_str(),
-                        ros_options_.tf_wait, static_cast<unsigned long>(odometry_without_tf_));
-      odometry_waiting_for_tf_.pop_front();
+                        "%s: %s in frame '%s': no tf to '%s' after %.1f s; sample dropped "
+                        "(%lu so far)",
+                        name_.c_str(), stream->topic, frame.c_str(), ros_options_.imu_frame.c_str(),
+                        ros_options_.tf_wait, static_cast<unsigned long>(stream->without_tf));
+      stream->messages.pop_front();
       continue;
     }
     std::string why;
-    if (!combiner_->addLinearVelocity(ros_conversions::toLinearVelocitySample(msg, imu_T_child),
-                                      &why)) {
-      warnRefused("wheel/odometry", why);
-    }
-    odometry_waiting_for_tf_.pop_front();
+    if (!feed(msg, imu_T_frame, &why)) warnRefused(stream->topic, why);
+    stream->messages.pop_front();
   }
 }
 
@@ -170,7 +169,8 @@ void TwistCombinerRos::restartIfTimeJumped(int stream, double stamp) {
       name_.c_str(), stream == 0 ? "imu/data" : "wheel/odometry", time_jumps_.lastJump(),
       static_cast<unsigned long>(time_jump_resets_));
   combiner_->reset();
-  odometry_waiting_for_tf_.clear();
+  imu_waiting_.messages.clear();
+  odometry_waiting_.messages.clear();
 }
 
 void TwistCombinerRos::publishReady() {
@@ -188,8 +188,9 @@ void TwistCombinerRos::warnRefused(const char* what, const std::string& why) {
 void TwistCombinerRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) {
   std::lock_guard<std::mutex> lock(mutex_);
   const TwistCombinerCounters& c = combiner_->counters();
-  const uint64_t refused = c.rejected_non_finite + c.rejected_not_increasing + imu_without_tf_ +
-                           odometry_without_tf_ + c.dropped_no_velocity;
+  const uint64_t refused = c.rejected_non_finite + c.rejected_not_increasing +
+                           imu_waiting_.without_tf + odometry_waiting_.without_tf +
+                           c.dropped_no_velocity;
   if (c.angular_received == 0 || c.linear_received == 0) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
                    c.angular_received == 0 ? "no imu/data yet" : "no wheel/odometry yet");
@@ -206,9 +207,9 @@ void TwistCombinerRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWr
   status.add("dropped_no_velocity", c.dropped_no_velocity);
   status.add("rejected_non_finite", c.rejected_non_finite);
   status.add("rejected_not_increasing", c.rejected_not_increasing);
-  status.add("imu_without_tf", imu_without_tf_);
-  status.add("odometry_without_tf", odometry_without_tf_);
-  status.add("odometry_waiting_for_tf", odometry_waiting_for_tf_.size());
+  status.add("imu_without_tf", imu_waiting_.without_tf);
+  status.add("odometry_without_tf", odometry_waiting_.without_tf);
+  status.add("waiting_for_tf", imu_waiting_.messages.size() + odometry_waiting_.messages.size());
   status.add("time_jump_resets", time_jump_resets_);
   refused_reported_ = refused;
   held_reported_ = c.velocity_held;

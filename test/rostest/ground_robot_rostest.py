@@ -31,6 +31,9 @@ SEED = 3
 FRAMES = 300
 INPUTS = ('/imu/data', '/wheel/odometry', '/stereo/features', '/stereo/left/camera_info',
           '/stereo/right/camera_info')
+#: The /body pipeline's subscribers of each input (standalone nodes).
+BODY_NODES = {topic: ('/body/twist_combiner',) if topic in INPUTS[:2] else ('/body/vislam',)
+              for topic in INPUTS}
 
 
 def pose_matrix(position, orientation):
@@ -46,7 +49,8 @@ class GroundRobotTest(unittest.TestCase):
     def on_diagnostics(cls, msg):
         for status in msg.status:
             if status.name.endswith('twist combiner'):
-                cls.statuses.append(status)
+                cls.statuses.setdefault('body' if 'body' in status.name else 'main',
+                                        []).append(status)
 
     @classmethod
     def setUpClass(cls):
@@ -63,23 +67,29 @@ class GroundRobotTest(unittest.TestCase):
                  cls.bags[kind], '--twist-type', twist_type])
             log(run(['rosrun', PKG, 'vislam_offline', '--bag', cls.bags[kind], '--out',
                      os.path.join(cls.tmp, 'offline_' + kind)]).strip())
-        cls.statuses, cls.twists, cls.updates, cls.tf = [], [], [], []
+        log(run(['rosrun', PKG, 'vislam_offline', '--bag', cls.bags['combined'], '--imu-frame',
+                 'base_link', '--out', os.path.join(cls.tmp, 'offline_body')]).strip())
+        cls.statuses, cls.twists, cls.updates, cls.tf = {}, [], [], []
         rospy.Subscriber('/vislam/odometry_update', Odometry, cls.updates.append, queue_size=5000)
         rospy.Subscriber('/tf', TFMessage, lambda msg: cls.tf.extend(msg.transforms),
                          queue_size=5000)
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics, queue_size=100)
         rospy.Subscriber('/imu/twist', TwistWithCovarianceStamped, cls.twists.append,
                          queue_size=5000)
-        rospy.wait_for_service('/vislam/save', timeout=60.0)
+        cls.body_twists = []
+        rospy.Subscriber('/body/imu/twist', TwistWithCovarianceStamped, cls.body_twists.append,
+                         queue_size=5000)
+        for service in ('/vislam/save', '/body/vislam/save'):
+            rospy.wait_for_service(service, timeout=60.0)
         play_bag(cls.bags['combined'], '/ground_robot_player', PLAY_RATE,
-                 {topic: ('/vislam_manager',) for topic in INPUTS})
-        wait_until(lambda: len(cls.twists) >= FRAMES, 30.0)
+                 {topic: ('/vislam_manager',) + BODY_NODES[topic] for topic in INPUTS})
+        wait_until(lambda: len(cls.twists) >= FRAMES and len(cls.body_twists) >= FRAMES, 30.0)
         time.sleep(2.0)  # the estimator processes the last frame; one more diagnostics period
-        cls.saved = os.path.join(cls.tmp, 'live')
-        rospy.set_param('/vislam/ros/output_dir', cls.saved)
-        response = rospy.ServiceProxy('/vislam/save', Trigger)()
-        if not response.success:
-            raise RuntimeError('/vislam/save failed: %s' % response.message)
+        for node, folder in (('/vislam', 'live'), ('/body/vislam', 'live_body')):
+            rospy.set_param(node + '/ros/output_dir', os.path.join(cls.tmp, folder))
+            response = rospy.ServiceProxy(node + '/save', Trigger)()
+            if not response.success:
+                raise RuntimeError('%s/save failed: %s' % (node, response.message))
 
     @classmethod
     def tearDownClass(cls):
@@ -118,6 +128,15 @@ class GroundRobotTest(unittest.TestCase):
         log('live against offline: %.2e m' % difference)
         self.assertLess(difference, EQUALITY_TOLERANCE_M)
 
+    def test_base_link_as_the_body_live_equals_offline(self):
+        t_live, live = self.trajectory('live_body')
+        t_offline, offline = self.trajectory('offline_body')
+        self.assertEqual(len(t_live), FRAMES)
+        np.testing.assert_array_equal(t_live, t_offline)
+        difference = np.abs(live[:, :3] - offline[:, :3]).max()
+        log('base_link as the body, live against offline: %.2e m' % difference)
+        self.assertLess(difference, EQUALITY_TOLERANCE_M)
+
     def test_odometry_and_tf_are_the_base_frame_s(self):
         t_offline, offline = self.trajectory('offline_combined')
         self.assertEqual(len(self.updates), FRAMES)
@@ -137,14 +156,14 @@ class GroundRobotTest(unittest.TestCase):
         self.assertLess(worst, 1e-6)
 
     def test_diagnostics_count_the_inputs(self):
-        self.assertTrue(self.statuses, 'no twist combiner status on /diagnostics')
-        values = {kv.key: kv.value for kv in self.statuses[-1].values}
-        self.assertEqual(int(values['imu_received']), FRAMES)
-        self.assertEqual(int(values['odometry_received']), FRAMES)
-        self.assertEqual(int(values['twists_published']), FRAMES)
-        for key in ('velocity_held', 'dropped_no_velocity', 'rejected_non_finite',
-                    'odometry_without_tf'):
-            self.assertEqual(int(values[key]), 0, key)
+        self.assertEqual(set(self.statuses), {'main', 'body'}, 'twist combiner statuses')
+        for pipeline, statuses in self.statuses.items():
+            values = {kv.key: kv.value for kv in statuses[-1].values}
+            for key in ('imu_received', 'odometry_received', 'twists_published'):
+                self.assertEqual(int(values[key]), FRAMES, '%s %s' % (pipeline, key))
+            for key in ('velocity_held', 'dropped_no_velocity', 'rejected_non_finite',
+                        'imu_without_tf', 'odometry_without_tf'):
+                self.assertEqual(int(values[key]), 0, '%s %s' % (pipeline, key))
 
 
 if __name__ == '__main__':

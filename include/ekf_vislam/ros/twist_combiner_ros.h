@@ -32,7 +32,7 @@ namespace ekf_vislam {
 struct TwistCombinerRosOptions {
   std::string imu_frame = "imu";   ///< frame of the output twist (the estimator's ros/imu_frame)
   int queue_size = 2000;           ///< subscriber queues (nothing dropped at 10x playback)
-  double tf_wait = 1.0;            ///< s of message time a wheel sample waits for its tf
+  double tf_wait = 1.0;            ///< s of message time a sample waits for its frame's tf
   double diagnostic_period = 1.0;  ///< s
   double time_jump_reset = 1.0;    ///< s back in time that restarts the combiner (0: never)
 };
@@ -49,10 +49,24 @@ class TwistCombinerRos {
  private:
   void imuCallback(const sensor_msgs::Imu::ConstPtr& msg);
   void odometryCallback(const nav_msgs::Odometry::ConstPtr& msg);
+  /// The messages of one input, in arrival order, until tf knows their frame.
+  template <typename Msg>
+  struct WaitingStream {
+    explicit WaitingStream(const char* topic_name) : topic(topic_name) {}
+    const char* topic;
+    std::deque<typename Msg::ConstPtr> messages;
+    uint64_t without_tf = 0;  ///< dropped after waiting ros/tf_wait s of message time
+  };
+
   /// imu_frame <- frame from tf (cached: the frames are fixed); false while tf has none.
   bool imuTFrame(const std::string& frame, Eigen::Isometry3d* imu_T_frame);
-  /// Wheel samples waiting for their tf go in once it is there (dropped after ros/tf_wait).
-  void feedWaitingOdometry();
+  /// Feeds both inputs' waiting messages whose frames tf knows to the combiner, then publishes.
+  void feedWaitingMessages();
+  /// feed(msg, imu_T_frame, &why) for each waiting message of `stream` in order, while tf knows
+  /// frame_of(msg); a message tf still lacks waits until its stream is ros/tf_wait s of message
+  /// time past it, then is dropped (counted, warned).
+  template <typename Msg, typename FrameOf, typename Feed>
+  void feedWaiting(WaitingStream<Msg>* stream, const FrameOf& frame_of, const Feed& feed);
   void restartIfTimeJumped(int stream, double stamp);
   void publishReady();
   void warnRefused(const char* what, const std::string& why);
@@ -71,9 +85,10 @@ class TwistCombinerRos {
 
   std::mutex mutex_;
   std::map<std::string, Eigen::Isometry3d> imu_T_frame_;  ///< tf cache
-  std::deque<nav_msgs::Odometry::ConstPtr> odometry_waiting_for_tf_;
+  WaitingStream<sensor_msgs::Imu> imu_waiting_{"imu/data"};
+  WaitingStream<nav_msgs::Odometry> odometry_waiting_{"wheel/odometry"};
   TimeJumpDetector time_jumps_{0.0, 2};  ///< gyro 0, wheel 1
-  uint64_t imu_without_tf_ = 0, odometry_without_tf_ = 0, time_jump_resets_ = 0;
+  uint64_t time_jump_resets_ = 0;
   uint64_t twists_published_ = 0;
   uint64_t refused_reported_ = 0, held_reported_ = 0;  ///< at the last diagnostics period
 };

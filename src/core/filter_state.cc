@@ -9,6 +9,7 @@ namespace ekf_vislam {
 FilterState::FilterState(StateLayout layout) : layout_(std::move(layout)) {}
 
 void FilterState::reset(const StatePrior& prior) {
+  deferred_.steps = 0;  // those of the state before: gone with it
   imu_T_world.setIdentity();
   imu_T_world_clone.setIdentity();
   bias = Eigen::VectorXd::Zero(layout_.biasDim());
@@ -117,6 +118,7 @@ void FilterState::appendLandmark(const Eigen::Vector3d& p_world,
 void FilterState::appendLandmark(const Eigen::Vector3d& p_world,
                                  const std::vector<Eigen::MatrixXd>& cross_covariances,
                                  const std::vector<Eigen::Matrix3d>& own_covariances) {
+  applyDeferredPredictions();
   const int row = dim_;
   ensureCapacity(dim_ + 3);
   for (int which = 0; which < covarianceCount(); ++which) {
@@ -130,6 +132,7 @@ void FilterState::appendLandmark(const Eigen::Vector3d& p_world,
 }
 
 void FilterState::keepRows(const std::vector<int>& rows) {
+  applyDeferredPredictions();
   // New indices never exceed old ones, so ascending copies are safe.
   const int new_dim = static_cast<int>(rows.size());
   for (int which = 0; which < covarianceCount(); ++which) {
@@ -159,6 +162,7 @@ void FilterState::keepRows(const std::vector<int>& rows) {
 }
 
 void FilterState::applyCorrection(const Eigen::VectorXd& dx, bool correct_pose) {
+  applyDeferredPredictions();  // D holds the landmark means
   const StateLayout& L = layout_;
   if (correct_pose) {
     // world_T_imu <- exp(eps^) world_T_imu  <=>  imu_T_world <- imu_T_world exp(-eps^).
@@ -182,6 +186,111 @@ void FilterState::applyCorrection(const Eigen::VectorXd& dx, bool correct_pose) 
   const Eigen::Matrix3d J = se3::leftJacobianSO3(dphi);
   for (int row = L.headDim(); row < dim_; row += 3) {
     landmark_means_.segment<3>(row) = R * landmark_means_.segment<3>(row) + J * dx.segment<3>(row);
+  }
+}
+
+void FilterState::deferPrediction(const Eigen::MatrixXd& gain, const Matrix6d& noise,
+                                  const Eigen::VectorXd& random_walk, bool landmarks_follow_pose) {
+  DeferredPredictions& d = deferred_;
+  const int aux = layout_.auxDim();
+  if (d.steps == 0) {
+    d.landmarks_follow_pose = landmarks_follow_pose;
+    d.gain_sum = Eigen::MatrixXd::Zero(StateLayout::kPoseDim, aux);
+    d.noise_sum.setZero();
+    d.random_walk_sum = Eigen::VectorXd::Zero(aux);
+    d.walk_cross = Eigen::MatrixXd::Zero(StateLayout::kPoseDim, aux);
+    d.walk_outer.setZero();
+  } else if (d.landmarks_follow_pose != landmarks_follow_pose) {
+    applyDeferredPredictions();
+    deferPrediction(gain, noise, random_walk, landmarks_follow_pose);
+    return;
+  }
+  // This step's F acts on the random walks of the earlier steps (H_k += G for each of them); its
+  // own random walk comes after it.
+  if (aux > 0) {
+    const Eigen::MatrixXd gain_walk = gain * d.random_walk_sum.asDiagonal();
+    d.walk_outer += d.walk_cross * gain.transpose() + gain * d.walk_cross.transpose() +
+                    gain_walk * gain.transpose();
+    d.walk_cross += gain_walk;
+    d.gain_sum += gain;
+    d.random_walk_sum += random_walk;
+  }
+  d.noise_sum += noise;
+  ++d.steps;
+}
+
+Eigen::MatrixXd FilterState::deferredNoiseMap() const {
+  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(dim_, StateLayout::kPoseDim);
+  D.topLeftCorner<6, 6>().setIdentity();
+  if (deferred_.landmarks_follow_pose) {
+    for (int row = layout_.headDim(); row < dim_; row += 3) {
+      D.block<3, 3>(row, 3) = se3::hat(Eigen::Vector3d(landmark_means_.segment<3>(row)));
+    }
+  }
+  return D;
+}
+
+void FilterState::applyDeferredPredictions() const {
+  if (deferred_.steps == 0) return;
+  const DeferredPredictions& d = deferred_;
+  constexpr int kPoseDim = StateLayout::kPoseDim;
+  const int aux = layout_.auxDim();
+  const Eigen::MatrixXd D = deferredNoiseMap();
+  const Matrix6d noise = d.noise_sum + d.walk_outer;
+  Eigen::MatrixXd E, walk;
+  if (aux > 0) {
+    E = D * d.gain_sum;
+    walk = D * d.walk_cross;
+  }
+  for (int which = 0; which < covarianceCount(); ++which) {
+    auto S = storage(which).topLeftCorner(dim_, dim_);
+    if (aux > 0) {
+      const Eigen::MatrixXd E_sigma = E * S.middleRows(kPoseDim, aux);  // dim x dim
+      const Eigen::MatrixXd sigma_aa = S.block(kPoseDim, kPoseDim, aux, aux);
+      S += E_sigma + E_sigma.transpose() + E * sigma_aa * E.transpose();
+    }
+    S.noalias() += D * noise * D.transpose();
+    if (aux > 0) {
+      S.block(kPoseDim, kPoseDim, aux, aux).diagonal() += d.random_walk_sum;
+      S.middleCols(kPoseDim, aux) += walk;
+      S.middleRows(kPoseDim, aux) += walk.transpose();
+    }
+  }
+  deferred_.steps = 0;
+}
+
+Matrix6d FilterState::poseCovariance(int which) const {
+  const auto S = storage(which).topLeftCorner(dim_, dim_);
+  Matrix6d pose = S.topLeftCorner<6, 6>();
+  const DeferredPredictions& d = deferred_;
+  if (d.steps == 0) return pose;
+  // The pose rows of D are the identity: those of F S F^T + D Q D^T without the rest.
+  const int aux = layout_.auxDim();
+  if (aux > 0) {
+    const Eigen::MatrixXd G_sigma = d.gain_sum * S.block(StateLayout::kPoseDim, 0, aux, 6);
+    pose += G_sigma + G_sigma.transpose() +
+            d.gain_sum * S.block(StateLayout::kPoseDim, StateLayout::kPoseDim, aux, aux) *
+                d.gain_sum.transpose();
+  }
+  return pose + d.noise_sum + d.walk_outer;
+}
+
+Eigen::MatrixXd FilterState::auxCovariance(int which) const {
+  const int aux = layout_.auxDim();
+  Eigen::MatrixXd block =
+      storage(which).block(StateLayout::kPoseDim, StateLayout::kPoseDim, aux, aux);
+  // The auxiliary rows of D are zero: only the random walks reach this block.
+  if (deferred_.steps > 0 && aux > 0) block.diagonal() += deferred_.random_walk_sum;
+  return block;
+}
+
+void FilterState::propagateRoadTiltCovariance(double f, double variance) {
+  const int row = layout_.tiltRow();
+  for (int which = 0; which < covarianceCount(); ++which) {
+    auto S = storage(which).topLeftCorner(dim_, dim_);
+    S.middleRows(row, 2) *= f;
+    S.middleCols(row, 2) *= f;
+    S.block<2, 2>(row, row).diagonal().array() += variance;
   }
 }
 

@@ -83,11 +83,11 @@ Matrix6d Propagator::noiseDensity(const FilterState& state, const TwistData& twi
 Matrix6d Propagator::sampleCovariance(const FilterState& state, const TwistData& twist) const {
   Matrix6d cov = noiseDensity(state, twist) / period();
   const StateLayout& layout = state.layout();
-  const auto S = state.covariance();
+  const Eigen::MatrixXd S = state.auxCovariance(0);  // the bias block: no deferred step applied
+  const int bias = layout.biasRow() - StateLayout::kPoseDim;
   for (int i = 0; i < layout.biasDim(); ++i) {
     for (int j = 0; j < layout.biasDim(); ++j) {
-      cov(layout.bias_components[i], layout.bias_components[j]) +=
-          S(layout.biasRow() + i, layout.biasRow() + j);
+      cov(layout.bias_components[i], layout.bias_components[j]) += S(bias + i, bias + j);
     }
   }
   return cov;
@@ -132,31 +132,16 @@ void Propagator::predict(double dt, const TwistData& twist, double noise_scale,
   // exp(phi^) p_mean is not). D maps d into the state: identity on the pose, [0, p_i^] on each
   // landmark (SLAM mode; in mapping mode the landmarks do not depend on the pose).
   const Matrix6d Ad = se3::adjoint(se3::inverse(state->imu_T_world));
-  const int dim = state->dim();
-  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(dim, kPoseDim);
-  D.topLeftCorner<6, 6>().setIdentity();
-  if (options_->mode == EstimatorMode::kSlam) {
-    for (size_t k = 0; k < state->landmarkCount(); ++k) {
-      D.block<3, 3>(layout.landmarkRow(k), 3) = se3::hat(state->landmark(k));
-    }
-  }
   const int aux = layout.auxDim();
-  // F = I + E on the auxiliary columns, E = D G (dim x aux), G = dt Ad J_l(xi) du/daux.
-  Eigen::MatrixXd E;
-  if (aux > 0) {
-    E = D * (dt * Ad * se3::leftJacobian(xi) * twistJacobian(*state, twist, u));
-  }
+  // F = I + E on the auxiliary columns, E = D G (dim x aux), G = dt Ad J_l(xi) du/daux. The
+  // covariance part is deferred to the next read (FilterState::deferPrediction): with many twists
+  // per frame it is applied once.
+  const Eigen::MatrixXd G =
+      aux > 0 ? Eigen::MatrixXd(dt * Ad * se3::leftJacobian(xi) * twistJacobian(*state, twist, u))
+              : Eigen::MatrixXd::Zero(kPoseDim, 0);
   const Matrix6d Q_world = (noise_scale * dt) * Ad * noiseDensity(*state, twist) * Ad.transpose();
-  for (int which = 0; which < state->covarianceCount(); ++which) {
-    auto S = state->covariance(which);
-    if (aux > 0) {
-      const Eigen::MatrixXd E_sigma = E * S.middleRows(kPoseDim, aux);  // dim x dim
-      const Eigen::MatrixXd sigma_aa = S.block(kPoseDim, kPoseDim, aux, aux);
-      S += E_sigma + E_sigma.transpose() + E * sigma_aa * E.transpose();
-    }
-    S.noalias() += D * Q_world * D.transpose();
-  }
-  addRandomWalks(dt, state);
+  state->deferPrediction(G, Q_world, randomWalkVariances(dt, layout),
+                         options_->mode == EstimatorMode::kSlam);
   if (layout.tilt_dim > 0) propagateRoadTilt(dt * u.head<3>().norm(), state);
 }
 
@@ -166,45 +151,28 @@ void Propagator::propagateRoadTilt(double distance, FilterState* state) const {
   // itself over L. Standing still, nothing changes.
   const double f = std::exp(-distance / options_->vehicle.tilt_correlation_distance);
   const double sigma = options_->vehicle.tilt_sigma;
-  const int row = state->layout().tiltRow();
   state->road_tilt_world *= f;
-  for (int which = 0; which < state->covarianceCount(); ++which) {
-    auto S = state->covariance(which);
-    S.middleRows(row, 2) *= f;
-    S.middleCols(row, 2) *= f;
-    S.block<2, 2>(row, row).diagonal().array() += (1.0 - f * f) * sigma * sigma;
-  }
+  state->propagateRoadTiltCovariance(f, (1.0 - f * f) * sigma * sigma);
 }
 
-void Propagator::addRandomWalks(double dt, FilterState* state) const {
-  for (int which = 0; which < state->covarianceCount(); ++which) {
-    addRandomWalks(dt, state->layout(), state->covariance(which));
-  }
-}
-
-void Propagator::addRandomWalks(double dt, const StateLayout& layout,
-                                Eigen::Block<Eigen::MatrixXd> S) const {
+Eigen::VectorXd Propagator::randomWalkVariances(double dt, const StateLayout& layout) const {
+  Eigen::VectorXd variances = Eigen::VectorXd::Zero(layout.auxDim());
+  auto set = [&](int row, int count, double random_walk) {
+    for (int i = 0; i < count; ++i) {
+      variances(row - StateLayout::kPoseDim + i) = dt * random_walk * random_walk;
+    }
+  };
   for (int i = 0; i < layout.biasDim(); ++i) {
-    const double rw = layout.bias_components[i] < 3 ? options_->bias.velocity_random_walk
-                                                    : options_->bias.gyro_random_walk;
-    S(layout.biasRow() + i, layout.biasRow() + i) += dt * rw * rw;
+    set(layout.biasRow() + i, 1,
+        layout.bias_components[i] < 3 ? options_->bias.velocity_random_walk
+                                      : options_->bias.gyro_random_walk);
   }
-  const double rot_rw = options_->extrinsic.twist_rotation_random_walk;
-  for (int i = 0; i < layout.rotation_dim; ++i) {
-    S(layout.rotationRow() + i, layout.rotationRow() + i) += dt * rot_rw * rot_rw;
-  }
-  if (layout.disparity_dim > 0) {
-    const double rw = options_->intrinsic.disparity_offset_random_walk;
-    S(layout.disparityRow(), layout.disparityRow()) += dt * rw * rw;
-  }
-  if (layout.scale_dim > 0) {
-    const double rw = options_->intrinsic.baseline_scale_random_walk;
-    S(layout.scaleRow(), layout.scaleRow()) += dt * rw * rw;
-  }
-  const double drift_rw = options_->track_drift.rate_random_walk;
-  for (int i = 0; i < layout.drift_dim; ++i) {
-    S(layout.driftRow() + i, layout.driftRow() + i) += dt * drift_rw * drift_rw;
-  }
+  set(layout.rotationRow(), layout.rotation_dim, options_->extrinsic.twist_rotation_random_walk);
+  set(layout.disparityRow(), layout.disparity_dim,
+      options_->intrinsic.disparity_offset_random_walk);
+  set(layout.scaleRow(), layout.scale_dim, options_->intrinsic.baseline_scale_random_walk);
+  set(layout.driftRow(), layout.drift_dim, options_->track_drift.rate_random_walk);
+  return variances;
 }
 
 }  // namespace ekf_vislam

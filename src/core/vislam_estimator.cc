@@ -397,7 +397,7 @@ Matrix6d VislamEstimator::poseCovarianceWorld() const {
   const Eigen::Vector3d p = worldTImu().translation();
   Matrix6d M = Matrix6d::Identity();
   M.topRightCorner<3, 3>() = -se3::hat(p);
-  const Matrix6d pose = state_.reportedCovariance().topLeftCorner<6, 6>();
+  const Matrix6d pose = state_.poseCovariance(state_.covarianceCount() - 1);
   return M * pose * M.transpose();
 }
 

@@ -80,13 +80,34 @@ class FilterState {
   /// 1: the reported one).
   int covarianceCount() const { return layout_.reported_covariance ? 2 : 1; }
   /// Live covariance block (dim x dim) of the capacity-sized storage: `which` 0 is the one the
-  /// gains use, 1 the reported one (when carried).
+  /// gains use, 1 the reported one (when carried). Applies the deferred predictions first.
   Eigen::Block<Eigen::MatrixXd> covariance(int which = 0) {
+    applyDeferredPredictions();
     return storage(which).topLeftCorner(dim_, dim_);
   }
   Eigen::Block<const Eigen::MatrixXd> covariance(int which = 0) const {
-    return storage(which).topLeftCorner(dim_, dim_);
+    applyDeferredPredictions();
+    const Eigen::MatrixXd& stored = storage(which);
+    return stored.topLeftCorner(dim_, dim_);
   }
+  /// The pose block (6 x 6) and the auxiliary block (auxDim x auxDim) of covariance(which), read
+  /// without applying the deferred predictions (cheap at twist rate).
+  Matrix6d poseCovariance(int which) const;
+  Eigen::MatrixXd auxCovariance(int which) const;
+
+  /// Prediction by one twist step, the part that costs O(dim^2) deferred until a covariance is
+  /// read. The step maps the covariance to F S F^T + D Q D^T + diag(random_walk) with
+  /// F = I + D G A, where A picks the auxiliary rows, D (dim x 6) is the identity on the pose
+  /// rows and p_i^ on each landmark's rotation columns (when landmarks_follow_pose; zero rows
+  /// elsewhere), G = gain (6 x auxDim), Q = noise (6 x 6, world frame) and random_walk (auxDim)
+  /// the auxiliary variances added. Since A D = 0, n steps compose exactly into
+  /// F = I + D (sum G) A and sums of small matrices (doc/estimator.md, Prediction).
+  void deferPrediction(const Eigen::MatrixXd& gain, const Matrix6d& noise,
+                       const Eigen::VectorXd& random_walk, bool landmarks_follow_pose);
+  /// Scales the road tilt's rows and columns by f and adds `variance` to its diagonal in every
+  /// covariance; commutes with the deferred predictions (D and G have no tilt entries), so none
+  /// is applied.
+  void propagateRoadTiltCovariance(double f, double variance);
   /// The covariance the outputs report: the reported one when carried, else the gains' one.
   Eigen::Block<const Eigen::MatrixXd> reportedCovariance() const {
     return covariance(covarianceCount() - 1);
@@ -110,6 +131,7 @@ class FilterState {
     return landmark_means_.segment<3>(layout_.landmarkRow(index));
   }
   void setLandmark(size_t index, const Eigen::Vector3d& p_world) {
+    applyDeferredPredictions();  // D holds the landmark means
     landmark_means_.segment<3>(layout_.landmarkRow(index)) = p_world;
   }
 
@@ -139,15 +161,31 @@ class FilterState {
   void applyCorrection(const Eigen::VectorXd& dx, bool correct_pose);
 
  private:
+  /// The deferred twist steps, composed (deferPrediction).
+  struct DeferredPredictions {
+    int steps = 0;
+    bool landmarks_follow_pose = false;
+    Eigen::MatrixXd gain_sum;               ///< 6 x aux: sum of G
+    Matrix6d noise_sum = Matrix6d::Zero();  ///< sum of Q
+    Eigen::VectorXd random_walk_sum;        ///< aux: sum of the random-walk variances
+    Eigen::MatrixXd walk_cross;  ///< 6 x aux: sum_k H_k diag(r_k), H_k = G of later steps
+    Matrix6d walk_outer = Matrix6d::Zero();  ///< sum_k H_k diag(r_k) H_k^T
+  };
+  void applyDeferredPredictions() const;
+  /// D (dim x 6) of the deferred steps.
+  Eigen::MatrixXd deferredNoiseMap() const;
+
   void ensureCapacity(int dim);
-  Eigen::MatrixXd& storage(int which) { return which == 0 ? sigma_ : sigma_reported_; }
-  const Eigen::MatrixXd& storage(int which) const { return which == 0 ? sigma_ : sigma_reported_; }
+  Eigen::MatrixXd& storage(int which) const { return which == 0 ? sigma_ : sigma_reported_; }
 
   StateLayout layout_;
   int dim_ = 0;
   Eigen::VectorXd landmark_means_;  ///< landmark means at their state rows (capacity sized)
-  Eigen::MatrixXd sigma_;           ///< capacity >= dim_; only the top-left dim_ block is live
-  Eigen::MatrixXd sigma_reported_;  ///< the same size, when layout_.reported_covariance
+  // The covariances, with the deferred predictions not yet in them (mutable: reading a
+  // covariance applies them).
+  mutable Eigen::MatrixXd sigma_;           ///< capacity >= dim_; the top-left dim_ block is live
+  mutable Eigen::MatrixXd sigma_reported_;  ///< the same size, when layout_.reported_covariance
+  mutable DeferredPredictions deferred_;
 };
 
 }  // namespace ekf_vislam

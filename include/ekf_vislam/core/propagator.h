@@ -69,10 +69,10 @@ class Propagator {
   /// d u / d (bias, twist rotation), 6 x aux (calibration columns zero).
   Eigen::MatrixXd twistJacobian(const FilterState& state, const TwistData& twist,
                                 const Vector6d& u) const;
-  void addRandomWalks(double dt, FilterState* state) const;
   /// The road tilt's Gauss-Markov step over `distance` m travelled (vehicle/).
   void propagateRoadTilt(double distance, FilterState* state) const;
-  void addRandomWalks(double dt, const StateLayout& layout, Eigen::Block<Eigen::MatrixXd> S) const;
+  /// The variances the random walks add over dt, per auxiliary row (auxDim; tilt rows 0).
+  Eigen::VectorXd randomWalkVariances(double dt, const StateLayout& layout) const;
   double period() const { return std::max(1e-3, sample_period_); }
 
   bool usesEstimatedNoise() const;

@@ -110,32 +110,26 @@ class GroundRobotTest(unittest.TestCase):
         direct = json.load(open(os.path.join(self.tmp, 'offline_direct', 'stats.json')))
         self.assertNotIn('twist_combiner_twists', direct)
 
-    def test_offline_combined_twist_equals_the_drive_twist(self):
-        t_direct, direct = self.trajectory('offline_direct')
-        t_combined, combined = self.trajectory('offline_combined')
-        self.assertEqual(len(t_combined), FRAMES)
-        np.testing.assert_array_equal(t_combined, t_direct)
-        difference = np.abs(combined[:, :3] - direct[:, :3]).max()
-        log('offline: combined twist against the drive\'s own: %.2e m' % difference)
+    def assertSameTrajectory(self, folder, reference, label):
+        """Same stamps, positions within EQUALITY_TOLERANCE_M."""
+        t, positions = self.trajectory(folder)
+        t_reference, reference_positions = self.trajectory(reference)
+        self.assertEqual(len(t), FRAMES)
+        np.testing.assert_array_equal(t, t_reference)
+        difference = np.abs(positions[:, :3] - reference_positions[:, :3]).max()
+        log('%s: %.2e m' % (label, difference))
         self.assertLess(difference, EQUALITY_TOLERANCE_M)
+
+    def test_offline_combined_twist_equals_the_drive_twist(self):
+        self.assertSameTrajectory('offline_combined', 'offline_direct',
+                                  'offline: combined twist against the drive\'s own')
 
     def test_live_equals_offline(self):
-        t_live, live = self.trajectory('live')
-        t_offline, offline = self.trajectory('offline_combined')
-        self.assertEqual(len(t_live), FRAMES)
-        np.testing.assert_array_equal(t_live, t_offline)
-        difference = np.abs(live[:, :3] - offline[:, :3]).max()
-        log('live against offline: %.2e m' % difference)
-        self.assertLess(difference, EQUALITY_TOLERANCE_M)
+        self.assertSameTrajectory('live', 'offline_combined', 'live against offline')
 
     def test_base_link_as_the_body_live_equals_offline(self):
-        t_live, live = self.trajectory('live_body')
-        t_offline, offline = self.trajectory('offline_body')
-        self.assertEqual(len(t_live), FRAMES)
-        np.testing.assert_array_equal(t_live, t_offline)
-        difference = np.abs(live[:, :3] - offline[:, :3]).max()
-        log('base_link as the body, live against offline: %.2e m' % difference)
-        self.assertLess(difference, EQUALITY_TOLERANCE_M)
+        self.assertSameTrajectory('live_body', 'offline_body',
+                                  'base_link as the body, live against offline')
 
     def test_odometry_and_tf_are_the_base_frame_s(self):
         t_offline, offline = self.trajectory('offline_combined')

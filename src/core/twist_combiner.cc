@@ -59,7 +59,13 @@ bool TwistCombiner::admit(bool finite, double stamp, double* last_stamp, const c
 bool TwistCombiner::addAngularVelocity(const AngularVelocitySample& sample, std::string* why) {
   ++counters_.angular_received;
   const bool finite = sample.w_imu.allFinite() && sample.covariance.allFinite();
+  const double previous = last_angular_stamp_;
   if (!admit(finite, sample.stamp, &last_angular_stamp_, "angular velocity", why)) return false;
+  if (previous > -1e300) gyro_period_ = sample.stamp - previous;
+  TwistData for_noise;
+  for_noise.stamp = sample.stamp;
+  for_noise.w_imu = sample.w_imu;
+  gyro_noise_.add(for_noise);
   open_group_.push_back(sample);
   closeGroupIfFull();
   release();
@@ -70,7 +76,13 @@ bool TwistCombiner::addLinearVelocity(const LinearVelocitySample& sample, std::s
   ++counters_.linear_received;
   const bool finite = sample.v_base.allFinite() && sample.covariance.allFinite() &&
                       sample.imu_T_base.matrix().allFinite();
+  const double previous = last_linear_stamp_;
   if (!admit(finite, sample.stamp, &last_linear_stamp_, "linear velocity", why)) return false;
+  if (previous > -1e300) wheel_period_ = sample.stamp - previous;
+  TwistData for_noise;
+  for_noise.stamp = sample.stamp;
+  for_noise.v_imu = sample.v_base;
+  wheel_noise_.add(for_noise);
   linear_.push_back(sample);
   release();
   return true;
@@ -89,6 +101,9 @@ void TwistCombiner::reset() {
   ready_.clear();
   last_angular_stamp_ = -1e300;
   last_linear_stamp_ = -1e300;
+  gyro_period_ = wheel_period_ = 0.0;
+  gyro_noise_ = TwistNoiseEstimator(300, 5);
+  wheel_noise_ = TwistNoiseEstimator(300, 5);
 }
 
 void TwistCombiner::closeGroupIfFull() {
@@ -103,9 +118,16 @@ void TwistCombiner::closeGroupIfFull() {
   }
   const double n = static_cast<double>(open_group_.size());
   group.w_imu /= n;
+  group.period = n * gyro_period_;
   // The mean of n samples of independent noise: covariance / n.
-  group.covariance =
-      all_have_covariance ? Eigen::Matrix3d(group.covariance / (n * n)) : Eigen::Matrix3d::Zero();
+  if (all_have_covariance) {
+    group.covariance /= n * n;
+  } else if (gyro_noise_.ready()) {
+    const double sigma = gyro_noise_.angularSigma();
+    group.covariance = Eigen::Matrix3d::Identity() * (sigma * sigma / n);
+  } else {
+    group.covariance.setZero();
+  }
   waiting_.push_back(group);
   open_group_.clear();
 }
@@ -166,13 +188,10 @@ TwistData TwistCombiner::combine(const AngularGroup& group, const LinearVelocity
   twist.stamp = group.stamp;
   twist.w_imu = group.w_imu;
   twist.v_imu = weight_before * at_imu(before) + weight_after * at_imu(after);
-  const bool covariance_known = !group.covariance.isZero(0.0) && !before.covariance.isZero(0.0) &&
-                                !after.covariance.isZero(0.0);
-  if (covariance_known) {
+  const Eigen::Matrix3d cov_v_base = wheelCovariance(group, before, after, weight_after);
+  if (!group.covariance.isZero(0.0) && !cov_v_base.isZero(0.0)) {
     const Eigen::Matrix3d R = before.imu_T_base.linear();
     const Eigen::Matrix3d p_hat = se3::hat(Eigen::Vector3d(before.imu_T_base.translation()));
-    const Eigen::Matrix3d cov_v_base =
-        weight_before * before.covariance + weight_after * after.covariance;
     twist.covariance.topLeftCorner<3, 3>() =
         R * cov_v_base * R.transpose() + p_hat * group.covariance * p_hat.transpose();
     twist.covariance.topRightCorner<3, 3>() = p_hat * group.covariance;
@@ -180,6 +199,24 @@ TwistData TwistCombiner::combine(const AngularGroup& group, const LinearVelocity
     twist.covariance.bottomRightCorner<3, 3>() = group.covariance;
   }
   return twist;
+}
+
+Eigen::Matrix3d TwistCombiner::wheelCovariance(const AngularGroup& group,
+                                               const LinearVelocitySample& before,
+                                               const LinearVelocitySample& after,
+                                               double weight_after) const {
+  Eigen::Matrix3d per_sample;
+  if (!before.covariance.isZero(0.0) && !after.covariance.isZero(0.0)) {
+    per_sample = (1.0 - weight_after) * before.covariance + weight_after * after.covariance;
+  } else if (wheel_noise_.ready()) {
+    const double sigma = wheel_noise_.linearSigma();
+    per_sample = Eigen::Matrix3d::Identity() * (sigma * sigma);
+  } else {
+    return Eigen::Matrix3d::Zero();
+  }
+  // The wheel's density (per-sample variance x its period) over the twist's period.
+  if (group.period > 0.0 && wheel_period_ > 0.0) per_sample *= wheel_period_ / group.period;
+  return per_sample;
 }
 
 void TwistCombiner::pruneLinear(double released_stamp) {

@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <limits>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -142,6 +143,36 @@ TEST(TwistCombiner, AveragesGyroSamplesIntoOneTwistStampedAtTheLast) {
   EXPECT_DOUBLE_EQ(twists[1].w_imu.z(), 6.5);
   // The wheel gave no covariance: none is claimed.
   EXPECT_FALSE(twists[0].hasCovariance());
+}
+
+TEST(TwistCombiner, EstimatesEachStreamsNoiseAndKeepsItsDensityAtTheTwistRate) {
+  // A 100 Hz gyro and a 20 Hz wheel odometry of white noise, no message covariance: each twist
+  // carries the wheel's density over its own period (5 x the per-sample variance), not the
+  // near-zero noise that interpolated velocities would show.
+  const double sigma_v = 0.2, sigma_w = 0.01;
+  std::mt19937 rng(3);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  TwistCombiner combiner(TwistCombinerOptions{});
+  std::vector<TwistData> twists;
+  for (int k = 0; k <= 2000; ++k) {
+    const double t = 0.01 * k;
+    if (k % 5 == 0) {
+      LinearVelocitySample wheel_sample = wheel(t, 8.0);
+      for (int i = 0; i < 3; ++i) wheel_sample.v_base(i) += sigma_v * normal(rng);
+      combiner.addLinearVelocity(wheel_sample);
+    }
+    AngularVelocitySample gyro_sample = gyro(t, Eigen::Vector3d(0.0, 0.0, 0.1));
+    for (int i = 0; i < 3; ++i) gyro_sample.w_imu(i) += sigma_w * normal(rng);
+    combiner.addAngularVelocity(gyro_sample);
+    for (const TwistData& twist : combiner.takeReady()) twists.push_back(twist);
+  }
+  ASSERT_GT(twists.size(), 1900u);
+  EXPECT_FALSE(twists.front().hasCovariance()) << "no noise estimate before a few samples";
+  const Matrix6d& covariance = twists.back().covariance;
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(covariance(i, i), 5.0 * sigma_v * sigma_v, 0.25 * 5.0 * sigma_v * sigma_v) << i;
+    EXPECT_NEAR(covariance(3 + i, 3 + i), sigma_w * sigma_w, 0.25 * sigma_w * sigma_w) << i;
+  }
 }
 
 /// Velocity of the IMU origin in IMU axes for a base moving with body twist (v_base, w_base),

@@ -110,19 +110,21 @@ class GroundRobotTest(unittest.TestCase):
         direct = json.load(open(os.path.join(self.tmp, 'offline_direct', 'stats.json')))
         self.assertNotIn('twist_combiner_twists', direct)
 
-    def assertSameTrajectory(self, folder, reference, label):
-        """Same stamps, positions within EQUALITY_TOLERANCE_M."""
+    def assertSameTrajectory(self, folder, reference, label, tolerance=EQUALITY_TOLERANCE_M):
+        """Same stamps, positions within `tolerance` m."""
         t, positions = self.trajectory(folder)
         t_reference, reference_positions = self.trajectory(reference)
         self.assertEqual(len(t), FRAMES)
         np.testing.assert_array_equal(t, t_reference)
         difference = np.abs(positions[:, :3] - reference_positions[:, :3]).max()
         log('%s: %.2e m' % (label, difference))
-        self.assertLess(difference, EQUALITY_TOLERANCE_M)
+        self.assertLess(difference, tolerance)
 
-    def test_offline_combined_twist_equals_the_drive_twist(self):
+    def test_offline_combined_twist_matches_the_drive_twist(self):
+        # The same twists, but with the noise the combiner estimates from each stream instead of
+        # the estimator's own online estimate: 0.019 m apart at most over the 222 m drive.
         self.assertSameTrajectory('offline_combined', 'offline_direct',
-                                  'offline: combined twist against the drive\'s own')
+                                  'offline: combined twist against the drive\'s own', 0.05)
 
     def test_live_equals_offline(self):
         self.assertSameTrajectory('live', 'offline_combined', 'live against offline')

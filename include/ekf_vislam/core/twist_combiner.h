@@ -14,6 +14,7 @@
 
 #include "ekf_vislam/core/option_table.h"
 #include "ekf_vislam/core/parameter_source.h"
+#include "ekf_vislam/core/twist_noise_estimator.h"
 #include "ekf_vislam/core/types.h"
 
 #include <Eigen/Core>
@@ -76,8 +77,12 @@ class TwistCombiner {
   bool addAngularVelocity(const AngularVelocitySample& sample, std::string* why = nullptr);
   bool addLinearVelocity(const LinearVelocitySample& sample, std::string* why = nullptr);
 
-  /// The twists completed since the last call, in stamp order. Each carries a covariance only
-  /// when both of its sensors gave one.
+  /// The twists completed since the last call, in stamp order. Each carries the covariance of
+  /// one twist sample once both sensors' noise is known: from the messages when they carry one,
+  /// else estimated from each stream's own samples (TwistNoiseEstimator), and scaled to the
+  /// twist's period so that each sensor keeps its noise density (a 20 Hz wheel velocity
+  /// interpolated at 100 Hz is not 100 Hz white noise: the estimator's own online estimate,
+  /// made from the twists, would read it as nearly noise-free).
   std::vector<TwistData> takeReady();
 
   /// Forgets every sample (time went back); the counters stay.
@@ -89,9 +94,14 @@ class TwistCombiner {
   /// A twist's gyro part: the mean of its samples.
   struct AngularGroup {
     double stamp = 0.0;
+    double period = 0.0;  ///< s the twist covers: its samples' count x the gyro period
     Eigen::Vector3d w_imu = Eigen::Vector3d::Zero();
-    Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+    Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  ///< of the mean; zero: unknown
   };
+  /// Per-sample covariance of the wheel velocity at `t` between `before` and `after` (messages'
+  /// or estimated), scaled to the twist's period; zero while unknown.
+  Eigen::Matrix3d wheelCovariance(const AngularGroup& group, const LinearVelocitySample& before,
+                                  const LinearVelocitySample& after, double weight_after) const;
   /// Counts and refuses a sample that is not finite or not newer than *last_stamp (which it
   /// then advances).
   bool admit(bool finite, double stamp, double* last_stamp, const char* what, std::string* why);
@@ -110,6 +120,12 @@ class TwistCombiner {
   std::vector<TwistData> ready_;
   double last_angular_stamp_ = -1e300;
   double last_linear_stamp_ = -1e300;
+  double gyro_period_ = 0.0;  ///< s between the last two gyro samples
+  double wheel_period_ = 0.0;
+  /// Each stream's white noise from its own samples (windows as the estimator's defaults:
+  /// noise/twist_noise_window 300, twist_noise_min_samples 5).
+  TwistNoiseEstimator gyro_noise_{300, 5};
+  TwistNoiseEstimator wheel_noise_{300, 5};
   TwistCombinerCounters counters_;
 };
 

@@ -64,6 +64,12 @@ def parse_args(argv):
     parser.add_argument('--twist-covariance', type=float, nargs=2, metavar=('V', 'W'),
                         help='with twist_with_covariance or odometry: a diagonal covariance of '
                         'per-sample std V m/s and W rad/s (default: all zero, none given)')
+    parser.add_argument('--wheel-every', type=int, default=1, metavar='N',
+                        help='imu_odometry: one wheel odometry sample every N gyro samples (a '
+                        'wheel odometry slower than the gyro; default %(default)s)')
+    parser.add_argument('--features-every', type=int, default=1, metavar='M',
+                        help='one feature frame (and camera_info) every M twist samples (a camera '
+                        'slower than the twist; default %(default)s)')
     parser.add_argument('--play', action='store_true',
                         help='publish live (needs roscore) instead of writing a bag')
     parser.add_argument('--rate', type=float, default=None,
@@ -77,6 +83,12 @@ def parse_args(argv):
         parser.error('give either OUT.bag or --play, not both')
     if not args.play and not args.out:
         parser.error('give OUT.bag to write a bag, or --play to publish live')
+    if args.wheel_every < 1 or args.features_every < 1:
+        parser.error('--wheel-every and --features-every must be at least 1')
+    if args.wheel_every != 1 and args.twist_type != bag_writer.IMU_ODOMETRY:
+        parser.error('--wheel-every needs --twist-type imu_odometry')
+    if args.play and (args.wheel_every != 1 or args.features_every != 1):
+        parser.error('--wheel-every and --features-every write bags only')
     if not args.play:
         for name in ('rate', 'delay'):
             if getattr(args, name) is not None:
@@ -190,7 +202,9 @@ def run(args):
     try:
         summary = bag_writer.write_bag(dataset, args.out, groundtruth, progress=progress,
                                        twist_type=args.twist_type,
-                                       twist_covariance=twist_covariance(args))
+                                       twist_covariance=twist_covariance(args),
+                                       wheel_every=args.wheel_every,
+                                       features_every=args.features_every)
     except OSError as exc:
         raise ToolFailure('%s: cannot write the bag (%s)' % (args.out, exc.strerror or exc))
     finally:

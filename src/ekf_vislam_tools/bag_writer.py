@@ -252,18 +252,21 @@ def load_groundtruth(path, dataset):
 # ---------------------------------------------------------------------------------------------
 # Message stream and bag
 # ---------------------------------------------------------------------------------------------
-def _frame_messages(dataset, twist_type, twist_covariance):
+def _frame_messages(dataset, twist_type, twist_covariance, wheel_every=1, features_every=1):
     observed = dataset.observed()
     for k in range(dataset.num_frames):
         stamp = to_ros_time(dataset.t[k])
-        left, right = camera_info_msgs(dataset, stamp)
         if twist_type == IMU_ODOMETRY:
             imu, odometry = imu_odometry_msgs(dataset, k, stamp, twist_covariance)
             yield stamp, 0, TOPIC_IMU, imu
-            yield stamp, 0, TOPIC_WHEEL_ODOMETRY, odometry
+            if k % wheel_every == 0:
+                yield stamp, 0, TOPIC_WHEEL_ODOMETRY, odometry
         else:
             yield stamp, 0, TOPIC_TWIST, twist_msg(dataset, k, stamp, twist_type,
                                                    twist_covariance)
+        if k % features_every != 0:
+            continue
+        left, right = camera_info_msgs(dataset, stamp)
         yield stamp, 0, TOPIC_LEFT_INFO, left
         yield stamp, 0, TOPIC_RIGHT_INFO, right
         yield stamp, 0, TOPIC_FEATURES, features_msg(dataset, k, stamp,
@@ -277,13 +280,17 @@ def _groundtruth_messages(groundtruth):
         yield stamp, 1, TOPIC_GROUNDTRUTH, odometry_msg(T, stamp)
 
 
-def iter_messages(dataset, groundtruth=None, twist_type='twist_stamped', twist_covariance=None):
+def iter_messages(dataset, groundtruth=None, twist_type='twist_stamped', twist_covariance=None,
+                  wheel_every=1, features_every=1):
     """Yield (topic, msg, stamp) in bag order: /tf_static, then per frame twist (of twist_type;
     IMU_ODOMETRY: gyro and wheel odometry), left and right camera_info, features; ground truth
-    (t, world_T_imu) interleaved by time (after the frame's messages at equal stamps)."""
+    (t, world_T_imu) interleaved by time (after the frame's messages at equal stamps).
+    wheel_every (IMU_ODOMETRY) and features_every keep one wheel sample, one feature frame every
+    that many twist samples: slower sensors than the dataset's rate."""
     first = to_ros_time(dataset.t[0])
     yield TOPIC_TF_STATIC, tf_static_msg(dataset, first, twist_type == IMU_ODOMETRY), first
-    streams = [_frame_messages(dataset, twist_type, twist_covariance)]
+    streams = [_frame_messages(dataset, twist_type, twist_covariance, wheel_every,
+                               features_every)]
     if groundtruth is not None:
         streams.append(_groundtruth_messages(groundtruth))
     for stamp, _, topic, msg in heapq.merge(*streams, key=lambda item: (item[0], item[1])):
@@ -309,7 +316,7 @@ class BagSummary(object):
 
 
 def write_bag(dataset, out_path, groundtruth=None, progress=None, callerid=DEFAULT_CALLERID,
-              twist_type='twist_stamped', twist_covariance=None):
+              twist_type='twist_stamped', twist_covariance=None, wheel_every=1, features_every=1):
     """Write the dataset (and optional ground truth) to `out_path` -> BagSummary.
 
     Writes `<out_path>.tmp-<pid>` and renames it on success; on any error (or KeyboardInterrupt)
@@ -321,7 +328,7 @@ def write_bag(dataset, out_path, groundtruth=None, progress=None, callerid=DEFAU
     try:
         with rosbag.Bag(tmp_path, 'w') as bag:
             for topic, msg, stamp in iter_messages(dataset, groundtruth, twist_type,
-                                                   twist_covariance):
+                                                   twist_covariance, wheel_every, features_every):
                 if topic == TOPIC_TF_STATIC:
                     bag.write(topic, msg, stamp,
                               connection_header=tf_static_connection_header(msg, callerid))
@@ -332,7 +339,7 @@ def write_bag(dataset, out_path, groundtruth=None, progress=None, callerid=DEFAU
                     summary.observations += len(msg.features)
                     summary.frames += 1
                     if progress is not None:
-                        progress(summary.frames, dataset.num_frames)
+                        progress(summary.frames, -(-dataset.num_frames // features_every))
                 elif topic == TOPIC_GROUNDTRUTH:
                     summary.groundtruth_poses += 1
         os.replace(tmp_path, out_path)

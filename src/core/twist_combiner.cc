@@ -40,32 +40,31 @@ std::string describeTwistCombinerOptions(const TwistCombinerOptions& options) {
   return describeOptionTable(options, kTable);
 }
 
-bool TwistCombiner::admit(bool finite, double stamp, double* last_stamp, const char* what,
-                          std::string* why) {
-  if (!finite || !std::isfinite(stamp)) {
+bool TwistCombiner::admit(bool finite, const TwistData& for_noise, StreamState* stream,
+                          const char* what, std::string* why) {
+  if (!finite || !std::isfinite(for_noise.stamp)) {
     ++counters_.rejected_non_finite;
     setWhy(why, std::string(what) + " or its covariance not finite");
     return false;
   }
-  if (stamp <= *last_stamp) {
+  if (for_noise.stamp <= stream->last_stamp) {
     ++counters_.rejected_not_increasing;
     setWhy(why, std::string(what) + " stamp not after the previous one");
     return false;
   }
-  *last_stamp = stamp;
+  if (stream->last_stamp > -1e300) stream->period = for_noise.stamp - stream->last_stamp;
+  stream->last_stamp = for_noise.stamp;
+  stream->noise.add(for_noise);
   return true;
 }
 
 bool TwistCombiner::addAngularVelocity(const AngularVelocitySample& sample, std::string* why) {
   ++counters_.angular_received;
-  const bool finite = sample.w_imu.allFinite() && sample.covariance.allFinite();
-  const double previous = last_angular_stamp_;
-  if (!admit(finite, sample.stamp, &last_angular_stamp_, "angular velocity", why)) return false;
-  if (previous > -1e300) gyro_period_ = sample.stamp - previous;
   TwistData for_noise;
   for_noise.stamp = sample.stamp;
   for_noise.w_imu = sample.w_imu;
-  gyro_noise_.add(for_noise);
+  const bool finite = sample.w_imu.allFinite() && sample.covariance.allFinite();
+  if (!admit(finite, for_noise, &gyro_, "angular velocity", why)) return false;
   open_group_.push_back(sample);
   closeGroupIfFull();
   release();
@@ -74,15 +73,12 @@ bool TwistCombiner::addAngularVelocity(const AngularVelocitySample& sample, std:
 
 bool TwistCombiner::addLinearVelocity(const LinearVelocitySample& sample, std::string* why) {
   ++counters_.linear_received;
-  const bool finite = sample.v_base.allFinite() && sample.covariance.allFinite() &&
-                      sample.imu_T_base.matrix().allFinite();
-  const double previous = last_linear_stamp_;
-  if (!admit(finite, sample.stamp, &last_linear_stamp_, "linear velocity", why)) return false;
-  if (previous > -1e300) wheel_period_ = sample.stamp - previous;
   TwistData for_noise;
   for_noise.stamp = sample.stamp;
   for_noise.v_imu = sample.v_base;
-  wheel_noise_.add(for_noise);
+  const bool finite = sample.v_base.allFinite() && sample.covariance.allFinite() &&
+                      sample.imu_T_base.matrix().allFinite();
+  if (!admit(finite, for_noise, &wheel_, "linear velocity", why)) return false;
   linear_.push_back(sample);
   release();
   return true;
@@ -99,11 +95,8 @@ void TwistCombiner::reset() {
   waiting_.clear();
   linear_.clear();
   ready_.clear();
-  last_angular_stamp_ = -1e300;
-  last_linear_stamp_ = -1e300;
-  gyro_period_ = wheel_period_ = 0.0;
-  gyro_noise_ = TwistNoiseEstimator(300, 5);
-  wheel_noise_ = TwistNoiseEstimator(300, 5);
+  gyro_ = StreamState();
+  wheel_ = StreamState();
 }
 
 void TwistCombiner::closeGroupIfFull() {
@@ -118,12 +111,12 @@ void TwistCombiner::closeGroupIfFull() {
   }
   const double n = static_cast<double>(open_group_.size());
   group.w_imu /= n;
-  group.period = n * gyro_period_;
+  group.period = n * gyro_.period;
   // The mean of n samples of independent noise: covariance / n.
   if (all_have_covariance) {
     group.covariance /= n * n;
-  } else if (gyro_noise_.ready()) {
-    const double sigma = gyro_noise_.angularSigma();
+  } else if (gyro_.noise.ready()) {
+    const double sigma = gyro_.noise.angularSigma();
     group.covariance = Eigen::Matrix3d::Identity() * (sigma * sigma / n);
   } else {
     group.covariance.setZero();
@@ -133,7 +126,7 @@ void TwistCombiner::closeGroupIfFull() {
 }
 
 void TwistCombiner::release() {
-  while (!waiting_.empty() && tryCombine(waiting_.front(), last_angular_stamp_)) {
+  while (!waiting_.empty() && tryCombine(waiting_.front(), gyro_.last_stamp)) {
     pruneLinear(waiting_.front().stamp);
     waiting_.pop_front();
   }
@@ -208,14 +201,14 @@ Eigen::Matrix3d TwistCombiner::wheelCovariance(const AngularGroup& group,
   Eigen::Matrix3d per_sample;
   if (!before.covariance.isZero(0.0) && !after.covariance.isZero(0.0)) {
     per_sample = (1.0 - weight_after) * before.covariance + weight_after * after.covariance;
-  } else if (wheel_noise_.ready()) {
-    const double sigma = wheel_noise_.linearSigma();
+  } else if (wheel_.noise.ready()) {
+    const double sigma = wheel_.noise.linearSigma();
     per_sample = Eigen::Matrix3d::Identity() * (sigma * sigma);
   } else {
     return Eigen::Matrix3d::Zero();
   }
   // The wheel's density (per-sample variance x its period) over the twist's period.
-  if (group.period > 0.0 && wheel_period_ > 0.0) per_sample *= wheel_period_ / group.period;
+  if (group.period > 0.0 && wheel_.period > 0.0) per_sample *= wheel_.period / group.period;
   return per_sample;
 }
 

@@ -102,9 +102,18 @@ class TwistCombiner {
   /// or estimated), scaled to the twist's period; zero while unknown.
   Eigen::Matrix3d wheelCovariance(const AngularGroup& group, const LinearVelocitySample& before,
                                   const LinearVelocitySample& after, double weight_after) const;
-  /// Counts and refuses a sample that is not finite or not newer than *last_stamp (which it
-  /// then advances).
-  bool admit(bool finite, double stamp, double* last_stamp, const char* what, std::string* why);
+  /// One input stream: its last stamp, its sample period and its white noise, estimated from
+  /// its own samples (windows as the estimator's defaults: noise/twist_noise_window 300,
+  /// twist_noise_min_samples 5).
+  struct StreamState {
+    double last_stamp = -1e300;
+    double period = 0.0;  ///< s between its last two samples
+    TwistNoiseEstimator noise{300, 5};
+  };
+  /// Counts and refuses a sample that is not finite or not newer than the stream's last one;
+  /// else advances the stream (period, noise estimate from `for_noise`).
+  bool admit(bool finite, const TwistData& for_noise, StreamState* stream, const char* what,
+             std::string* why);
   void closeGroupIfFull();
   void release();
   /// False while the group must wait for a wheel sample.
@@ -118,14 +127,7 @@ class TwistCombiner {
   std::deque<AngularGroup> waiting_;               ///< complete gyro parts, stamp order
   std::deque<LinearVelocitySample> linear_;        ///< wheel samples, stamp order
   std::vector<TwistData> ready_;
-  double last_angular_stamp_ = -1e300;
-  double last_linear_stamp_ = -1e300;
-  double gyro_period_ = 0.0;  ///< s between the last two gyro samples
-  double wheel_period_ = 0.0;
-  /// Each stream's white noise from its own samples (windows as the estimator's defaults:
-  /// noise/twist_noise_window 300, twist_noise_min_samples 5).
-  TwistNoiseEstimator gyro_noise_{300, 5};
-  TwistNoiseEstimator wheel_noise_{300, 5};
+  StreamState gyro_, wheel_;
   TwistCombinerCounters counters_;
 };
 

@@ -1,5 +1,8 @@
 #include "ekf_vislam/ros/conversions.h"
 
+#include "ekf_vislam/core/attached_frame.h"
+#include "ekf_vislam/core/se3.h"
+
 #include <tf2_eigen/tf2_eigen.h>
 
 #include <algorithm>
@@ -70,21 +73,9 @@ TwistData toTwistData(const geometry_msgs::TwistWithCovarianceStamped& msg,
 
 TwistData toTwistData(const nav_msgs::Odometry& msg, const Eigen::Isometry3d& imu_T_child,
                       bool* covariance_invalid) {
-  TwistData child =
+  const TwistData child =
       fromTwistWithCovariance(msg.header.stamp.toSec(), msg.twist, covariance_invalid);
-  const Eigen::Matrix3d R = imu_T_child.linear();
-  const Eigen::Vector3d p = imu_T_child.translation();
-  Eigen::Matrix3d p_hat;
-  p_hat << 0.0, -p.z(), p.y(), p.z(), 0.0, -p.x(), -p.y(), p.x(), 0.0;
-  Eigen::Matrix<double, 6, 6> J = Eigen::Matrix<double, 6, 6>::Zero();
-  J.topLeftCorner<3, 3>() = R;
-  J.topRightCorner<3, 3>() = p_hat * R;
-  J.bottomRightCorner<3, 3>() = R;
-  TwistData imu = child;
-  imu.w_imu = R * child.w_imu;
-  imu.v_imu = R * child.v_imu + p_hat * imu.w_imu;
-  if (child.hasCovariance()) imu.covariance = J * child.covariance * J.transpose();
-  return imu;
+  return moveTwist(se3::adjoint(imu_T_child.matrix()), child);
 }
 
 geometry_msgs::TwistWithCovarianceStamped toTwistWithCovarianceMsg(const TwistData& twist,

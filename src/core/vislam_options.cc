@@ -116,6 +116,8 @@ void visitVislamOptions(Options& o, Visitor& v) {
   v.choice("health/divergence_policy", health.divergence_policy, kDivergenceNames);
 }
 
+constexpr auto kTable = [](auto& options, auto& visitor) { visitVislamOptions(options, visitor); };
+
 }  // namespace
 
 const char* modeName(EstimatorMode mode) { return enumName(kModeNames, mode); }
@@ -154,13 +156,11 @@ bool parseVislamOptions(const ParameterSource& source, VislamOptions* options, s
 }
 
 std::string describeOptions(const VislamOptions& options) {
-  return describeOptionTable(options,
-                             [](auto& o, auto& visitor) { visitVislamOptions(o, visitor); });
+  return describeOptionTable(options, kTable);
 }
 
 std::vector<OptionKeyList::Key> vislamOptionKeys() {
-  return optionTableKeys<VislamOptions>(
-      [](auto& options, auto& visitor) { visitVislamOptions(options, visitor); });
+  return optionTableKeys<VislamOptions>(kTable);
 }
 
 }  // namespace ekf_vislam

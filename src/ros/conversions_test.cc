@@ -490,6 +490,10 @@ TEST(RosOptions, ErrorsNameTheKey) {
       YamlParameterSource::fromString("ros:\n  calibration:\n    cam_T_imu: \"1 0 0\"\n"), &o,
       &error));
   EXPECT_NE(error.find("16 numbers"), std::string::npos) << error;
+  EXPECT_FALSE(parseVislamRosOptions(YamlParameterSource::fromString("ros:\n  twist_type: imu\n"),
+                                     &o, &error));
+  EXPECT_NE(error.find("twist_stamped | twist_with_covariance | odometry"), std::string::npos)
+      << error;
   EXPECT_FALSE(parseVislamRosOptions(YamlParameterSource::fromString("ros:\n  world_frame: imu\n"),
                                      &o, &error));
   EXPECT_EQ(o.world_frame, "world");  // untouched on failure

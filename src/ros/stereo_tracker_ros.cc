@@ -59,10 +59,10 @@ StereoTrackerRos::StereoTrackerRos(const ros::NodeHandle& nh, const ros::NodeHan
   right_info_sub_ =
       nh_.subscribe("stereo/right/camera_info", queue, &StereoTrackerRos::rightInfoCallback, this);
   if (ros_options_.use_twist) {
-    if (ros_options_.twist_type == "odometry") {
+    if (ros_options_.twist_type == TwistMessageType::kOdometry) {
       twist_sub_ =
           nh_.subscribe("imu/twist", 20 * queue, &StereoTrackerRos::odometryTwistCallback, this);
-    } else if (ros_options_.twist_type == "twist_with_covariance") {
+    } else if (ros_options_.twist_type == TwistMessageType::kTwistWithCovariance) {
       twist_sub_ = nh_.subscribe("imu/twist", 20 * queue,
                                  &StereoTrackerRos::twistWithCovarianceCallback, this);
     } else {

@@ -65,9 +65,9 @@ VislamRos::VislamRos(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, cons
 
   const int queue = ros_options_.queue_size;
   const ros::TransportHints hints = ros::TransportHints().tcpNoDelay();
-  if (ros_options_.twist_type == "odometry") {
+  if (ros_options_.twist_type == TwistMessageType::kOdometry) {
     twist_sub_ = nh_.subscribe("imu/twist", queue, &VislamRos::odometryTwistCallback, this, hints);
-  } else if (ros_options_.twist_type == "twist_with_covariance") {
+  } else if (ros_options_.twist_type == TwistMessageType::kTwistWithCovariance) {
     twist_sub_ =
         nh_.subscribe("imu/twist", queue, &VislamRos::twistWithCovarianceCallback, this, hints);
   } else {

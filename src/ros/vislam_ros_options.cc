@@ -29,7 +29,7 @@ void visitVislamRosOptions(Options& o, Visitor& v) {
   v.text("ros/world_frame", o.world_frame);
   v.text("ros/imu_frame", o.imu_frame);
   v.text("ros/base_frame", o.base_frame);
-  v.text("ros/twist_type", o.twist_type);
+  v.choice("ros/twist_type", o.twist_type, kTwistMessageTypeNames);
   v.flag("ros/publish_tf", o.publish_tf);
   v.number("ros/landmark_marker_rate", o.landmark_marker_rate, Bound::kNonNegative);
   v.flag("ros/covariance_ellipsoids", o.covariance_ellipsoids);
@@ -79,6 +79,10 @@ void readCalibrationOverride(OptionReader* r, CalibrationOverride* c) {
   c->has_extrinsic = true;
 }
 
+constexpr auto kTable = [](auto& options, auto& visitor) {
+  visitVislamRosOptions(options, visitor);
+};
+
 }  // namespace
 
 std::string VislamRosOptions::validate() const {
@@ -88,13 +92,6 @@ std::string VislamRosOptions::validate() const {
     validator.fail("'ros/world_frame' and 'ros/imu_frame' must not be empty");
   } else if (world_frame == imu_frame || world_frame == base_frame) {
     validator.fail("'ros/world_frame' must differ from 'ros/imu_frame' and 'ros/base_frame'");
-  }
-  if (twist_type != "twist_stamped" && twist_type != "twist_with_covariance" &&
-      twist_type != "odometry") {
-    validator.fail(
-        "'ros/twist_type' must be one of twist_stamped | twist_with_covariance | "
-        "odometry, not '" +
-        twist_type + "'");
   }
   if (!(landmark_sigma_bad > landmark_sigma_good)) {
     validator.fail("'ros/landmark_sigma_bad' must exceed 'ros/landmark_sigma_good'");
@@ -119,10 +116,8 @@ bool parseVislamRosOptions(const ParameterSource& source, VislamRosOptions* opti
 }
 
 std::string describeOptions(const VislamRosOptions& o) {
-  OptionDescriber describer;
-  visitVislamRosOptions(o, describer);
   std::ostringstream out;
-  out << describer.text();
+  out << describeOptionTable(o, kTable);
   if (o.calibration.has_intrinsics) {
     const StereoCalibration& c = o.calibration.calibration;
     out << "\nros/calibration (overrides camera_info): fx=" << c.fx << " fy=" << c.fy
@@ -136,8 +131,7 @@ std::string describeOptions(const VislamRosOptions& o) {
 }
 
 std::vector<OptionKeyList::Key> vislamRosOptionKeys() {
-  return optionTableKeys<VislamRosOptions>(
-      [](auto& options, auto& visitor) { visitVislamRosOptions(options, visitor); });
+  return optionTableKeys<VislamRosOptions>(kTable);
 }
 
 std::string unknownEstimatorKeys(const ParameterSource& source) {

@@ -63,12 +63,13 @@ void visitTrackerRosOptions(Options& o, Visitor& v) {
   v.integer("ros/queue_size", o.queue_size, Bound::kAtLeastOne);
   v.number("ros/max_stamp_difference", o.max_stamp_difference, Bound::kNonNegative);
   v.flag("ros/use_twist", o.use_twist);
-  v.text("ros/twist_type", o.twist_type);
+  v.choice("ros/twist_type", o.twist_type, kTwistMessageTypeNames);
   v.number("ros/max_twist_wait", o.max_twist_wait, Bound::kNonNegative);
   v.number("ros/diagnostic_period", o.diagnostic_period, Bound::kPositive);
   v.number("ros/time_jump_reset", o.time_jump_reset, Bound::kNonNegative);
 }
 
+constexpr auto kTable = [](auto& options, auto& visitor) { visitTrackerOptions(options, visitor); };
 constexpr auto kRosTable = [](auto& options, auto& visitor) {
   visitTrackerRosOptions(options, visitor);
 };
@@ -111,28 +112,16 @@ std::string TrackerOptions::validate() const {
 }
 
 std::string describeOptions(const TrackerOptions& options) {
-  return describeOptionTable(options,
-                             [](auto& o, auto& visitor) { visitTrackerOptions(o, visitor); });
+  return describeOptionTable(options, kTable);
 }
 
 std::vector<OptionKeyList::Key> trackerOptionKeys() {
-  return optionTableKeys<TrackerOptions>(
-      [](auto& options, auto& visitor) { visitTrackerOptions(options, visitor); });
+  return optionTableKeys<TrackerOptions>(kTable);
 }
 
 bool parseTrackerRosOptions(const ParameterSource& source, StereoTrackerRosOptions* options,
                             std::string* error) {
-  return readOptionTable(source, kRosTable, options, error,
-                         [](const StereoTrackerRosOptions& o, OptionValidator* validator) {
-                           if (o.twist_type != "twist_stamped" &&
-                               o.twist_type != "twist_with_covariance" &&
-                               o.twist_type != "odometry") {
-                             validator->fail(
-                                 "'ros/twist_type' must be one of twist_stamped | "
-                                 "twist_with_covariance | odometry, not '" +
-                                 o.twist_type + "'");
-                           }
-                         });
+  return readOptionTable(source, kRosTable, options, error);
 }
 
 std::vector<OptionKeyList::Key> trackerRosOptionKeys() {

@@ -5,6 +5,7 @@
 
 #include "ekf_vislam/core/calibration_builder.h"
 #include "ekf_vislam/core/parameter_source.h"
+#include "ekf_vislam/core/twist_message_type.h"
 #include "ekf_vislam/core/types.h"
 #include "ekf_vislam/core/vislam_options.h"
 
@@ -19,7 +20,7 @@ struct VislamRosOptions {
   /// ros/base_frame: the robot frame odometry, tf and the path are given for ("" = imu_frame)
   std::string base_frame;
   /// ros/twist_type: message type on imu/twist: twist_stamped | twist_with_covariance | odometry
-  std::string twist_type = "twist_stamped";
+  TwistMessageType twist_type = TwistMessageType::kTwistStamped;
   bool publish_tf = true;              ///< ros/publish_tf: world -> imu
   double landmark_marker_rate = 2.0;   ///< ros/landmark_marker_rate, Hz (0 = never)
   bool covariance_ellipsoids = false;  ///< ros/covariance_ellipsoids (active landmarks)

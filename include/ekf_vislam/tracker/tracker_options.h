@@ -5,6 +5,7 @@
 
 #include "ekf_vislam/core/option_table.h"
 #include "ekf_vislam/core/parameter_source.h"
+#include "ekf_vislam/core/twist_message_type.h"
 
 #include <string>
 #include <vector>
@@ -104,10 +105,10 @@ struct StereoTrackerRosOptions {
   bool use_twist = true;                ///< predict KLT start points from imu/twist (needs tf)
   /// Message type on imu/twist, as the estimator's ros/twist_type: twist_stamped |
   /// twist_with_covariance | odometry (its twist, in child_frame_id).
-  std::string twist_type = "twist_stamped";
-  double max_twist_wait = 0.5;          ///< s of message time a pair waits for the twist stream
-  double diagnostic_period = 1.0;       ///< s
-  double time_jump_reset = 1.0;         ///< s back on one input: the tracker restarts (0 = off)
+  TwistMessageType twist_type = TwistMessageType::kTwistStamped;
+  double max_twist_wait = 0.5;     ///< s of message time a pair waits for the twist stream
+  double diagnostic_period = 1.0;  ///< s
+  double time_jump_reset = 1.0;    ///< s back on one input: the tracker restarts (0 = off)
 };
 
 /// Fills *options from the ros/ keys present in `source` and checks their ranges; false and

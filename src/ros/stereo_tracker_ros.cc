@@ -46,12 +46,9 @@ StereoTrackerRos::StereoTrackerRos(const ros::NodeHandle& nh, const ros::NodeHan
   debug_pub_ = image_transport_.advertise("stereo/debug_image", 1);
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_);
 
-  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
-  diagnostics_->setHardwareID("ekf_vislam");
-  diagnostics_->add("stereo tracker", this, &StereoTrackerRos::produceDiagnostics);
-  diagnostics_timer_ =
-      nh_.createWallTimer(ros::WallDuration(ros_options_.diagnostic_period),
-                          [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
+  diagnostics_ = std::make_unique<PeriodicDiagnostics>(nh_, pnh_, name_, "stereo tracker",
+                                                       ros_options_.diagnostic_period, this,
+                                                       &StereoTrackerRos::produceDiagnostics);
 
   const int queue = ros_options_.queue_size;
   left_info_sub_ =

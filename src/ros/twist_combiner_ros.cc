@@ -68,12 +68,9 @@ TwistCombinerRos::TwistCombinerRos(const ros::NodeHandle& nh, const ros::NodeHan
 
   twist_pub_ = nh_.advertise<geometry_msgs::TwistWithCovarianceStamped>("imu/twist", 100);
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_);
-  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
-  diagnostics_->setHardwareID("ekf_vislam");
-  diagnostics_->add("twist combiner", this, &TwistCombinerRos::produceDiagnostics);
-  diagnostics_timer_ =
-      nh_.createWallTimer(ros::WallDuration(ros_options_.diagnostic_period),
-                          [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
+  diagnostics_ = std::make_unique<PeriodicDiagnostics>(nh_, pnh_, name_, "twist combiner",
+                                                       ros_options_.diagnostic_period, this,
+                                                       &TwistCombinerRos::produceDiagnostics);
 
   const ros::TransportHints hints = ros::TransportHints().tcpNoDelay();
   imu_sub_ = nh_.subscribe("imu/data", ros_options_.queue_size, &TwistCombinerRos::imuCallback,

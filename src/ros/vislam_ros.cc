@@ -59,10 +59,6 @@ VislamRos::VislamRos(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, cons
   path_pub_ = pnh_.advertise<nav_msgs::Path>("path", 1, true);
   landmarks_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("landmarks", 1, true);
 
-  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
-  diagnostics_->setHardwareID("ekf_vislam");
-  diagnostics_->add("estimator", this, &VislamRos::produceDiagnostics);
-
   const int queue = ros_options_.queue_size;
   const ros::TransportHints hints = ros::TransportHints().tcpNoDelay();
   if (ros_options_.twist_type == TwistMessageType::kOdometry) {
@@ -88,8 +84,9 @@ VislamRos::VislamRos(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, cons
     landmark_timer_ =
         nh_.createWallTimer(ros::WallDuration(1.0 / rate), &VislamRos::visualizationTimer, this);
   }
-  diagnostics_timer_ = nh_.createWallTimer(ros::WallDuration(ros_options_.diagnostic_period),
-                                           &VislamRos::diagnosticsTimer, this);
+  diagnostics_ = std::make_unique<PeriodicDiagnostics>(nh_, pnh_, name_, "estimator",
+                                                       ros_options_.diagnostic_period, this,
+                                                       &VislamRos::produceDiagnostics);
   // Last, so that a client seeing the services knows the subscriptions are registered.
   reset_srv_ = pnh_.advertiseService("reset", &VislamRos::resetService, this);
   save_srv_ = pnh_.advertiseService("save", &VislamRos::saveService, this);
@@ -107,7 +104,7 @@ void VislamRos::shutdown() {
   publishing_ = false;
   calibration_timer_.stop();
   landmark_timer_.stop();
-  diagnostics_timer_.stop();
+  diagnostics_->stop();
   twist_sub_.shutdown();
   features_sub_.shutdown();
   left_info_sub_.shutdown();
@@ -489,8 +486,6 @@ void VislamRos::visualizationTimer(const ros::WallTimerEvent&) {
     publishPath();
   }
 }
-
-void VislamRos::diagnosticsTimer(const ros::WallTimerEvent&) { diagnostics_->force_update(); }
 
 void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) {
   std::lock_guard<std::mutex> lock(mutex_);

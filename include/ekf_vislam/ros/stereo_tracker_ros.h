@@ -8,6 +8,8 @@
 #include "ekf_vislam/tracker/stereo_tracker.h"
 #include "ekf_vislam/tracker/twist_motion_prior.h"
 
+#include "ekf_vislam/ros/periodic_diagnostics.h"
+
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <geometry_msgs/TwistStamped.h>
 #include <geometry_msgs/TwistWithCovarianceStamped.h>
@@ -88,8 +90,7 @@ class StereoTrackerRos {
   image_transport::Publisher debug_pub_;
   tf2_ros::Buffer tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
-  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
-  ros::WallTimer diagnostics_timer_;
+  std::unique_ptr<PeriodicDiagnostics> diagnostics_;
 
   std::mutex mutex_;
   sensor_msgs::CameraInfoConstPtr left_info_, right_info_;

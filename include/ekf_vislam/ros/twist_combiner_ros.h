@@ -11,6 +11,8 @@
 #include "ekf_vislam/core/time_jump_detector.h"
 #include "ekf_vislam/core/twist_combiner.h"
 
+#include "ekf_vislam/ros/periodic_diagnostics.h"
+
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
@@ -80,8 +82,7 @@ class TwistCombinerRos {
   ros::Publisher twist_pub_;
   tf2_ros::Buffer tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
-  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
-  ros::WallTimer diagnostics_timer_;
+  std::unique_ptr<PeriodicDiagnostics> diagnostics_;
 
   std::mutex mutex_;
   std::map<std::string, Eigen::Isometry3d> imu_T_frame_;  ///< tf cache

@@ -19,6 +19,7 @@
 #include <ekf_vislam/StereoFeatureArray.h>
 #include "ekf_vislam/core/estimator_runner.h"
 #include "ekf_vislam/core/types.h"
+#include "ekf_vislam/ros/periodic_diagnostics.h"
 #include "ekf_vislam/ros/vislam_ros_options.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -86,7 +87,6 @@ class VislamRos {
   void clearVisualization();
   void calibrationTimer(const ros::WallTimerEvent&);
   void visualizationTimer(const ros::WallTimerEvent&);
-  void diagnosticsTimer(const ros::WallTimerEvent&);
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
   /// What the log and the status say about the inputs and the regime (empty: nothing).
   struct DiagnosticHints {
@@ -166,7 +166,7 @@ class VislamRos {
   ros::Subscriber twist_sub_, features_sub_, left_info_sub_, right_info_sub_;
   ros::Publisher odometry_pub_, odometry_update_pub_, path_pub_, landmarks_pub_;
   ros::ServiceServer reset_srv_, save_srv_;
-  ros::WallTimer calibration_timer_, landmark_timer_, diagnostics_timer_;
+  ros::WallTimer calibration_timer_, landmark_timer_;
   ros::WallTime last_landmarks_publish_;
   ros::WallTime last_path_publish_;
   tf2_ros::Buffer tf_buffer_;
@@ -181,7 +181,7 @@ class VislamRos {
   bool landmarks_dirty_ = false;
   size_t previous_ellipsoids_ = 0;
   double last_stamp_ = 0.0;
-  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  std::unique_ptr<PeriodicDiagnostics> diagnostics_;
 };
 
 }  // namespace ekf_vislam

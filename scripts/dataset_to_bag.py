@@ -7,6 +7,8 @@
 
 The dataset is validated first (ekf_vislam_tools.dataset); a bad file ends with exit code 2 and
 one line on stderr naming the field. Topics, frames and stamps: see ekf_vislam_tools.bag_writer.
+A dataset with an accelerometer (specific_force) also gets /imu/data (sensor_msgs/Imu, its
+linear_acceleration; with --twist-type imu_odometry in the gyro's messages).
 --play needs a running roscore; it publishes /clock and the same topics in real time (times
 --rate), for nodes running with /use_sim_time true (launch/play_npz.launch sets it).
 """
@@ -40,7 +42,8 @@ def parse_args(argv):
         prog=PROG,
         description='Convert a course dataset (npz, 2019 or later layout) into a ROS bag with '
                     '/imu/twist, /stereo/features, /stereo/{left,right}/camera_info, /tf_static '
-                    '(and /groundtruth/odometry), or publish it live with --play.')
+                    '(and /groundtruth/odometry; /imu/data with the accelerometer of a dataset '
+                    'with specific_force), or publish it live with --play.')
     parser.add_argument('dataset', metavar='DATASET.npz', help='course dataset file')
     parser.add_argument('out', metavar='OUT.bag', nargs='?', help='bag to write (not with --play)')
     parser.add_argument('--groundtruth', metavar='FILE',
@@ -135,14 +138,18 @@ def play(dataset, groundtruth, rate, loop, delay):
     """Publish the dataset's messages live, paced by their stamps, with /clock; -> frames played."""
     import rosgraph
     from rosgraph_msgs.msg import Clock
+    from sensor_msgs.msg import Imu
 
     if not rosgraph.is_master_online():
         raise ToolFailure('no ROS master at %s; start roscore first' % rosgraph.get_master_uri())
     rospy.init_node('dataset_player', anonymous=True)
     clock_pub = rospy.Publisher('/clock', Clock, queue_size=10)
+    topic_types = dict(bag_writer.TOPIC_TYPES)
+    if dataset.specific_force is not None:  # the accelerometer's /imu/data
+        topic_types[bag_writer.TOPIC_IMU] = Imu
     pubs = {topic: rospy.Publisher(topic, msg_class, queue_size=100,
                                    latch=(topic == bag_writer.TOPIC_TF_STATIC))
-            for topic, msg_class in bag_writer.TOPIC_TYPES.items()
+            for topic, msg_class in topic_types.items()
             if groundtruth is not None or topic != bag_writer.TOPIC_GROUNDTRUTH}
     time.sleep(delay)
 

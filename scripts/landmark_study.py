@@ -2,7 +2,7 @@
 """The landmark study: SLAM accuracy and consistency against the fraction of landmark ids kept.
 
     landmark_study.py [--data DIR] [--out DIR] [--fractions F ...] [--seeds N ...] [--config YAML]
-                      [--jobs 2]
+                      [--accel-noise SIGMA] [--jobs 2]
 
 For 0027 and 0034 (with their ground truth), both twists (the file's own, "course", and one from
 the ground truth with 0.05 m/s / 0.005 rad/s white noise and a 0.001 rad/s gyro offset,
@@ -10,6 +10,8 @@ the ground truth with 0.05 m/s / 0.005 rad/s white noise and a 0.001 rad/s gyro 
 in slam mode, and dead reckoning per twist and seed. Writes OUT/landmark_study.md (the regime
 table: SLAM ATE mean and max over seeds, dead-reckoning ATE, their ratio, mean position NEES),
 OUT/landmark_study.png and OUT/landmark_study.json, and prints the table and the wall time.
+With --accel-noise every variant also carries an accelerometer made from the ground truth
+(make_variant.py --accel-noise: that white noise per sample, no bias), which SLAM uses.
 """
 import argparse
 import concurrent.futures
@@ -39,7 +41,7 @@ def run_folder(out, job):
                                                           seed))
 
 
-def one_run(job, data, out, binary, config):
+def one_run(job, data, out, binary, config, accel_noise=None):
     """job = (sequence, twist, fraction, seed, mode) -> result dict."""
     sequence, twist, fraction, seed, mode = job
     folder = run_folder(out, job)
@@ -49,7 +51,8 @@ def one_run(job, data, out, binary, config):
     if not os.path.exists(bag):
         with np.load(os.path.join(data, sequence + '.npz')) as archive:
             arrays = {key: archive[key] for key in archive.files}
-        variant, _ = variants.make_variant(arrays, gt, twist, keep_fraction=fraction, seed=seed)
+        variant, _ = variants.make_variant(arrays, gt, twist, keep_fraction=fraction, seed=seed,
+                                           accel_noise=accel_noise)
         np.savez(npz, **variant)
         run([PY, os.path.join(HERE, 'dataset_to_bag.py'), npz, bag])
         os.remove(npz)  # the bag has everything (about 70 MB each)
@@ -137,6 +140,9 @@ def main(argv):
                         default=[0.05, 0.1, 0.2, 0.4, 0.6, 0.8, 1.0])
     parser.add_argument('--seeds', type=int, nargs='+', default=[1, 2, 3])
     parser.add_argument('--config', default=None, help='options YAML (default: the shipped one)')
+    parser.add_argument('--accel-noise', type=float, default=None, metavar='SIGMA',
+                        help='give every variant an accelerometer from the ground truth with '
+                             'this white noise (m/s^2 per sample; default: none)')
     parser.add_argument('--jobs', type=int, default=2)
     parser.add_argument('--keep-bags', action='store_true',
                         help='keep each variant\'s bag under OUT/runs (about 70 MB each)')
@@ -155,9 +161,11 @@ def main(argv):
     results = []
     with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
         slam_jobs = [j for j in jobs if j[4] == 'slam']
-        results += list(pool.map(lambda j: one_run(j, args.data, out, binary, args.config),
+        results += list(pool.map(lambda j: one_run(j, args.data, out, binary, args.config,
+                                                   args.accel_noise),
                                  slam_jobs))
-        results += list(pool.map(lambda j: one_run(j, args.data, out, binary, args.config),
+        results += list(pool.map(lambda j: one_run(j, args.data, out, binary, args.config,
+                                                   args.accel_noise),
                                  [j for j in jobs if j[4] != 'slam']))
     if not args.keep_bags:
         for job in slam_jobs:

@@ -2,12 +2,21 @@
 """Writes a regime variant of a course dataset.
 
     make_variant.py DATA.npz --groundtruth GT.tum --twist course|accurate [--twist-noise V W]
-                    [--gyro-offset B] [--keep-fraction F] [--seed N] --out OUT.npz
+                    [--gyro-offset B] [--accel-noise SIGMA [--accel-bias B [B B]]]
+                    [--keep-fraction F] [--seed N] --out OUT.npz
 
 course: the file's own twist. accurate: the IMU body twist computed from the ground truth
 (sample k+1 drives [t_k, t_k+1]) plus white noise of V m/s and W rad/s per sample and axis
 (default 0.05, 0.005) and a constant gyro offset B rad/s on each axis (default 0.001), as good as
-a decent wheel odometry. --keep-fraction keeps a seeded random subset of the landmark ids.
+a decent wheel odometry. --accel-noise (with either twist) adds an accelerometer, specific_force
+(3,T) m/s^2 in the IMU frame: sample k is the mean specific force over (t_k-1, t_k] in the body
+frame at t_k, from the ground-truth poses at the frame stamps and the noiseless ground-truth
+velocity of the accurate twist, plus white noise of SIGMA m/s^2 per sample and axis and a constant
+offset (--accel-bias, default 0). Gravity's direction: the ground truth's world is the first
+camera frame, not level, so "up" is taken as the normalized mean of the IMU's z axis over the
+drive (a stand-in: right when the drive's roll and pitch average out to zero). Its noise has its
+own stream from --seed: the twist and the kept ids are the same with or without it.
+--keep-fraction keeps a seeded random subset of the landmark ids.
 Frames after the last ground-truth pose are cut off. Every other key is kept as it is (the 2019
 files' cam_T_imu included: dataset_to_bag.py corrects it).
 """
@@ -29,16 +38,30 @@ def main(argv):
     parser.add_argument('--twist-noise', nargs=2, type=float, default=(0.05, 0.005),
                         metavar=('V', 'W'), help='per-sample std, m/s and rad/s')
     parser.add_argument('--gyro-offset', type=float, default=0.001, metavar='B')
+    parser.add_argument('--accel-noise', type=float, metavar='SIGMA',
+                        help='add specific_force (accelerometer, m/s^2, IMU frame, gravity '
+                        'included) from the ground truth with white noise of this std per '
+                        'sample and axis; gravity\'s up = the mean IMU z axis over the drive (a '
+                        'stand-in: the ground truth\'s world is the first camera frame, not '
+                        'level); default: none')
+    parser.add_argument('--accel-bias', type=float, nargs='+', metavar='B',
+                        help='with --accel-noise: constant accelerometer offset, one value for all '
+                        'axes or three (m/s^2; default 0)')
     parser.add_argument('--keep-fraction', type=float, default=1.0, metavar='F')
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--out', required=True, metavar='OUT.npz')
     args = parser.parse_args(argv)
+    if args.accel_bias is not None and len(args.accel_bias) not in (1, 3):
+        parser.error('--accel-bias takes one value or three')
+    if args.accel_bias is not None and args.accel_noise is None:
+        parser.error('--accel-bias needs --accel-noise')
     try:
         with np.load(args.dataset, allow_pickle=False) as archive:
             data = {key: archive[key] for key in archive.files}
         out, notes = variants.make_variant(data, args.groundtruth, args.twist,
                                            tuple(args.twist_noise), args.gyro_offset,
-                                           args.keep_fraction, args.seed)
+                                           args.keep_fraction, args.seed, args.accel_noise,
+                                           0.0 if args.accel_bias is None else args.accel_bias)
         tmp = args.out + '.tmp.npz'
         np.savez(tmp, **out)
         os.replace(tmp, args.out)

@@ -3,10 +3,14 @@
 
     simulate_dataset.py --seed N --out PREFIX [--frames N | --length-m L] [--pixel-noise PX]
                         [--outlier-rate R] [--velocity-noise V] [--gyro-noise W] [--gyro-bias B]
+                        [--accel-noise SIGMA [--accel-bias B [B B]]]
 
 Writes PREFIX.npz (2019 course layout with a correct cam_T_imu, marked by
 cam_T_imu_translation_correct = True, and image_size), PREFIX_groundtruth.tum (world_T_imu, first
 pose = identity, times = the npz stamps) and PREFIX_landmarks.csv (id,x,y,z in the world frame).
+With --accel-noise the npz also holds specific_force (3,T): the accelerometer, m/s^2, in the IMU
+frame, sample k the mean specific force over (t_k-1, t_k] (gravity included) plus the offset and
+white noise; without it there is no such field.
 The simulation itself is ekf_vislam_tools.simulator; the same seed gives the same files.
 """
 import argparse
@@ -51,6 +55,12 @@ def parse_args(argv):
     noise.add_argument('--gyro-bias', type=float, nargs='+', metavar='B',
                        help='constant gyro offset, one value for all axes or three (rad/s); '
                             'default: each axis drawn from +-[0.005, 0.01] by the seed')
+    noise.add_argument('--accel-noise', type=float, metavar='SIGMA',
+                       help='write an accelerometer (specific_force, m/s^2, gravity included) '
+                       'with white noise of this std per component and sample (default: none)')
+    noise.add_argument('--accel-bias', type=float, nargs='+', metavar='B',
+                       help='with --accel-noise: constant accelerometer offset, one value for all '
+                       'axes or three (m/s^2; default 0)')
     scene = parser.add_argument_group('drive and scene')
     scene.add_argument('--rate-hz', type=float, default=d['rate_hz'],
                        help='frame rate (default %(default)s Hz)')
@@ -79,6 +89,10 @@ def parse_args(argv):
     args = parser.parse_args(argv)
     if args.gyro_bias is not None and len(args.gyro_bias) not in (1, 3):
         parser.error('--gyro-bias takes one value or three')
+    if args.accel_bias is not None and len(args.accel_bias) not in (1, 3):
+        parser.error('--accel-bias takes one value or three')
+    if args.accel_bias is not None and args.accel_noise is None:
+        parser.error('--accel-bias needs --accel-noise')
     if args.out.endswith('.npz'):
         args.out = args.out[:-len('.npz')]
     return args
@@ -91,7 +105,7 @@ def main(argv=None):
         'outlier_rate',
         'velocity_noise', 'gyro_noise', 'gyro_bias', 'rate_hz', 'start_time', 'speed_min',
         'speed_max', 'max_yaw_rate', 'roll_amplitude', 'pitch_amplitude', 'target_obs',
-        'track_loss', 'landmark_density', 'max_depth')}
+        'track_loss', 'landmark_density', 'max_depth', 'accel_noise', 'accel_bias')}
     try:
         result = simulator.simulate(args.seed, **options)
     except ValueError as exc:

@@ -48,7 +48,8 @@ EstimatorRunner::EstimatorRunner(const VislamOptions& options,
 
 void EstimatorRunner::push(Measurement measurement) {
   const bool is_twist = std::holds_alternative<TwistData>(measurement);
-  if (time_jumps_.jumpedBack(is_twist ? 0 : 1, stampOf(measurement))) {
+  const int stream = is_twist ? 0 : std::holds_alternative<FeatureFrame>(measurement) ? 1 : 2;
+  if (time_jumps_.jumpedBack(stream, stampOf(measurement))) {
     clear();
     ++time_jump_resets_;
   }
@@ -58,7 +59,7 @@ void EstimatorRunner::push(Measurement measurement) {
     if (preview_enabled_) updatePreview(copy);
     return;
   }
-  frame_arrivals_.emplace_back(stampOf(measurement), Clock::now());
+  if (stream == 1) frame_arrivals_.emplace_back(stampOf(measurement), Clock::now());
   sequencer_.push(std::move(measurement));
 }
 
@@ -116,6 +117,11 @@ void EstimatorRunner::feed(const Measurement& measurement, const Observer& obser
       return;
     }
     feedTwist(*twist, observer);
+    return;
+  }
+  if (const AccelerometerData* sample = std::get_if<AccelerometerData>(&measurement)) {
+    // The estimator keeps it until the twists after it are integrated.
+    estimator_.feedAccelerometer(*sample);
     return;
   }
   feedFrame(std::get<FeatureFrame>(measurement), observer);
@@ -185,7 +191,7 @@ void EstimatorRunner::noteStamp(double stamp) {
 }
 
 void EstimatorRunner::enableTimeJumpReset(double threshold) {
-  time_jumps_ = TimeJumpDetector(threshold, 2);
+  time_jumps_ = TimeJumpDetector(threshold, 3);
 }
 
 void EstimatorRunner::reset() {
@@ -231,6 +237,13 @@ RunSummary EstimatorRunner::summary() const {
   s.extra["twist_travel_yaw_deg"] = estimator_.travelDirection().yawDegrees();
   s.extra["twist_travel_pitch_deg"] = estimator_.travelDirection().pitchDegrees();
   s.extra["road_tilt_deg"] = estimator_.roadTiltDegrees();
+  // The accelerometer's states (gravity/): the first pose's tilt against gravity, the bias.
+  s.extra["gravity_level_tilt_deg"] = estimator_.levelTiltDegrees();
+  const Eigen::Vector3d accel_bias_sigma = estimator_.accelBiasSigma();
+  for (int i = 0; i < 3; ++i) {
+    s.extra[std::string("accel_bias_") + "xyz"[i]] = estimator_.accelBias()(i);
+    s.extra[std::string("accel_bias_sigma_") + "xyz"[i]] = accel_bias_sigma(i);
+  }
   // Observations that updated the filter per feature frame (few: sparseObservationsHint).
   const EstimatorStats& stats = estimator_.stats();
   s.extra["observations_per_frame"] =

@@ -40,6 +40,13 @@ const char* counterName(Counter counter) {
     case Counter::kCovarianceRepaired: return "covariance_repaired";
     case Counter::kDivergenceRecovery: return "divergence_recovery";
     case Counter::kUpdateNonFinite: return "update_non_finite";
+    case Counter::kAccelUsed: return "accel_used";
+    case Counter::kAccelNonFinite: return "accel_non_finite";
+    case Counter::kAccelImplausible: return "accel_implausible";
+    case Counter::kAccelLate: return "accel_late";
+    case Counter::kGravityUpdate: return "gravity_update";
+    case Counter::kGravityIncomplete: return "gravity_window_incomplete";
+    case Counter::kGravityGated: return "gravity_gated";
     case Counter::kCount: break;
   }
   return "unknown";

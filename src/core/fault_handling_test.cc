@@ -295,6 +295,50 @@ TEST(FaultHandling, TwistImplausibleMagnitudeIsRejected) {
   expectRecovers(&e, kFault, o);
 }
 
+TEST(FaultHandling, AccelerometerFaultsAreRejectedAndChangeNothing) {
+  // Non-finite samples, a message without an accelerometer (all zero) or in other units, and a
+  // sample older than the twists already integrated: each rejected and counted, the filter as it
+  // was (no gravity rows are added for samples that are not used).
+  VislamEstimator e = startedEstimator();
+  const double stamp = twistAt(kFault).stamp;
+  std::vector<AccelerometerData> bad(5);
+  for (AccelerometerData& a : bad) {
+    a.stamp = stamp + 0.05;
+    a.f_imu = Eigen::Vector3d(0.0, 0.0, 9.8);
+  }
+  bad[0].f_imu.x() = kNaN;
+  bad[1].stamp = kNaN;
+  bad[2].covariance(1, 1) = kInf;
+  bad[3].f_imu.setZero();                               // a gyro-only Imu read as one
+  bad[4].f_imu = Eigen::Vector3d(0.0, 0.0, 9.8 * 9.8);  // not m/s^2
+  const Snapshot snapshot(e);
+  const int dim = e.stateDimension();
+  const EstimatorStats before = e.stats();
+  for (const AccelerometerData& a : bad) {
+    const FeedResult r = e.feedAccelerometer(a);
+    EXPECT_FALSE(r.accepted);
+    EXPECT_FALSE(r.message.empty());
+  }
+  EXPECT_EQ(delta(before, e.stats(), Counter::kAccelNonFinite), 3);
+  EXPECT_EQ(delta(before, e.stats(), Counter::kAccelImplausible), 2);
+  EXPECT_EQ(delta(before, e.stats(), Counter::kAccelUsed), 0);
+  EXPECT_EQ(e.stateDimension(), dim);
+  snapshot.expectUnchanged(e);
+  // A good sample is taken; one older than it is late; the gravity rows join the state when the
+  // first window opens, a window length (1 s) after the first sample.
+  AccelerometerData good;
+  good.stamp = stamp - 0.05;  // in the period of the next twist
+  good.f_imu = Eigen::Vector3d(0.0, 0.0, 9.8);
+  EXPECT_TRUE(e.feedAccelerometer(good).accepted);
+  good.stamp -= 0.01;
+  EXPECT_FALSE(e.feedAccelerometer(good).accepted);
+  EXPECT_EQ(delta(before, e.stats(), Counter::kAccelLate), 1);
+  EXPECT_EQ(e.stateDimension(), dim);
+  for (size_t k = kFault; k < kFault + 12; ++k) EXPECT_TRUE(e.feedTwist(twistAt(k)).accepted);
+  EXPECT_EQ(e.stateDimension(), dim + 5);
+  expectHealthy(e, "after the faults");
+}
+
 TEST(FaultHandling, TwistDuplicateStampIsRejected) {
   VislamEstimator e = startedEstimator();
   ASSERT_TRUE(e.feedTwist(twistAt(kFault)).accepted);

@@ -18,6 +18,8 @@ void FilterState::reset(const StatePrior& prior) {
   baseline_scale_error = 0.0;
   track_drift_rate_imu.setZero();
   road_tilt_world.setZero();
+  gravity_level_world.setZero();
+  accel_bias_imu.setZero();
   dim_ = layout_.headDim();
   const int capacity = std::max(64, dim_);
   sigma_ = Eigen::MatrixXd::Zero(capacity, capacity);
@@ -68,6 +70,16 @@ void FilterState::setPrior(const StatePrior& prior) {
     for (int i = 0; i < layout_.tilt_dim; ++i) {
       const int row = layout_.tiltRow() + i;
       sigma_(row, row) = prior.road_tilt_sigma * prior.road_tilt_sigma;
+    }
+  }
+  if (layout_.gravity_dim > 0) {
+    for (int i = 0; i < 2; ++i) {
+      const int row = layout_.levelRow() + i;
+      sigma_(row, row) = prior.level_sigma * prior.level_sigma;
+    }
+    for (int i = 0; i < 3; ++i) {
+      const int row = layout_.accelBiasRow() + i;
+      sigma_(row, row) = prior.accel_bias_sigma * prior.accel_bias_sigma;
     }
   }
   if (layout_.reported_covariance) covariance(1) = sigma_.topLeftCorner(dim_, dim_);
@@ -131,6 +143,36 @@ void FilterState::appendLandmark(const Eigen::Vector3d& p_world,
   dim_ += 3;
 }
 
+void FilterState::addGravityRows(double level_sigma, double accel_bias_sigma) {
+  if (layout_.gravity_dim > 0) return;
+  applyDeferredPredictions();  // its sums are sized by the auxiliary rows
+  constexpr int kRows = 5;
+  const int insert = layout_.cloneRow();  // the gravity rows end the auxiliary ones
+  const int tail = dim_ - insert;
+  ensureCapacity(dim_ + kRows);
+  for (int which = 0; which < covarianceCount(); ++which) {
+    Eigen::MatrixXd& sigma = storage(which);
+    const Eigen::MatrixXd old = sigma.topLeftCorner(dim_, dim_);
+    auto S = sigma.topLeftCorner(dim_ + kRows, dim_ + kRows);
+    S.setZero();
+    S.topLeftCorner(insert, insert) = old.topLeftCorner(insert, insert);
+    S.block(0, insert + kRows, insert, tail) = old.topRightCorner(insert, tail);
+    S.block(insert + kRows, 0, tail, insert) = old.bottomLeftCorner(tail, insert);
+    S.bottomRightCorner(tail, tail) = old.bottomRightCorner(tail, tail);
+    for (int i = 0; i < kRows; ++i) {
+      const double s = i < 2 ? level_sigma : accel_bias_sigma;
+      S(insert + i, insert + i) = s * s;
+    }
+  }
+  const Eigen::VectorXd means = landmark_means_.segment(insert, tail);
+  landmark_means_.segment(insert, kRows).setZero();
+  landmark_means_.segment(insert + kRows, tail) = means;
+  layout_.gravity_dim = kRows;
+  dim_ += kRows;
+  gravity_level_world.setZero();
+  accel_bias_imu.setZero();
+}
+
 void FilterState::keepRows(const std::vector<int>& rows) {
   applyDeferredPredictions();
   // New indices never exceed old ones, so ascending copies are safe.
@@ -179,6 +221,10 @@ void FilterState::applyCorrection(const Eigen::VectorXd& dx, bool correct_pose) 
   if (L.scale_dim > 0) baseline_scale_error += dx(L.scaleRow());
   if (L.drift_dim > 0) track_drift_rate_imu += dx.segment<3>(L.driftRow());
   if (L.tilt_dim > 0) road_tilt_world += dx.segment<2>(L.tiltRow());
+  if (L.gravity_dim > 0) {
+    gravity_level_world += dx.segment<2>(L.levelRow());
+    accel_bias_imu += dx.segment<3>(L.accelBiasRow());
+  }
   // Landmarks: p <- exp(dphi^) p + J_l(dphi) dxi (the SE_K(3) exponential).
   const Eigen::Vector3d dphi =
       correct_pose ? Eigen::Vector3d(dx.segment<3>(3)) : Eigen::Vector3d::Zero();

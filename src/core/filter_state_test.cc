@@ -207,6 +207,36 @@ TEST(FilterState, AppendLandmarkThenKeepRowsKeepsTheChosenBlocks) {
   EXPECT_TRUE(state.covariance() == selectRows(full, rows));
 }
 
+TEST(FilterState, AddGravityRowsInsertsThemBeforeTheCloneAndKeepsEverythingElse) {
+  std::mt19937 rng(4);
+  FilterState state = randomState(3, &rng);
+  const Eigen::MatrixXd before = state.covariance();
+  std::vector<Eigen::Vector3d> p_world;
+  for (size_t k = 0; k < state.landmarkCount(); ++k) p_world.push_back(state.landmark(k));
+  const int insert = state.layout().cloneRow();
+  state.addGravityRows(0.2, 0.1);
+  ASSERT_EQ(state.layout().gravity_dim, 5);
+  EXPECT_EQ(state.layout().levelRow(), insert);
+  EXPECT_EQ(state.layout().accelBiasRow(), insert + 2);
+  EXPECT_EQ(state.layout().cloneRow(), insert + 5);
+  ASSERT_EQ(state.dim(), static_cast<int>(before.rows()) + 5);
+  // The old rows, in their new places, hold what they held.
+  std::vector<int> old_rows;
+  for (int r = 0; r < state.dim(); ++r) {
+    if (r < insert || r >= insert + 5) old_rows.push_back(r);
+  }
+  EXPECT_TRUE(selectRows(state.covariance(), old_rows) == before);
+  const Eigen::MatrixXd S = state.covariance();
+  for (int i = 0; i < 5; ++i) {
+    const int row = insert + i;
+    EXPECT_EQ(S(row, row), i < 2 ? 0.2 * 0.2 : 0.1 * 0.1);
+    EXPECT_EQ(S.row(row).cwiseAbs().sum(), S(row, row)) << "uncorrelated";
+  }
+  for (size_t k = 0; k < p_world.size(); ++k) EXPECT_TRUE(state.landmark(k) == p_world[k]);
+  state.addGravityRows(0.2, 0.1);  // once only
+  EXPECT_EQ(state.dim(), static_cast<int>(before.rows()) + 5);
+}
+
 TEST(FilterState, GrowingAndShrinkingTheStoragePreservesEveryEntry) {
   std::mt19937 rng(3);
   FilterState state(fullLayout());

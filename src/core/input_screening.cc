@@ -23,6 +23,25 @@ std::optional<Counter> InputScreening::checkTwist(const TwistData& twist, std::s
   return std::nullopt;
 }
 
+std::optional<Counter> InputScreening::checkAccelerometer(const AccelerometerData& sample,
+                                                          std::string* why) const {
+  if (!std::isfinite(sample.stamp) || !sample.f_imu.allFinite() || !sample.covariance.allFinite()) {
+    *why = "accelerometer sample with NaN/Inf rejected";
+    return Counter::kAccelNonFinite;
+  }
+  const double g = options_->gravity.magnitude;
+  const double norm = sample.f_imu.norm();
+  if (norm < 0.3 * g || norm > 4.0 * g) {
+    std::ostringstream text;
+    text << "implausible accelerometer sample rejected (|f| = " << norm
+         << " m/s^2; at rest an accelerometer reads " << g
+         << "): a message without accelerometer data, or in other units";
+    *why = text.str();
+    return Counter::kAccelImplausible;
+  }
+  return std::nullopt;
+}
+
 std::optional<Counter> InputScreening::checkObservation(const StereoObservation& f,
                                                         const StereoCamera& camera) const {
   if (!std::isfinite(f.u_left) || !std::isfinite(f.v_left) || !std::isfinite(f.u_right) ||

@@ -5,23 +5,30 @@
 namespace ekf_vislam {
 namespace {
 
-// Strict order: by stamp, twist before frame at equal stamps.
+// At equal stamps: accelerometer sample (its period ends there), twist, frame.
+int rank(const Measurement& m) {
+  if (std::holds_alternative<AccelerometerData>(m)) return 0;
+  return std::holds_alternative<TwistData>(m) ? 1 : 2;
+}
+
+// Strict order: by stamp, then rank.
 bool before(const Measurement& a, const Measurement& b) {
   const double ta = stampOf(a), tb = stampOf(b);
   if (ta != tb) return ta < tb;
-  return std::holds_alternative<TwistData>(a) && !std::holds_alternative<TwistData>(b);
+  return rank(a) < rank(b);
 }
 
 }  // namespace
 
 void MeasurementSequencer::push(Measurement measurement) {
   const double stamp = stampOf(measurement);
-  const bool is_twist = std::holds_alternative<TwistData>(measurement);
   if (stamp < released_until_) ++late_;
-  if (is_twist) {
+  if (std::holds_alternative<TwistData>(measurement)) {
     newest_twist_ = std::max(newest_twist_, stamp);
-  } else {
+  } else if (std::holds_alternative<FeatureFrame>(measurement)) {
     newest_frame_ = std::max(newest_frame_, stamp);
+  } else {
+    newest_accel_ = newest_accel_ == 1e300 ? stamp : std::max(newest_accel_, stamp);
   }
   // Insert after every element that is not after it (stable for equal keys).
   auto it = std::upper_bound(buffer_.begin(), buffer_.end(), measurement, before);
@@ -30,13 +37,14 @@ void MeasurementSequencer::push(Measurement measurement) {
 
 std::vector<Measurement> MeasurementSequencer::popReady() {
   std::vector<Measurement> ready;
-  const double both_seen = std::min(newest_twist_, newest_frame_);
-  const double newest = std::max(newest_twist_, newest_frame_);
+  const double all_seen = std::min({newest_twist_, newest_frame_, newest_accel_});
+  const double newest =
+      std::max({newest_twist_, newest_frame_, newest_accel_ == 1e300 ? -1e300 : newest_accel_});
   while (!buffer_.empty()) {
     const double stamp = stampOf(buffer_.front());
-    // Both streams have reached this stamp: nothing earlier can still arrive (each stream is
+    // Every stream has reached this stamp: nothing earlier can still arrive (each stream is
     // in order), and the equal-stamp tie is already resolved by the buffer order.
-    const bool covered = stamp <= both_seen;
+    const bool covered = stamp <= all_seen;
     const bool timed_out = newest - stamp > options_.max_delay;
     const bool overfull = buffer_.size() > options_.max_buffered;
     if (!(covered || timed_out || overfull)) break;
@@ -66,6 +74,7 @@ std::vector<TwistData> MeasurementSequencer::bufferedTwists() const {
 void MeasurementSequencer::clear() {
   buffer_.clear();
   newest_twist_ = newest_frame_ = released_until_ = -1e300;
+  newest_accel_ = 1e300;
 }
 
 }  // namespace ekf_vislam

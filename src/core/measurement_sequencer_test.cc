@@ -10,6 +10,11 @@ TwistData twist(double t) {
   m.stamp = t;
   return m;
 }
+AccelerometerData accel(double t) {
+  AccelerometerData m;
+  m.stamp = t;
+  return m;
+}
 FeatureFrame frame(double t) {
   FeatureFrame m;
   m.stamp = t;
@@ -18,7 +23,9 @@ FeatureFrame frame(double t) {
 std::string describe(const std::vector<Measurement>& ms) {
   std::string s;
   for (const Measurement& m : ms) {
-    s += (std::holds_alternative<TwistData>(m) ? "T" : "F") +
+    s += (std::holds_alternative<TwistData>(m)           ? "T"
+          : std::holds_alternative<AccelerometerData>(m) ? "A"
+                                                         : "F") +
          std::to_string(static_cast<int>(stampOf(m) * 10)) + " ";
   }
   return s;
@@ -37,6 +44,22 @@ TEST(MeasurementSequencer, ReleasesInStampOrderTwistFirstAtEqualStamps) {
   EXPECT_EQ(describe(seq.popReady()), "T1 F1 ");
   seq.push(frame(0.2));
   EXPECT_EQ(describe(seq.popReady()), "T2 F2 ");
+  EXPECT_EQ(seq.late(), 0u);
+}
+
+TEST(MeasurementSequencer, AnAccelerometerStreamIsWaitedForOnceItHasDeliveredASample) {
+  MeasurementSequencer seq;
+  seq.push(twist(0.0));
+  seq.push(frame(0.0));
+  EXPECT_EQ(describe(seq.popReady()), "T0 F0 ");  // no accelerometer yet: nothing to wait for
+  seq.push(accel(0.1));
+  seq.push(frame(0.2));
+  seq.push(twist(0.2));
+  // Accelerometer first at equal stamps, then twist, then frame; the stream has reached 0.1
+  // only, so 0.2 waits for it.
+  EXPECT_EQ(describe(seq.popReady()), "A1 ");
+  seq.push(accel(0.2));
+  EXPECT_EQ(describe(seq.popReady()), "A2 T2 F2 ");
   EXPECT_EQ(seq.late(), 0u);
 }
 

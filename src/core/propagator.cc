@@ -172,6 +172,9 @@ Eigen::VectorXd Propagator::randomWalkVariances(double dt, const StateLayout& la
       options_->intrinsic.disparity_offset_random_walk);
   set(layout.scaleRow(), layout.scale_dim, options_->intrinsic.baseline_scale_random_walk);
   set(layout.driftRow(), layout.drift_dim, options_->track_drift.rate_random_walk);
+  if (layout.gravity_dim > 0) {
+    set(layout.accelBiasRow(), 3, options_->gravity.accel_bias_random_walk);
+  }
   return variances;
 }
 

@@ -80,6 +80,9 @@ bool TwistCombiner::addLinearVelocity(const LinearVelocitySample& sample, std::s
                       sample.imu_T_base.matrix().allFinite();
   if (!admit(finite, for_noise, &wheel_, "linear velocity", why)) return false;
   linear_.push_back(sample);
+  LinearVelocitySample& admitted = linear_.back();
+  if (wheel_.noise.ready()) admitted.estimated_variance = std::pow(wheel_.noise.linearSigma(), 2);
+  admitted.period = wheel_.period;
   release();
   return true;
 }
@@ -201,14 +204,13 @@ Eigen::Matrix3d TwistCombiner::wheelCovariance(const AngularGroup& group,
   Eigen::Matrix3d per_sample;
   if (!before.covariance.isZero(0.0) && !after.covariance.isZero(0.0)) {
     per_sample = (1.0 - weight_after) * before.covariance + weight_after * after.covariance;
-  } else if (wheel_.noise.ready()) {
-    const double sigma = wheel_.noise.linearSigma();
-    per_sample = Eigen::Matrix3d::Identity() * (sigma * sigma);
+  } else if (after.estimated_variance > 0.0) {
+    per_sample = Eigen::Matrix3d::Identity() * after.estimated_variance;
   } else {
     return Eigen::Matrix3d::Zero();
   }
   // The wheel's density (per-sample variance x its period) over the twist's period.
-  if (group.period > 0.0 && wheel_.period > 0.0) per_sample *= wheel_.period / group.period;
+  if (group.period > 0.0 && after.period > 0.0) per_sample *= after.period / group.period;
   return per_sample;
 }
 

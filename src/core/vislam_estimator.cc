@@ -44,6 +44,7 @@ VislamEstimator::VislamEstimator(const VislamOptions& options)
       screening_(*options_),
       propagator_(*options_),
       tilt_updater_(*options_),
+      gravity_updater_(*options_),
       updater_(*options_),
       landmarks_(*options_),
       repeated_handler_(*options_),
@@ -75,6 +76,8 @@ StatePrior VislamEstimator::prior() const {
   prior.baseline_scale_sigma = o.intrinsic.baseline_scale_prior_sigma;
   prior.track_drift_rate_sigma = o.track_drift.rate_prior_sigma;
   prior.road_tilt_sigma = o.vehicle.body_tilt_sigma;
+  prior.level_sigma = o.gravity.level_sigma;
+  prior.accel_bias_sigma = o.gravity.accel_bias_sigma;
   return prior;
 }
 
@@ -95,6 +98,7 @@ void VislamEstimator::initializeState() {
   held_twist_ = TwistData();
   propagator_.resetTwistEstimates();
   tilt_updater_.reset();
+  gravity_updater_.reset();
   state_.reset(prior());
   repeated_handler_.clear();
   if (has_calibration_) camera_ = scaledStereoCamera(nominal_calibration_, 0.0);
@@ -148,8 +152,43 @@ FeedResult VislamEstimator::feedTwist(const TwistData& twist) {
   advanceTo(twist.stamp, twist, previous_twist_stamp, &result);
   in_twist_gap_ = false;
   held_twist_ = twist;
+  if (time_ == twist.stamp) updateGravity(twist);
   stats_.increment(Counter::kTwistUsed);
   return result;
+}
+
+FeedResult VislamEstimator::feedAccelerometer(const AccelerometerData& sample) {
+  FeedResult result;
+  const VislamOptions& o = *options_;
+  if (!o.gravity.enabled || o.mode != EstimatorMode::kSlam) return result;  // not used
+  std::string why;
+  if (const std::optional<Counter> bad = screening_.checkAccelerometer(sample, &why)) {
+    stats_.increment(*bad);
+    result.accepted = false;
+    result.message = why;
+    return result;
+  }
+  if (!gravity_updater_.addSample(sample, &stats_)) {
+    result.accepted = false;
+    result.message = "accelerometer sample older than the twists already integrated: dropped";
+  }
+  return result;
+}
+
+void VislamEstimator::updateGravity(const TwistData& twist) {
+  const VislamOptions& o = *options_;
+  if (!o.gravity.enabled || o.mode != EstimatorMode::kSlam) return;
+  const StateLayout& layout = state_.layout();
+  // d w_corrected / d bias: w = R_m (w_measured - b) on the gyro components.
+  Eigen::MatrixXd d_w_d_bias = Eigen::MatrixXd::Zero(3, layout.biasDim());
+  for (int i = 0; i < layout.biasDim(); ++i) {
+    const int component = layout.bias_components[i];
+    if (component >= 3) d_w_d_bias.col(i) = -state_.imu_R_twist.col(component - 3);
+  }
+  const std::optional<UpdateStatus> status = gravity_updater_.onTwist(
+      twist.stamp, propagator_.correctedTwist(state_, twist),
+      propagator_.sampleCovariance(state_, twist), d_w_d_bias, &state_, &stats_);
+  if (status && *status != UpdateStatus::kApplied) stats_.increment(Counter::kUpdateNonFinite);
 }
 
 void VislamEstimator::advanceTo(double stamp, const TwistData& twist, double twist_stamp,
@@ -416,6 +455,19 @@ Matrix6d VislamEstimator::correctedTwistCovariance() const {
 double VislamEstimator::baselineScaleSigma() const {
   const int row = state_.layout().scaleRow();
   return state_.layout().scale_dim > 0 ? std::sqrt(state_.covariance()(row, row)) : 0.0;
+}
+
+double VislamEstimator::levelTiltDegrees() const {
+  const Eigen::Vector2d& level = state_.gravity_level_world;
+  return std::asin(std::min(1.0, level.norm())) * 180.0 / M_PI;
+}
+
+Eigen::Vector3d VislamEstimator::accelBiasSigma() const {
+  const StateLayout& layout = state_.layout();
+  if (layout.gravity_dim == 0) return Eigen::Vector3d::Zero();
+  const Eigen::MatrixXd aux = state_.auxCovariance(state_.covarianceCount() - 1);
+  const int row = layout.accelBiasRow() - StateLayout::kPoseDim;
+  return aux.block<3, 3>(row, row).diagonal().cwiseSqrt();
 }
 
 double VislamEstimator::roadTiltDegrees() const {

@@ -83,6 +83,15 @@ void visitVislamOptions(Options& o, Visitor& v) {
   v.number("vehicle/body_tilt_sigma", o.vehicle.body_tilt_sigma, Bound::kPositive);
   v.number("vehicle/tilt_update_period", o.vehicle.tilt_update_period, Bound::kPositive);
 
+  auto& gravity = o.gravity;
+  v.flag("gravity/enabled", gravity.enabled);
+  v.number("gravity/window", gravity.window, Bound::kPositive);
+  v.number("gravity/magnitude", gravity.magnitude, Bound::kPositive);
+  v.number("gravity/level_sigma", gravity.level_sigma, Bound::kPositive);
+  v.number("gravity/accel_bias_sigma", gravity.accel_bias_sigma, Bound::kPositive);
+  v.number("gravity/accel_bias_random_walk", gravity.accel_bias_random_walk, Bound::kNonNegative);
+  v.number("gravity/accel_noise_density", gravity.accel_noise_density, Bound::kPositive);
+
   auto& landmarks = o.landmarks;
   v.number("landmarks/min_disparity_px", landmarks.min_disparity_px, Bound::kPositive);
   v.number("landmarks/min_depth", landmarks.min_depth, Bound::kPositive);

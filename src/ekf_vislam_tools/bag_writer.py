@@ -15,6 +15,14 @@ Topics and frames (message time = header stamp = dataset time stamp):
   frame ``imu``: the angular velocity) and ``/wheel/odometry`` (nav_msgs/Odometry, child
   ``base_link``: the linear velocity of that frame, placed at IMU_T_BASE; /tf_static then
   holds base_link -> imu too), the two inputs of the twist combiner;
+- when the dataset has an accelerometer (``specific_force``): its sample k is the
+  ``linear_acceleration`` of an ``/imu/data`` message at stamp t_k (m/s^2, frame ``imu``,
+  covariance all zero: unknown). With ``imu_odometry`` that is the gyro's message; with every other
+  twist type an ``/imu/data`` of its own follows ``/imu/twist``, with no orientation and no angular
+  velocity (their covariances' [0] = -1). One accelerometer sample per twist sample: a slower
+  camera or wheel odometry (features_every, wheel_every) drops frames and wheel messages, never
+  /imu/data. Without ``specific_force`` the bags are as before (imu_odometry's Imu:
+  linear_acceleration_covariance[0] = -1, no data);
 - with ground truth: ``/groundtruth/odometry`` (nav_msgs/Odometry, frame ``world``, child
   ``imu``), re-anchored so that the first pose is the identity, interleaved in time order.
 """
@@ -145,18 +153,48 @@ def twist_msg(dataset, k, stamp, twist_type='twist_stamped', covariance=None):
     return msg
 
 
+def _set_linear_acceleration(imu, dataset, k):
+    """The accelerometer sample k (specific force, m/s^2, IMU frame) into an Imu message, with an
+    all-zero covariance (ROS: unknown); without an accelerometer, covariance[0] = -1 (no data).
+
+    Sample k is the mean specific force over (t_k-1, t_k], the interval that ends at the stamp of
+    the message (t_k): the dataset has one accelerometer sample per twist sample, so every Imu
+    stamp is a sample's own stamp, also when the wheel odometry or the camera is slower
+    (wheel_every, features_every only thin those out)."""
+    if dataset.specific_force is None:
+        imu.linear_acceleration_covariance[0] = -1.0
+        return
+    acceleration = imu.linear_acceleration
+    acceleration.x, acceleration.y, acceleration.z = (
+        float(x) for x in dataset.specific_force[:, k])
+
+
+def accelerometer_msg(dataset, k, stamp):
+    """Imu of frame k holding only the accelerometer (dataset.specific_force[:, k], m/s^2, frame
+    ``imu``, covariance zero: unknown): no orientation and no angular velocity (covariance[0] =
+    -1 each, angular velocity zero). For the twist types other than imu_odometry."""
+    imu = Imu()
+    imu.header.stamp = stamp
+    imu.header.frame_id = FRAME_IMU
+    imu.orientation_covariance[0] = -1.0
+    imu.angular_velocity_covariance[0] = -1.0
+    _set_linear_acceleration(imu, dataset, k)
+    return imu
+
+
 def imu_odometry_msgs(dataset, k, stamp, covariance=None):
-    """(Imu, Odometry) of frame k: the gyro (angular velocity in ``imu``) and the wheel odometry
-    (the velocity of ``base_link``, at IMU_T_BASE, in its own axes: v_base = R^T (v_imu - p x
-    w_imu)), whose combination is the dataset's twist. covariance: 6x6 of [v; w] per sample
-    (None: the Imu's marked unknown, the odometry's all zero)."""
+    """(Imu, Odometry) of frame k: the gyro (angular velocity in ``imu``; with an accelerometer
+    also its sample k, see `_set_linear_acceleration`) and the wheel odometry (the velocity of
+    ``base_link``, at IMU_T_BASE, in its own axes: v_base = R^T (v_imu - p x w_imu)), whose
+    combination is the dataset's twist. covariance: 6x6 of [v; w] per sample (None: the Imu's
+    marked unknown, the odometry's all zero)."""
     v_imu, w_imu = dataset.v[:, k], dataset.w[:, k]
     R, p = IMU_T_BASE[:3, :3], IMU_T_BASE[:3, 3]
     imu = Imu()
     imu.header.stamp = stamp
     imu.header.frame_id = FRAME_IMU
     imu.orientation_covariance[0] = -1.0
-    imu.linear_acceleration_covariance[0] = -1.0
+    _set_linear_acceleration(imu, dataset, k)
     imu.angular_velocity.x, imu.angular_velocity.y, imu.angular_velocity.z = (
         float(x) for x in w_imu)
     odometry = Odometry()
@@ -264,6 +302,8 @@ def _frame_messages(dataset, twist_type, twist_covariance, wheel_every=1, featur
         else:
             yield stamp, 0, TOPIC_TWIST, twist_msg(dataset, k, stamp, twist_type,
                                                    twist_covariance)
+            if dataset.specific_force is not None:
+                yield stamp, 0, TOPIC_IMU, accelerometer_msg(dataset, k, stamp)
         if k % features_every != 0:
             continue
         left, right = camera_info_msgs(dataset, stamp)
@@ -283,7 +323,8 @@ def _groundtruth_messages(groundtruth):
 def iter_messages(dataset, groundtruth=None, twist_type='twist_stamped', twist_covariance=None,
                   wheel_every=1, features_every=1):
     """Yield (topic, msg, stamp) in bag order: /tf_static, then per frame twist (of twist_type;
-    IMU_ODOMETRY: gyro and wheel odometry), left and right camera_info, features; ground truth
+    IMU_ODOMETRY: gyro and wheel odometry; with an accelerometer and another type, the twist and
+    then the accelerometer's /imu/data), left and right camera_info, features; ground truth
     (t, world_T_imu) interleaved by time (after the frame's messages at equal stamps).
     wheel_every (IMU_ODOMETRY) and features_every keep one wheel sample, one feature frame every
     that many twist samples: slower sensors than the dataset's rate."""

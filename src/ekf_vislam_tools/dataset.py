@@ -10,12 +10,15 @@ Two layouts exist (see the data README):
 - later course files: ``t`` or ``time_stamps``, ``angular_velocity`` instead of
   ``rotational_velocity`` and ``imu_T_cam`` instead of ``cam_T_imu`` (inverted, never "fixed").
 
-Optional extra key: ``image_size`` = [width, height].
+Optional extra keys: ``image_size`` = [width, height]; ``specific_force`` (3,T): the accelerometer,
+m/s^2, IMU frame (x forward, y left, z up), sample k the mean specific force over (t_k-1, t_k]
+expressed in the body frame at t_k, gravity included (at rest and level (0, 0, +9.80665)).
 
 The twist and the extrinsic must use the same IMU axes. A file whose twist turns the other way
 than its images (its y and z axes against the extrinsic's: a half turn about x, as in the
 KITTI-360 course file) is found by `twist_axes.check` and its twist turned into the extrinsic's
-axes (`Dataset.twist_axes_turned`).
+axes (`Dataset.twist_axes_turned`). The specific force is not turned with it: our tools compute it
+from ground-truth poses in the extrinsic's IMU axes (simulator, make_variant.py).
 
 Every problem is reported as a `DatasetError` whose message starts with the file name and names the
 field, e.g. ``data.npz: field 'linear_velocity': non-finite value at frame 17``. Files are read
@@ -53,6 +56,8 @@ _DATASET_FIELDS = [
     'image_size',       # (width, height) ints, or None when the file does not say
     'extrinsic_fixed',  # True when the 2019 translation was corrected on loading
     'twist_axes',       # twist_axes.Verdict of the twist against the images, or None (not checked)
+    'specific_force',   # (3, T) float64 accelerometer, m/s^2, IMU frame, mean over (t_k-1, t_k]
+                        # in the body frame at t_k, gravity included; None when the file has none
 ]
 
 
@@ -209,6 +214,7 @@ def _time_stamps(path, key, raw):
 
 
 def _velocity(path, key, raw, num):
+    """A (3, T) per-frame vector field (twist, specific force), finite."""
     v = _numeric(path, key, raw)
     if v.shape != (3, num):
         raise DatasetError("%s: field '%s': shape %s, expected (3, %d) (3 x number of frames)"
@@ -315,6 +321,8 @@ def _load_from_archive(path, archive, fix_extrinsic):
     b = _baseline(path, key, raw)
     key, raw = field(['image_size'], required=False)
     image_size = None if key is None else _image_size(path, key, raw)
+    key, raw = field(['specific_force'], required=False)
+    specific_force = None if key is None else _velocity(path, key, raw, num)
 
     extrinsic_key, raw = field(['cam_T_imu', 'imu_T_cam'])
     stored = _rigid_transform(path, extrinsic_key, raw)
@@ -333,7 +341,7 @@ def _load_from_archive(path, archive, fix_extrinsic):
 
     return Dataset(path=path, layout=layout, t=t, features=features, v=v, w=w, K=K, b=b,
                    cam_T_imu=cam_T_imu, image_size=image_size, extrinsic_fixed=extrinsic_fixed,
-                   twist_axes=None)
+                   twist_axes=None, specific_force=specific_force)
 
 
 def extrinsic_fix_notice(dataset):

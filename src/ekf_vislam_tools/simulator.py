@@ -12,9 +12,15 @@ index k+1 is the constant body twist over [t_k, t_k+1]:
     world_T_imu[k+1] = world_T_imu[k] @ twist_exp(v_true[:, k+1], w_true[:, k+1], t[k+1] - t[k])
 
 and index 0 holds the same as index 1. Everything is deterministic from the seed: independent
-random streams (trajectory, landmarks, tracking, pixel noise, gyro offset, twist noise) are
-spawned from ``numpy.random.SeedSequence(seed)``, so changing a noise option leaves the geometry
-(and the other noises) unchanged.
+random streams (trajectory, landmarks, tracking, pixel noise, gyro offset, twist noise,
+accelerometer noise) are spawned from ``numpy.random.SeedSequence(seed)``, so changing a noise
+option leaves the geometry (and the other noises) unchanged.
+
+Accelerometer (only with the option accel_noise; without it there is no ``specific_force`` at all):
+sample k (m/s^2, IMU/body frame) is the mean specific force over (t_k-1, t_k] expressed in the body
+frame at t_k (see `specific_force`), plus a constant bias and white noise. The world frame is the
+first pose, not the level: gravity's "up" in it is ``up_world`` = R0^T e3, R0 the vehicle's
+attitude against the level at the first frame (its roll and pitch, yaw 0).
 """
 import collections
 import heapq
@@ -75,9 +81,17 @@ DEFAULT_OPTIONS = {
     'velocity_noise': 0.5,     # std of each linear velocity component, m/s
     'gyro_noise': 0.05,        # std of each angular velocity component, rad/s
     'gyro_bias': None,         # constant gyro offset: None = drawn from the seed, a scalar or 3
+    'accel_noise': None,       # accelerometer: std of each specific force component per sample,
+                               # m/s^2; None = no accelerometer (no specific_force at all)
+    'accel_bias': 0.0,         # constant accelerometer offset, m/s^2: a scalar or 3 (body axes)
 }
 
-_STREAMS = ('trajectory', 'landmarks', 'tracking', 'noise', 'gyro_bias', 'twist_noise')
+#: Standard gravity, m/s^2.
+GRAVITY = 9.80665
+
+# New streams go at the end: the children of a SeedSequence do not depend on how many are
+# spawned, so the existing streams (and every existing drive) stay the same.
+_STREAMS = ('trajectory', 'landmarks', 'tracking', 'noise', 'gyro_bias', 'twist_noise', 'accel')
 
 
 def simulate(seed, **options):
@@ -89,6 +103,9 @@ def simulate(seed, **options):
     'features_true' (4,M,T, noiseless), 'outlier_mask' (M,T), 'landmarks' (M,3) world position of
     each feature id, 'landmark_points' (L,3) all physical points, 'point_of_id' (M,),
     'gyro_bias' (3,), 'path_length' (m), 'options' (the options used).
+    With accel_noise: 'specific_force' (3,T) as measured (m/s^2, body frame, bias and noise
+    included), and the truth 'up_world' (3,) (unit "up", against gravity, in world axes) and
+    'accel_bias' (3,).
     """
     unknown = set(options) - set(DEFAULT_OPTIONS)
     if unknown:
@@ -99,7 +116,7 @@ def simulate(seed, **options):
     rngs = {name: np.random.default_rng(child) for name, child in
             zip(_STREAMS, np.random.SeedSequence(seed).spawn(len(_STREAMS)))}
 
-    t, v_true, w_true, world_T_imu = _drive(rngs['trajectory'], opts)
+    t, v_true, w_true, world_T_imu, up_world = _drive(rngs['trajectory'], opts)
     path_length = float(travelled_distance(world_T_imu)[-1])
     points = _landmark_points(rngs['landmarks'], world_T_imu, opts)
     obs_frame, obs_point, obs_id, z_true = _track(rngs['tracking'], points, world_T_imu, opts)
@@ -121,7 +138,7 @@ def simulate(seed, **options):
     rotational_velocity = (w_true + noise.normal(0.0, opts['gyro_noise'], w_true.shape)
                            + gyro_bias[:, None])
 
-    return {
+    result = {
         't': t, 'features': features, 'linear_velocity': linear_velocity,
         'rotational_velocity': rotational_velocity, 'K': KITTI_K.copy(), 'b': KITTI_BASELINE,
         'cam_T_imu': KITTI_CAM_T_IMU.copy(), 'image_size': np.array(KITTI_IMAGE_SIZE),
@@ -130,6 +147,15 @@ def simulate(seed, **options):
         'landmarks': points[point_of_id], 'landmark_points': points, 'point_of_id': point_of_id,
         'gyro_bias': gyro_bias, 'path_length': path_length, 'options': opts,
     }
+    if opts['accel_noise'] is not None:
+        accel_bias = _three_values('accel_bias', opts['accel_bias'])
+        true_force = specific_force(t, world_T_imu[:, :3, :3], v_true, up_world)
+        result['specific_force'] = (true_force + accel_bias[:, None]
+                                    + rngs['accel'].normal(0.0, opts['accel_noise'],
+                                                           true_force.shape))
+        result['up_world'] = up_world
+        result['accel_bias'] = accel_bias
+    return result
 
 
 def _check_options(opts):
@@ -158,6 +184,13 @@ def _check_options(opts):
     if not (float(opts['reuse_ids_after']).is_integer() and opts['reuse_ids_after'] >= 0):
         raise ValueError('reuse_ids_after must be a non-negative integer, got %r'
                          % opts['reuse_ids_after'])
+    if opts['accel_noise'] is not None and not (0 <= opts['accel_noise'] < np.inf):
+        raise ValueError('accel_noise must not be negative, got %r' % opts['accel_noise'])
+    accel_bias = _three_values('accel_bias', opts['accel_bias'])
+    if not np.all(np.isfinite(accel_bias)):
+        raise ValueError('accel_bias must be finite, got %r' % opts['accel_bias'])
+    if opts['accel_noise'] is None and np.any(accel_bias != 0.0):
+        raise ValueError('accel_bias needs accel_noise (the accelerometer is off without it)')
 
 
 # ---------------------------------------------------------------------------------------------
@@ -213,7 +246,13 @@ def _frame_times(rng, num, opts):
 
 
 def _drive(rng, opts):
-    """Frame times, true body twists (3,T) and world_T_imu (T,4,4) of a car-like drive."""
+    """Frame times, true body twists (3,T), world_T_imu (T,4,4) of a car-like drive, and up_world
+    (3,): the unit "up" (against gravity) in the world frame (the first pose).
+
+    Roll and pitch are against the level (ZYX Euler angles with the yaw): the first pose, the
+    world frame, is level_R_imu0 = Ry(pitch0) Rx(roll0) (yaw 0) at tau = 0, so up_world =
+    level_R_imu0^T e3.
+    """
     dt = 1.0 / opts['rate_hz']
     if opts['length_m'] is not None:     # enough frames at the lowest speed, cut below
         num = int(math.ceil(opts['length_m'] / (opts['speed_min'] * dt))) + 2
@@ -245,6 +284,8 @@ def _drive(rng, opts):
     v = np.stack([speed(tau), 0.05 * lateral(tau), 0.03 * vertical(tau)])
     v_true = np.concatenate([v[:, :1], v], axis=1)
     w_true = np.concatenate([w[:, :1], w], axis=1)
+    roll0, pitch0 = roll_amp * roll(np.zeros(1))[0], pitch_amp * pitch(np.zeros(1))[0]
+    up_world = level_up_in_body(roll0, pitch0)
 
     world_T_imu = np.empty((num, 4, 4))
     world_T_imu[0] = np.eye(4)
@@ -257,7 +298,38 @@ def _drive(rng, opts):
         num = max(2, min(num, len(t)))
         t, v_true, w_true = t[:num], v_true[:, :num], w_true[:, :num]
         world_T_imu = world_T_imu[:num]
-    return t, v_true, w_true, world_T_imu
+    return t, v_true, w_true, world_T_imu, up_world
+
+
+def level_up_in_body(roll, pitch):
+    """The level frame's "up" (e3) in the axes of a body at this roll and pitch (rad, ZYX Euler
+    angles against the level: level_R_body = Rz(yaw) Ry(pitch) Rx(roll), yaw irrelevant) -> (3,)
+    = level_R_body^T e3."""
+    return np.array([-math.sin(pitch), math.cos(pitch) * math.sin(roll),
+                     math.cos(pitch) * math.cos(roll)])
+
+
+def specific_force(t, world_R_imu, v_body, up_world, gravity=GRAVITY):
+    """Noiseless accelerometer samples (3,T), m/s^2, body frame: sample k is the mean specific
+    force over (t_k-1, t_k] expressed in the body frame at t_k,
+
+        f_k = R_k^T (R_k v_k - R_k-1 v_k-1) / (t_k - t_k-1) + gravity R_k^T up_world,
+
+    with R_k = world_R_imu[k] (T,3,3), v_k = v_body[:, k] (3,T) the body linear velocity of twist
+    k (the one that drives [t_k-1, t_k]) and up_world the unit "up" (against gravity) in world
+    axes. Sample 0 repeats sample 1 (a single frame: the gravity term alone). At rest and level
+    f = (0, 0, +gravity).
+    """
+    t = np.asarray(t, dtype=float)
+    R = np.asarray(world_R_imu, dtype=float)
+    velocity_world = np.einsum('kij,jk->ki', R, v_body)                 # (T,3): R_k v_k
+    up_body = np.einsum('kji,j->ki', R, np.asarray(up_world, dtype=float))  # (T,3): R_k^T up
+    force = gravity * up_body
+    if t.size > 1:
+        change = np.diff(velocity_world, axis=0) / np.diff(t)[:, None]
+        force[1:] += np.einsum('kji,kj->ki', R[1:], change)
+        force[0] = force[1]
+    return force.T
 
 
 # ---------------------------------------------------------------------------------------------
@@ -474,20 +546,26 @@ def _gyro_bias(rng, option):
     drawn = rng.uniform(0.005, 0.01, 3) * rng.choice([-1.0, 1.0], 3)
     if option is None:
         return drawn
-    bias = np.asarray(option, dtype=float).reshape(-1)
-    if bias.size == 1:
-        return np.repeat(bias, 3)
-    if bias.size != 3:
-        raise ValueError('gyro_bias: give one value or three, got %d' % bias.size)
-    return bias
+    return _three_values('gyro_bias', option)
+
+
+def _three_values(name, option):
+    """An option of one value (all three axes) or three -> (3,) float."""
+    values = np.asarray(option, dtype=float).reshape(-1)
+    if values.size == 1:
+        return np.repeat(values, 3)
+    if values.size != 3:
+        raise ValueError('%s: give one value or three, got %d' % (name, values.size))
+    return values
 
 
 # ---------------------------------------------------------------------------------------------
 # Output
 # ---------------------------------------------------------------------------------------------
 def dataset_arrays(result):
-    """The npz content (2019 course layout + our marker and image size) of a simulation."""
-    return {
+    """The npz content (2019 course layout + our marker and image size, and the accelerometer's
+    specific_force when the simulation has one) of a simulation."""
+    arrays = {
         'time_stamps': result['t'][None, :],
         'features': result['features'],
         'linear_velocity': result['linear_velocity'],
@@ -498,6 +576,9 @@ def dataset_arrays(result):
         TRANSLATION_CORRECT_KEY: np.array(True),
         'image_size': np.asarray(result['image_size'], dtype=np.int64),
     }
+    if 'specific_force' in result:  # only with the accelerometer on
+        arrays['specific_force'] = result['specific_force']
+    return arrays
 
 
 def output_paths(prefix):
@@ -530,11 +611,16 @@ def statistics(features):
 
 
 def summary(result):
-    """One line: frames, path length, ids, mean observations per frame, mean track length."""
+    """One line: frames, path length, ids, mean observations per frame, mean track length, gyro
+    offset (and the accelerometer's noise and offset when it has one)."""
     stats = statistics(result['features'])
     tracks = max(1, int(stats['track_starts']))  # = ids unless reuse_ids_after
-    return ('%d frames, %.0f m, %d feature ids, %.1f observations/frame (min %d), '
+    text = ('%d frames, %.0f m, %d feature ids, %.1f observations/frame (min %d), '
             'mean track %.1f frames, gyro offset (%.4f, %.4f, %.4f) rad/s'
             % (len(result['t']), result['path_length'], result['features'].shape[1],
                stats['obs_per_frame'].mean(), stats['obs_per_frame'].min(),
                stats['obs_per_frame'].sum() / tracks, *result['gyro_bias']))
+    if 'specific_force' in result:
+        text += (', accelerometer noise %g m/s^2, offset (%.4f, %.4f, %.4f) m/s^2'
+                 % (result['options']['accel_noise'], *result['accel_bias']))
+    return text

@@ -1,9 +1,10 @@
 """Regime variants of a course dataset: another twist (the file's own, or one computed from the
-ground truth with chosen noise) and a seeded subset of the landmark ids. The npz keeps its layout
-and every other key."""
+ground truth with chosen noise), optionally an accelerometer computed from the ground truth
+(``specific_force``, see `groundtruth_specific_force`) and a seeded subset of the landmark ids.
+The npz keeps its layout and every other key."""
 import numpy as np
 
-from ekf_vislam_tools import se3, trajectory
+from ekf_vislam_tools import se3, simulator, trajectory
 
 TIME_KEYS = ('time_stamps', 't')
 ANGULAR_KEYS = ('rotational_velocity', 'angular_velocity')
@@ -20,10 +21,9 @@ def _key(data, names):
     raise VariantError('none of %s in the dataset' % ', '.join(names))
 
 
-def groundtruth_twist(t_frames, t_gt, world_T_imu_gt, max_dt=0.02):
-    """Body twist [v; w] (3,T) of the IMU from ground-truth poses: sample k drives
-    [t_k-1, t_k] (T(k) = T(k-1) exp(tau [w^ v; 0 0])); sample 0 repeats sample 1.
-    Every frame needs a ground-truth pose within max_dt."""
+def groundtruth_poses(t_frames, t_gt, world_T_imu_gt, max_dt=0.02):
+    """The ground-truth pose of each frame (the nearest in time) -> list of (4,4) world_T_imu.
+    Every frame needs a ground-truth pose within max_dt (else VariantError)."""
     t_gt = np.asarray(t_gt, dtype=float)
     idx = np.searchsorted(t_gt, t_frames)
     poses = []
@@ -34,6 +34,14 @@ def groundtruth_twist(t_frames, t_gt, world_T_imu_gt, max_dt=0.02):
             raise VariantError('frame %d (t = %.6f) has no ground-truth pose within %g s'
                                % (k, t, max_dt))
         poses.append(world_T_imu_gt[best])
+    return poses
+
+
+def groundtruth_twist(t_frames, t_gt, world_T_imu_gt, max_dt=0.02):
+    """Body twist [v; w] (3,T) of the IMU from ground-truth poses: sample k drives
+    [t_k-1, t_k] (T(k) = T(k-1) exp(tau [w^ v; 0 0])); sample 0 repeats sample 1.
+    Every frame needs a ground-truth pose within max_dt."""
+    poses = groundtruth_poses(t_frames, t_gt, world_T_imu_gt, max_dt)
     v = np.zeros((3, len(t_frames)))
     w = np.zeros((3, len(t_frames)))
     for k in range(1, len(t_frames)):
@@ -45,10 +53,56 @@ def groundtruth_twist(t_frames, t_gt, world_T_imu_gt, max_dt=0.02):
     return v, w
 
 
+def mean_up_axis(world_T_imu):
+    """Stand-in for gravity's "up" in a world frame that is not level (the ground truth's world
+    is the first camera frame): the normalized mean of the IMU's z axis (up in the body) in world
+    axes over the poses (N,4,4) of a drive -> (3,). Over a long drive the vehicle's roll and pitch
+    average out to about zero, so this is about the level's up (off by the mean tilt: a road that
+    climbs or leans on average tilts it)."""
+    z_axes = np.asarray(world_T_imu)[:, :3, 2]
+    mean = z_axes.mean(axis=0)
+    norm = np.linalg.norm(mean)
+    if not norm > 0:
+        raise VariantError('the IMU z axes of the ground truth average out to zero: no up')
+    return mean / norm
+
+
+def groundtruth_specific_force(t_frames, t_gt, world_T_imu_gt, up_world=None, max_dt=0.02):
+    """Noiseless accelerometer samples (3,T), m/s^2, IMU frame, from the ground truth ->
+    (specific_force, up_world): sample k is the mean specific force over (t_k-1, t_k] in the body
+    frame at t_k (`simulator.specific_force`), from the ground-truth poses at the frame stamps
+    (the nearest within max_dt, as `groundtruth_twist`) and the ground-truth body linear
+    velocities of the accurate twist (sample k drives [t_k-1, t_k]). up_world: the unit "up"
+    (against gravity) in the ground truth's world axes; None: `mean_up_axis` of those poses (the
+    average IMU z axis over the drive, our stand-in for gravity's direction)."""
+    poses = np.array(groundtruth_poses(t_frames, t_gt, world_T_imu_gt, max_dt))
+    v, _ = groundtruth_twist(t_frames, t_gt, world_T_imu_gt, max_dt)
+    if up_world is None:
+        up_world = mean_up_axis(poses)
+    else:
+        up_world = np.asarray(up_world, dtype=float).reshape(3)
+        up_world = up_world / np.linalg.norm(up_world)
+    return simulator.specific_force(t_frames, poses[:, :3, :3], v, up_world), up_world
+
+
+def _accel_rng(seed):
+    """The accelerometer noise's own stream from the variant's seed (independent of the
+    generator of the twist noise and the id subset, so these stay as they are without it)."""
+    return np.random.default_rng(np.random.SeedSequence(seed).spawn(1)[0])
+
+
 def make_variant(data, groundtruth_path, twist='course', twist_noise=(0.05, 0.005),
-                 gyro_offset=0.001, keep_fraction=1.0, seed=0):
+                 gyro_offset=0.001, keep_fraction=1.0, seed=0, accel_noise=None, accel_bias=0.0,
+                 up_world=None):
     """-> (dict of arrays, notes). `data` is a dict of the npz's arrays. Frames after the last
-    ground-truth pose are cut off (every key indexed by frame)."""
+    ground-truth pose are cut off (every key indexed by frame).
+
+    accel_noise (m/s^2, per component and sample; None: no accelerometer, the npz's own
+    specific_force, if any, is kept) writes ``specific_force`` (3,T) from the ground truth
+    (`groundtruth_specific_force`, with either twist) plus white noise and a constant offset
+    accel_bias (m/s^2, one value or three, body axes). Its noise has its own stream from the
+    seed. up_world: gravity's "up" in the ground truth's world axes (default: the mean IMU z axis
+    over the drive, a stand-in, since the ground truth's world is not level)."""
     out = {key: np.array(value) for key, value in data.items()}
     time_key = _key(out, TIME_KEYS)
     angular_key = _key(out, ANGULAR_KEYS)
@@ -79,6 +133,22 @@ def make_variant(data, groundtruth_path, twist='course', twist_noise=(0.05, 0.00
                      'gyro offset %g rad/s' % (twist_noise[0], twist_noise[1], gyro_offset))
     elif twist != 'course':
         raise VariantError('twist must be course or accurate, not %r' % twist)
+    if accel_noise is not None:
+        if not 0.0 <= accel_noise < np.inf:
+            raise VariantError('accelerometer noise must not be negative')
+        bias = np.asarray(accel_bias, dtype=float).reshape(-1)
+        if bias.size not in (1, 3) or not np.all(np.isfinite(bias)):
+            raise VariantError('accelerometer offset: give one finite value or three')
+        force, up = groundtruth_specific_force(t, t_gt, world_T_imu_gt, up_world)
+        force = (force + np.broadcast_to(bias, 3)[:, None]
+                 + _accel_rng(seed).normal(0.0, accel_noise, force.shape))
+        out['specific_force'] = force
+        notes.append('specific force from the ground truth (up = (%.4f, %.4f, %.4f) in its '
+                     'world) + white noise %g m/s^2 per sample, offset %s m/s^2'
+                     % (up[0], up[1], up[2], accel_noise,
+                        ', '.join('%g' % x for x in bias)))
+    elif np.any(np.asarray(accel_bias) != 0.0) or up_world is not None:
+        raise VariantError('an accelerometer offset or up needs the accelerometer noise')
     if not 0.0 < keep_fraction <= 1.0:
         raise VariantError('keep fraction must be in (0, 1]')
     if keep_fraction < 1.0:

@@ -156,6 +156,22 @@ bool BagReader::combineTwist(const rosbag::MessageInstance& m, const Callback& c
   return true;
 }
 
+bool BagReader::readAccelerometer(const rosbag::MessageInstance& m, const Callback& callback,
+                                  double fraction, std::string* error) {
+  auto imu = m.instantiate<sensor_msgs::Imu>();
+  if (!imu) {
+    if (error) *error = topics_.imu_data + " is not sensor_msgs/Imu";
+    return false;
+  }
+  Eigen::Isometry3d imu_T_frame;
+  if (!imuTFrame(imu->header.frame_id, &imu_T_frame, error)) return false;
+  if (const std::optional<AccelerometerData> sample =
+          ros_conversions::toAccelerometerData(*imu, imu_T_frame.linear())) {
+    callback(Measurement(*sample), fraction);
+  }
+  return true;
+}
+
 bool BagReader::convertTwist(const rosbag::MessageInstance& m, TwistData* twist,
                              std::string* error) {
   if (auto stamped = m.instantiate<geometry_msgs::TwistStamped>()) {
@@ -192,13 +208,20 @@ bool BagReader::forEachMeasurement(const Callback& callback, std::string* error)
                   : std::vector<std::string>{topics_.twist};
     std::vector<std::string> read = twist_topics;
     read.push_back(topics_.features);
+    if (accelerometer_ && !combiner_) read.push_back(topics_.imu_data);
     rosbag::View view(*bag_, rosbag::TopicQuery(read));
     const double begin = view.getBeginTime().toSec();
     const double span = std::max(1e-9, view.getEndTime().toSec() - begin);
     for (const rosbag::MessageInstance& m : view) {
       const double fraction = (m.getTime().toSec() - begin) / span;
+      if (accelerometer_ && m.getTopic() == topics_.imu_data &&
+          !readAccelerometer(m, callback, fraction, error)) {
+        return false;
+      }
       if (combiner_ && m.getTopic() != topics_.features) {
         if (!combineTwist(m, callback, fraction, error)) return false;
+      } else if (m.getTopic() == topics_.imu_data) {
+        continue;  // the accelerometer only (read above)
       } else if (m.getTopic() == topics_.twist) {
         TwistData twist;
         if (!convertTwist(m, &twist, error)) return false;

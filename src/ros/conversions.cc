@@ -88,6 +88,20 @@ geometry_msgs::TwistWithCovarianceStamped toTwistWithCovarianceMsg(const TwistDa
   return msg;
 }
 
+std::optional<AccelerometerData> toAccelerometerData(const sensor_msgs::Imu& msg,
+                                                     const Eigen::Matrix3d& R_imu_from_msg) {
+  if (msg.linear_acceleration_covariance[0] == -1.0) return std::nullopt;
+  AccelerometerData sample;
+  sample.stamp = msg.header.stamp.toSec();
+  const Eigen::Vector3d f_msg(msg.linear_acceleration.x, msg.linear_acceleration.y,
+                              msg.linear_acceleration.z);
+  sample.f_imu = R_imu_from_msg * f_msg;
+  const Eigen::Matrix3d covariance = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(
+      msg.linear_acceleration_covariance.data());
+  sample.covariance = R_imu_from_msg * covariance * R_imu_from_msg.transpose();
+  return sample;
+}
+
 AngularVelocitySample toAngularVelocitySample(const sensor_msgs::Imu& msg,
                                               const Eigen::Matrix3d& R_imu_from_msg) {
   AngularVelocitySample sample;

@@ -138,6 +138,29 @@ TEST(Conversions, ImuAndWheelOdometryBecomeTheCombinerSamples) {
   EXPECT_DOUBLE_EQ(msg.twist.covariance[4 * 6 + 4], 0.5);
 }
 
+TEST(Conversions, ImuAccelerometerIsRotatedIntoTheImuFrameOrMissing) {
+  sensor_msgs::Imu imu;
+  imu.header.stamp = ros::Time(3, 250000000);
+  imu.linear_acceleration.x = 0.5;
+  imu.linear_acceleration.y = -0.1;
+  imu.linear_acceleration.z = 9.8;
+  imu.linear_acceleration_covariance = {4e-4, 0, 0, 0, 1e-4, 0, 0, 0, 9e-4};
+  const Eigen::Matrix3d R = se3::expSO3(Eigen::Vector3d(0.0, 0.0, M_PI / 2));
+  std::optional<AccelerometerData> sample = rc::toAccelerometerData(imu, R);
+  ASSERT_TRUE(sample.has_value());
+  EXPECT_DOUBLE_EQ(sample->stamp, 3.25);
+  EXPECT_LT((sample->f_imu - R * Eigen::Vector3d(0.5, -0.1, 9.8)).norm(), 1e-14);
+  // A quarter turn about z: x and y variances swap.
+  EXPECT_NEAR(sample->covariance(0, 0), 1e-4, 1e-18);
+  EXPECT_NEAR(sample->covariance(1, 1), 4e-4, 1e-18);
+  imu.linear_acceleration_covariance = {};  // unknown: estimated online
+  sample = rc::toAccelerometerData(imu, Eigen::Matrix3d::Identity());
+  ASSERT_TRUE(sample.has_value());
+  EXPECT_FALSE(sample->hasCovariance());
+  imu.linear_acceleration_covariance[0] = -1.0;  // the Imu convention: no accelerometer
+  EXPECT_FALSE(rc::toAccelerometerData(imu, Eigen::Matrix3d::Identity()).has_value());
+}
+
 TEST(Conversions, OdometryTwistInAnotherFrameMatchesRigidBodyMotion) {
   // The child frame C sits at p in the IMU frame I, rotated by R. A rigid body moving with the
   // child's twist: the IMU's twist from finite differences of world_T_imu = world_T_child

@@ -68,6 +68,7 @@ TwistCombinerRos::TwistCombinerRos(const ros::NodeHandle& nh, const ros::NodeHan
 
   twist_pub_ = nh_.advertise<geometry_msgs::TwistWithCovarianceStamped>("imu/twist", 100);
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_);
+  imu_T_frame_ = FixedFrameTransforms(&tf_buffer_, ros_options_.imu_frame);
   diagnostics_ = std::make_unique<PeriodicDiagnostics>(nh_, pnh_, name_, "twist combiner",
                                                        ros_options_.diagnostic_period, this,
                                                        &TwistCombinerRos::produceDiagnostics);
@@ -82,37 +83,17 @@ TwistCombinerRos::TwistCombinerRos(const ros::NodeHandle& nh, const ros::NodeHan
            ros_options_.imu_frame.c_str());
 }
 
-bool TwistCombinerRos::imuTFrame(const std::string& frame, Eigen::Isometry3d* imu_T_frame) {
-  if (frame.empty() || frame == ros_options_.imu_frame) {
-    *imu_T_frame = Eigen::Isometry3d::Identity();
-    return true;
-  }
-  const auto cached = imu_T_frame_.find(frame);
-  if (cached != imu_T_frame_.end()) {
-    *imu_T_frame = cached->second;
-    return true;
-  }
-  try {
-    *imu_T_frame = ros_conversions::toIsometry(
-        tf_buffer_.lookupTransform(ros_options_.imu_frame, frame, ros::Time(0)).transform);
-  } catch (const tf2::TransformException&) {
-    return false;
-  }
-  imu_T_frame_[frame] = *imu_T_frame;
-  return true;
-}
-
 void TwistCombinerRos::imuCallback(const sensor_msgs::Imu::ConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   restartIfTimeJumped(0, msg->header.stamp.toSec());
-  imu_waiting_.messages.push_back(msg);
+  imu_waiting_.push(msg);
   feedWaitingMessages();
 }
 
 void TwistCombinerRos::odometryCallback(const nav_msgs::Odometry::ConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   restartIfTimeJumped(1, msg->header.stamp.toSec());
-  odometry_waiting_.messages.push_back(msg);
+  odometry_waiting_.push(msg);
   feedWaitingMessages();
 }
 
@@ -133,28 +114,22 @@ void TwistCombinerRos::feedWaitingMessages() {
 }
 
 template <typename Msg, typename FrameOf, typename Feed>
-void TwistCombinerRos::feedWaiting(WaitingStream<Msg>* stream, const FrameOf& frame_of,
+void TwistCombinerRos::feedWaiting(TfWaitingQueue<Msg>* queue, const FrameOf& frame_of,
                                    const Feed& feed) {
-  while (!stream->messages.empty()) {
-    const Msg& msg = *stream->messages.front();
-    const std::string frame = frame_of(msg);
-    Eigen::Isometry3d imu_T_frame;
-    if (!imuTFrame(frame, &imu_T_frame)) {
-      const double waited = (stream->messages.back()->header.stamp - msg.header.stamp).toSec();
-      if (waited <= ros_options_.tf_wait) return;  // tf may still come (message time)
-      ++stream->without_tf;
-      ROS_WARN_THROTTLE(kWarnPeriod,
-                        "%s: %s in frame '%s': no tf to '%s' after %.1f s; sample dropped "
-                        "(%lu so far)",
-                        name_.c_str(), stream->topic, frame.c_str(), ros_options_.imu_frame.c_str(),
-                        ros_options_.tf_wait, static_cast<unsigned long>(stream->without_tf));
-      stream->messages.pop_front();
-      continue;
-    }
-    std::string why;
-    if (!feed(msg, imu_T_frame, &why)) warnRefused(stream->topic, why);
-    stream->messages.pop_front();
-  }
+  queue->drain(
+      ros_options_.tf_wait, &imu_T_frame_, frame_of,
+      [&](const Msg& msg, const Eigen::Isometry3d& imu_T_frame) {
+        std::string why;
+        if (!feed(msg, imu_T_frame, &why)) warnRefused(queue->topic(), why);
+      },
+      [&](const Msg&, const std::string& frame) {
+        ROS_WARN_THROTTLE(kWarnPeriod,
+                          "%s: %s in frame '%s': no tf to '%s' after %.1f s; sample dropped "
+                          "(%lu so far)",
+                          name_.c_str(), queue->topic(), frame.c_str(),
+                          ros_options_.imu_frame.c_str(), ros_options_.tf_wait,
+                          static_cast<unsigned long>(queue->droppedWithoutTf()));
+      });
 }
 
 void TwistCombinerRos::restartIfTimeJumped(int stream, double stamp) {
@@ -166,8 +141,8 @@ void TwistCombinerRos::restartIfTimeJumped(int stream, double stamp) {
       name_.c_str(), stream == 0 ? "imu/data" : "wheel/odometry", time_jumps_.lastJump(),
       static_cast<unsigned long>(time_jump_resets_));
   combiner_->reset();
-  imu_waiting_.messages.clear();
-  odometry_waiting_.messages.clear();
+  imu_waiting_.clear();
+  odometry_waiting_.clear();
 }
 
 void TwistCombinerRos::publishReady() {
@@ -186,7 +161,7 @@ void TwistCombinerRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWr
   std::lock_guard<std::mutex> lock(mutex_);
   const TwistCombinerCounters& c = combiner_->counters();
   const uint64_t refused = c.rejected_non_finite + c.rejected_not_increasing +
-                           imu_waiting_.without_tf + odometry_waiting_.without_tf +
+                           imu_waiting_.droppedWithoutTf() + odometry_waiting_.droppedWithoutTf() +
                            c.dropped_no_velocity;
   if (c.angular_received == 0 || c.linear_received == 0) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
@@ -204,9 +179,9 @@ void TwistCombinerRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWr
   status.add("dropped_no_velocity", c.dropped_no_velocity);
   status.add("rejected_non_finite", c.rejected_non_finite);
   status.add("rejected_not_increasing", c.rejected_not_increasing);
-  status.add("imu_without_tf", imu_waiting_.without_tf);
-  status.add("odometry_without_tf", odometry_waiting_.without_tf);
-  status.add("waiting_for_tf", imu_waiting_.messages.size() + odometry_waiting_.messages.size());
+  status.add("imu_without_tf", imu_waiting_.droppedWithoutTf());
+  status.add("odometry_without_tf", odometry_waiting_.droppedWithoutTf());
+  status.add("waiting_for_tf", imu_waiting_.size() + odometry_waiting_.size());
   status.add("time_jump_resets", time_jump_resets_);
   refused_reported_ = refused;
   held_reported_ = c.velocity_held;

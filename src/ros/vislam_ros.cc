@@ -54,6 +54,7 @@ VislamRos::VislamRos(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, cons
   last_input_ = last_twist_ = last_features_ = last_diag_ = now;
 
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_);
+  imu_T_frame_ = FixedFrameTransforms(&tf_buffer_, ros_options_.imu_frame);
   odometry_pub_ = pnh_.advertise<nav_msgs::Odometry>("odometry", 100);
   odometry_update_pub_ = pnh_.advertise<nav_msgs::Odometry>("odometry_update", 100);
   path_pub_ = pnh_.advertise<nav_msgs::Path>("path", 1, true);
@@ -71,6 +72,9 @@ VislamRos::VislamRos(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, cons
   }
   features_sub_ =
       nh_.subscribe("stereo/features", queue, &VislamRos::featuresCallback, this, hints);
+  if (options_.gravity.enabled && options_.mode == EstimatorMode::kSlam) {
+    imu_sub_ = nh_.subscribe("imu/data", queue, &VislamRos::imuCallback, this, hints);
+  }
   left_info_sub_ = nh_.subscribe("stereo/left/camera_info", 10, &VislamRos::leftInfoCallback, this);
   right_info_sub_ =
       nh_.subscribe("stereo/right/camera_info", 10, &VislamRos::rightInfoCallback, this);
@@ -90,8 +94,9 @@ VislamRos::VislamRos(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, cons
   // Last, so that a client seeing the services knows the subscriptions are registered.
   reset_srv_ = pnh_.advertiseService("reset", &VislamRos::resetService, this);
   save_srv_ = pnh_.advertiseService("save", &VislamRos::saveService, this);
-  ROS_INFO("%s: listening on %s and %s, publishing %s", name_.c_str(),
+  ROS_INFO("%s: listening on %s and %s%s%s, publishing %s", name_.c_str(),
            twist_sub_.getTopic().c_str(), features_sub_.getTopic().c_str(),
+           imu_sub_ ? " (accelerometer: " : "", imu_sub_ ? (imu_sub_.getTopic() + ")").c_str() : "",
            odometry_pub_.getTopic().c_str());
 }
 
@@ -107,6 +112,7 @@ void VislamRos::shutdown() {
   diagnostics_->stop();
   twist_sub_.shutdown();
   features_sub_.shutdown();
+  imu_sub_.shutdown();
   left_info_sub_.shutdown();
   right_info_sub_.shutdown();
   tryCalibrate();
@@ -144,30 +150,18 @@ void VislamRos::twistWithCovarianceCallback(
 void VislamRos::odometryTwistCallback(const nav_msgs::Odometry::ConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   // The twist is that of child_frame_id: taken to the IMU frame through the (fixed) tf.
-  const std::string child =
-      msg->child_frame_id.empty() ? ros_options_.imu_frame : msg->child_frame_id;
-  if (child != imu_T_twist_child_frame_) {
-    if (child == ros_options_.imu_frame) {
-      imu_T_twist_child_ = Eigen::Isometry3d::Identity();
-    } else {
-      try {
-        imu_T_twist_child_ = ros_conversions::toIsometry(
-            tf_buffer_.lookupTransform(ros_options_.imu_frame, child, ros::Time(0)).transform);
-      } catch (const tf2::TransformException& e) {
-        ++twists_without_tf_;
-        ROS_WARN_THROTTLE(5.0,
-                          "%s: imu/twist odometry in frame '%s': no tf to '%s' yet (%s); "
-                          "twist not used (%lu so far)",
-                          name_.c_str(), child.c_str(), ros_options_.imu_frame.c_str(), e.what(),
-                          static_cast<unsigned long>(twists_without_tf_));
-        return;
-      }
-    }
-    imu_T_twist_child_frame_ = child;
+  Eigen::Isometry3d imu_T_child;
+  if (!imu_T_frame_.lookup(msg->child_frame_id, &imu_T_child)) {
+    ++twists_without_tf_;
+    ROS_WARN_THROTTLE(5.0,
+                      "%s: imu/twist odometry in frame '%s': no tf to '%s' yet; twist not used "
+                      "(%lu so far)",
+                      name_.c_str(), msg->child_frame_id.c_str(), ros_options_.imu_frame.c_str(),
+                      static_cast<unsigned long>(twists_without_tf_));
+    return;
   }
   bool covariance_invalid = false;
-  const TwistData twist =
-      ros_conversions::toTwistData(*msg, imu_T_twist_child_, &covariance_invalid);
+  const TwistData twist = ros_conversions::toTwistData(*msg, imu_T_child, &covariance_invalid);
   onTwist(twist, covariance_invalid);
 }
 
@@ -200,6 +194,38 @@ void VislamRos::onTwist(const TwistData& twist, bool covariance_invalid) {
   }
 }
 
+void VislamRos::imuCallback(const sensor_msgs::Imu::ConstPtr& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (shut_down_) return;
+  ++accel_received_;
+  // Its axes turned into the IMU frame's (fixed tf; no lever arm), once tf knows the frame.
+  accel_waiting_.push(msg);
+  accel_waiting_.drain(
+      ros_options_.tf_wait, &imu_T_frame_,
+      [](const sensor_msgs::Imu& m) { return m.header.frame_id; },
+      [this](const sensor_msgs::Imu& m, const Eigen::Isometry3d& imu_T_frame) {
+        const std::optional<AccelerometerData> sample =
+            ros_conversions::toAccelerometerData(m, imu_T_frame.linear());
+        if (sample) {
+          push(Measurement(*sample));
+          return;
+        }
+        ++accel_without_data_;
+        ROS_WARN_ONCE(
+            "%s: imu/data carries no accelerometer (linear_acceleration_covariance[0] = -1): no "
+            "gravity update; set gravity/enabled false to silence this",
+            name_.c_str());
+      },
+      [this](const sensor_msgs::Imu&, const std::string& frame) {
+        ROS_WARN_THROTTLE(5.0,
+                          "%s: imu/data in frame '%s': no tf to '%s' after %.1f s of message "
+                          "time; accelerometer sample not used (%lu so far)",
+                          name_.c_str(), frame.c_str(), ros_options_.imu_frame.c_str(),
+                          ros_options_.tf_wait,
+                          static_cast<unsigned long>(accel_waiting_.droppedWithoutTf()));
+      });
+}
+
 void VislamRos::featuresCallback(const ekf_vislam::StereoFeatureArray::ConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (shut_down_) return;
@@ -225,7 +251,9 @@ void VislamRos::rightInfoCallback(const sensor_msgs::CameraInfo::ConstPtr& msg) 
 
 void VislamRos::push(Measurement measurement) {
   last_input_ = ros::WallTime::now();
-  const bool is_twist = std::holds_alternative<TwistData>(measurement);
+  const char* topic = std::holds_alternative<TwistData>(measurement)      ? "imu/twist"
+                      : std::holds_alternative<FeatureFrame>(measurement) ? "stereo/features"
+                                                                          : "imu/data";
   const double stamp = stampOf(measurement);
   const uint64_t resets = runner_->timeJumpResets();
   runner_->push(std::move(measurement));
@@ -233,7 +261,7 @@ void VislamRos::push(Measurement measurement) {
     ROS_WARN(
         "%s: %s went back %.3f s in time (a bag played again?): estimator reset, map "
         "cleared, starting at %.3f s (%lu so far)",
-        name_.c_str(), is_twist ? "imu/twist" : "stereo/features", runner_->lastTimeJump(), stamp,
+        name_.c_str(), topic, runner_->lastTimeJump(), stamp,
         static_cast<unsigned long>(runner_->timeJumpResets()));
     clearOutputsLocked();
   }
@@ -576,6 +604,15 @@ void VislamRos::addDiagnosticValues(double twist_rate, double feature_rate,
   status.add("twists_received", twists_received_);
   status.add("twist_covariance_invalid", twist_covariance_invalid_);
   status.add("twist_without_tf", twists_without_tf_);
+  status.add("accel_received", accel_received_);
+  status.add("accel_without_data", accel_without_data_);
+  status.add("accel_without_tf", accel_waiting_.droppedWithoutTf());
+  status.add("accel_waiting_for_tf", accel_waiting_.size());
+  status.add("gravity_level_tilt_deg", estimator.levelTiltDegrees());
+  const Eigen::Vector3d& accel_bias = estimator.accelBias();
+  status.add("accel_bias_m_s2", std::to_string(accel_bias.x()) + " " +
+                                    std::to_string(accel_bias.y()) + " " +
+                                    std::to_string(accel_bias.z()));
   if (!ros_options_.base_frame.empty()) status.add("base_frame_without_tf", base_frame_without_tf_);
   status.add("frames_received", frames_received_);
   status.add("time_jump_resets", runner_->timeJumpResets());

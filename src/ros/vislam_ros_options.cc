@@ -45,6 +45,7 @@ void visitVislamRosOptions(Options& o, Visitor& v) {
   v.integer("ros/sequencer_max_buffered", o.sequencer_max_buffered, Bound::kAtLeastOne);
   v.integer("ros/queue_size", o.queue_size, Bound::kAtLeastOne);
   v.number("ros/time_jump_reset", o.time_jump_reset, Bound::kNonNegative);
+  v.number("ros/tf_wait", o.tf_wait, Bound::kNonNegative);
   v.text("ros/output_dir", o.output_dir);
 }
 

@@ -31,9 +31,11 @@ SEED = 3
 FRAMES = 300
 INPUTS = ('/imu/data', '/wheel/odometry', '/stereo/features', '/stereo/left/camera_info',
           '/stereo/right/camera_info')
-#: The /body pipeline's subscribers of each input (standalone nodes).
+#: The /body pipeline's subscribers of each input (standalone nodes): the estimator also takes
+#: the accelerometer of /imu/data.
 BODY_NODES = {topic: ('/body/twist_combiner',) if topic in INPUTS[:2] else ('/body/vislam',)
               for topic in INPUTS}
+BODY_NODES['/imu/data'] += ('/body/vislam',)
 
 
 def pose_matrix(position, orientation):
@@ -48,9 +50,11 @@ class GroundRobotTest(unittest.TestCase):
     @classmethod
     def on_diagnostics(cls, msg):
         for status in msg.status:
+            pipeline = 'body' if 'body' in status.name else 'main'
             if status.name.endswith('twist combiner'):
-                cls.statuses.setdefault('body' if 'body' in status.name else 'main',
-                                        []).append(status)
+                cls.statuses.setdefault(pipeline, []).append(status)
+            elif status.name.endswith('estimator'):
+                cls.estimator_statuses.setdefault(pipeline, []).append(status)
 
     @classmethod
     def setUpClass(cls):
@@ -59,7 +63,7 @@ class GroundRobotTest(unittest.TestCase):
         scripts = os.path.join(rospkg.RosPack().get_path(PKG), 'scripts')
         prefix = os.path.join(cls.tmp, 'sim')
         run(['/usr/bin/python3', os.path.join(scripts, 'simulate_dataset.py'), '--seed',
-             str(SEED), '--out', prefix, '--frames', str(FRAMES)])
+             str(SEED), '--out', prefix, '--frames', str(FRAMES), '--accel-noise', '0.05'])
         cls.bags = {}
         for kind, twist_type in (('direct', 'twist_stamped'), ('combined', 'imu_odometry')):
             cls.bags[kind] = os.path.join(cls.tmp, kind + '.bag')
@@ -70,6 +74,7 @@ class GroundRobotTest(unittest.TestCase):
         log(run(['rosrun', PKG, 'vislam_offline', '--bag', cls.bags['combined'], '--imu-frame',
                  'base_link', '--out', os.path.join(cls.tmp, 'offline_body')]).strip())
         cls.statuses, cls.twists, cls.updates, cls.tf = {}, [], [], []
+        cls.estimator_statuses = {}
         rospy.Subscriber('/vislam/odometry_update', Odometry, cls.updates.append, queue_size=5000)
         rospy.Subscriber('/tf', TFMessage, lambda msg: cls.tf.extend(msg.transforms),
                          queue_size=5000)
@@ -93,7 +98,8 @@ class GroundRobotTest(unittest.TestCase):
 
     @classmethod
     def tearDownClass(cls):
-        shutil.rmtree(cls.tmp, ignore_errors=True)
+        if not os.environ.get('EKF_VISLAM_KEEP_TEST_OUTPUT'):
+            shutil.rmtree(cls.tmp, ignore_errors=True)
 
     def trajectory(self, folder):
         return read_tum(os.path.join(self.tmp, folder, 'trajectory.tum'))
@@ -119,6 +125,24 @@ class GroundRobotTest(unittest.TestCase):
         difference = np.abs(positions[:, :3] - reference_positions[:, :3]).max()
         log('%s: %.2e m' % (label, difference))
         self.assertLess(difference, tolerance)
+
+    def test_the_accelerometer_holds_the_tilt_live_and_offline(self):
+        # The drive's Imu messages carry an accelerometer: both estimators and every offline
+        # run take it (gravity/, on by default), live as offline.
+        for folder in ('offline_direct', 'offline_combined', 'offline_body', 'live'):
+            with open(os.path.join(self.tmp, folder, 'stats.json')) as f:
+                counters = json.load(f)['counters']
+            self.assertEqual(counters['accel_used'], FRAMES, folder)
+            self.assertGreater(counters['gravity_update'], 20, folder)
+            for key in ('accel_implausible', 'accel_late', 'accel_non_finite',
+                        'gravity_window_incomplete'):
+                self.assertEqual(counters[key], 0, '%s %s' % (folder, key))
+        self.assertEqual(set(self.estimator_statuses), {'main', 'body'}, 'estimator statuses')
+        for pipeline, statuses in self.estimator_statuses.items():
+            values = {kv.key: kv.value for kv in statuses[-1].values}
+            self.assertEqual(int(values['accel_received']), FRAMES, pipeline)
+            self.assertEqual(int(values['accel_without_tf']), 0, pipeline)
+            self.assertEqual(int(values['accel_without_data']), 0, pipeline)
 
     def test_offline_combined_twist_matches_the_drive_twist(self):
         # The same twists, but with the noise the combiner estimates from each stream instead of

@@ -72,8 +72,8 @@ class EstimatorRunner {
   /// Estimator reset, sequencer cleared, trajectory cleared. Times and counts are kept.
   void reset();
   /// From now on, a message stamped more than `threshold` s before the newest one of its own
-  /// stream (twists, frames) means time went back (a bag played again): the runner resets
-  /// before taking it (TimeJumpDetector; 0 = never, the default).
+  /// stream (twists, frames, accelerometer samples) means time went back (a bag played again): the
+  /// runner resets before taking it (TimeJumpDetector; 0 = never, the default).
   void enableTimeJumpReset(double threshold);
   /// Resets caused by time going back, and how far the last one went (s).
   uint64_t timeJumpResets() const { return time_jump_resets_; }
@@ -129,7 +129,7 @@ class EstimatorRunner {
   uint64_t frames_ = 0;
   uint64_t twists_ = 0;
   uint64_t frames_without_calibration_ = 0;
-  TimeJumpDetector time_jumps_{0.0, 2};
+  TimeJumpDetector time_jumps_{0.0, 3};  ///< streams: twists, frames, accelerometer
   uint64_t time_jump_resets_ = 0;
   int peak_state_dimension_ = 0;
   size_t peak_active_landmarks_ = 0;

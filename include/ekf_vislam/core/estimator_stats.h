@@ -51,6 +51,14 @@ enum class Counter : int {
   kCovarianceRepaired,  ///< covariance lost symmetry/positivity and was repaired
   kDivergenceRecovery,  ///< divergence detected; recovery policy applied
   kUpdateNonFinite,     ///< an update produced non-finite numbers and was discarded
+  // Accelerometer samples (gravity/)
+  kAccelUsed,          ///< accepted (integrated into a gravity window unless between windows)
+  kAccelNonFinite,     ///< NaN/Inf component or stamp: rejected
+  kAccelImplausible,   ///< |f| outside [0.3 g, 4 g] (no accelerometer at rest reads that): rejected
+  kAccelLate,          ///< older than the twists already integrated: dropped
+  kGravityUpdate,      ///< gravity windows applied
+  kGravityIncomplete,  ///< windows the samples covered less than 90 % of: not used
+  kGravityGated,       ///< windows beyond the chi-square gate (0.9999): not used
   kCount
 };
 

@@ -1,5 +1,6 @@
 // The EKF state: named variables (pose, twist bias, twist rotation, stereo calibration, track
-// drift rate, road tilt, pose clone, landmarks), their means and one joint covariance. No ROS.
+// drift rate, road tilt, gravity, pose clone, landmarks), their means and one joint covariance. No
+// ROS.
 //
 // Error definitions (doc/estimator.md): pose world_T_imu = exp(eps^) world_T_imu_mean with
 // eps = [rho; phi] (world frame, translation first); bias b_true = b_mean + db; twist rotation
@@ -18,8 +19,8 @@
 namespace ekf_vislam {
 
 /// Which variables the state holds and where their rows are. Order: pose, bias, twist rotation,
-/// disparity offset, baseline scale, track drift rate, road tilt, clone, then the landmarks (3
-/// rows each).
+/// disparity offset, baseline scale, track drift rate, road tilt, gravity (level, accelerometer
+/// bias), clone, then the landmarks (3 rows each).
 struct StateLayout {
   static constexpr int kPoseRow = 0;
   static constexpr int kPoseDim = 6;
@@ -30,7 +31,11 @@ struct StateLayout {
   int scale_dim = 0;      ///< 1 when the baseline scale is estimated
   int drift_dim = 0;      ///< 3 when the track drift rate is estimated
   int tilt_dim = 0;       ///< 2 with the road tilt (vehicle/tilt_sigma > 0)
-  int clone_dim = 0;      ///< 6 when the pose clone has rows (repeated frames, SLAM mode)
+  /// 5 with the accelerometer's states, the world's tilt against gravity (2) then the
+  /// accelerometer bias (3): added by FilterState::addGravityRows at the first accelerometer
+  /// sample (gravity/enabled, SLAM mode), so that a robot without one carries no idle rows
+  int gravity_dim = 0;
+  int clone_dim = 0;  ///< 6 when the pose clone has rows (repeated frames, SLAM mode)
   /// A second covariance, the reported one, is carried beside the one the gains use
   /// (noise/report_track_correlation): same propagation, augmentation and marginalization; its
   /// updates use the gains of the first with a larger observation noise (Joseph form).
@@ -45,9 +50,13 @@ struct StateLayout {
   int scaleRow() const { return calibrationRow() + disparity_dim; }
   int driftRow() const { return calibrationRow() + calibrationDim(); }
   int tiltRow() const { return driftRow() + drift_dim; }
+  int levelRow() const { return tiltRow() + tilt_dim; }
+  int accelBiasRow() const { return levelRow() + 2; }
   /// States between the pose and the clone: bias, twist rotation, calibration, track drift,
-  /// road tilt.
-  int auxDim() const { return biasDim() + rotation_dim + calibrationDim() + drift_dim + tilt_dim; }
+  /// road tilt, gravity.
+  int auxDim() const {
+    return biasDim() + rotation_dim + calibrationDim() + drift_dim + tilt_dim + gravity_dim;
+  }
   int cloneRow() const { return kPoseDim + auxDim(); }
   /// Rows before the first landmark.
   int headDim() const { return cloneRow() + clone_dim; }
@@ -65,6 +74,8 @@ struct StatePrior {
   double baseline_scale_sigma = 0.0;
   double track_drift_rate_sigma = 0.0;  ///< rad/s, each IMU axis
   double road_tilt_sigma = 0.0;         ///< rad, each world axis
+  double level_sigma = 0.0;             ///< rad, each world axis (the world's tilt)
+  double accel_bias_sigma = 0.0;        ///< m/s^2, each IMU axis
 };
 
 class FilterState {
@@ -127,6 +138,10 @@ class FilterState {
   /// Tilt of the road under the vehicle: the world-x and world-y components of the road's
   /// normal (0 on a road as level as the first pose); the vehicle's up axis follows it.
   Eigen::Vector2d road_tilt_world = Eigen::Vector2d::Zero();
+  /// Gravity's up axis in world axes: its x and y components (z = sqrt(1 - x^2 - y^2)); 0 when
+  /// the first pose is level.
+  Eigen::Vector2d gravity_level_world = Eigen::Vector2d::Zero();
+  Eigen::Vector3d accel_bias_imu = Eigen::Vector3d::Zero();  ///< m/s^2, measured minus true
   Eigen::Vector3d landmark(size_t index) const {
     return landmark_means_.segment<3>(layout_.landmarkRow(index));
   }
@@ -153,6 +168,10 @@ class FilterState {
   void appendLandmark(const Eigen::Vector3d& p_world,
                       const std::vector<Eigen::MatrixXd>& cross_covariances,
                       const std::vector<Eigen::Matrix3d>& own_covariances);
+  /// Inserts the gravity rows (layout().gravity_dim 0 -> 5, before the clone): level and
+  /// accelerometer bias at zero with these prior standard deviations, uncorrelated with the rest,
+  /// in every covariance. Applies the deferred predictions first.
+  void addGravityRows(double level_sigma, double accel_bias_sigma);
   /// Keeps only these rows (ascending, the head included), in place; capacity shrinks after a
   /// burst.
   void keepRows(const std::vector<int>& rows);

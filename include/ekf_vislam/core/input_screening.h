@@ -1,4 +1,5 @@
-// Checks of the estimator's inputs before they touch the filter: twists (finite, plausible) and
+// Checks of the estimator's inputs before they touch the filter: twists and accelerometer samples
+// (finite, plausible) and
 // single stereo observations (finite, inside both images, rows agree, positive disparity). No
 // ROS.
 #pragma once
@@ -20,6 +21,10 @@ class InputScreening {
 
   /// The reason a twist must be rejected (and a one-line explanation), or nothing.
   std::optional<Counter> checkTwist(const TwistData& twist, std::string* why) const;
+  /// The reason an accelerometer sample must be rejected (non-finite; |f| outside [0.3 g, 4 g],
+  /// which no accelerometer reads at rest or driving: a message without one), or nothing.
+  std::optional<Counter> checkAccelerometer(const AccelerometerData& sample,
+                                            std::string* why) const;
   /// The reason one observation cannot be used, or nothing.
   std::optional<Counter> checkObservation(const StereoObservation& f,
                                           const StereoCamera& camera) const;

@@ -1,5 +1,5 @@
-// Puts twists and feature frames into stamp order before they reach the estimator, so the live
-// nodelet and the offline runner feed the core the same sequence. No ROS.
+// Puts twists, feature frames and accelerometer samples into stamp order before they reach the
+// estimator, so the live nodelet and the offline runner feed the core the same sequence. No ROS.
 #pragma once
 
 #include "ekf_vislam/core/types.h"
@@ -11,16 +11,17 @@
 
 namespace ekf_vislam {
 
-using Measurement = std::variant<TwistData, FeatureFrame>;
+using Measurement = std::variant<TwistData, FeatureFrame, AccelerometerData>;
 
 inline double stampOf(const Measurement& m) {
-  return std::holds_alternative<TwistData>(m) ? std::get<TwistData>(m).stamp
-                                              : std::get<FeatureFrame>(m).stamp;
+  return std::visit([](const auto& data) { return data.stamp; }, m);
 }
 
-/// A message is released once both streams have delivered a stamp >= its own (no later message
-/// can precede it), or once the newest stamp seen is more than max_delay past it (one stream
-/// stopped), or when the buffer is over max_buffered. At equal stamps the twist goes first.
+/// A message is released once every stream has delivered a stamp >= its own (no later message
+/// can precede it; the accelerometer counts once it has delivered one sample: a robot without
+/// one waits for nothing), or once the newest stamp seen is more than max_delay past it (a stream
+/// stopped), or when the buffer is over max_buffered. At equal stamps the accelerometer sample
+/// goes first, then the twist, then the frame.
 /// A message older than what was already released is returned anyway (the estimator rejects or
 /// absorbs it and counts it) and counted in late().
 class MeasurementSequencer {
@@ -49,6 +50,7 @@ class MeasurementSequencer {
   std::deque<Measurement> buffer_;  ///< sorted by (stamp, twist first)
   double newest_twist_ = -1e300;
   double newest_frame_ = -1e300;
+  double newest_accel_ = 1e300;  ///< +inf until the first accelerometer sample
   double released_until_ = -1e300;
   size_t late_ = 0;
 };

@@ -29,7 +29,7 @@ namespace ekf_vislam {
 
 struct TwistCombinerOptions {
   int imu_samples_per_twist = 1;   ///< gyro samples averaged into one twist
-  double max_velocity_wait = 1.0;  ///< s of gyro time a twist waits for a later wheel sample
+  double max_velocity_wait = 2.0;  ///< s of gyro time a twist waits for a later wheel sample
   double max_velocity_age = 0.5;   ///< s: a wheel sample further from the twist is not used
 };
 
@@ -56,6 +56,11 @@ struct LinearVelocitySample {
   Eigen::Vector3d v_base = Eigen::Vector3d::Zero();
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  ///< m^2/s^2; all zero: unknown
   Eigen::Isometry3d imu_T_base = Eigen::Isometry3d::Identity();
+  /// Set by TwistCombiner when it admits the sample: the stream's estimated per-sample variance
+  /// (0: not ready) and period as they were then, so that a twist's covariance depends on the
+  /// samples up to its wheel samples only, not on when the other stream's messages came.
+  double estimated_variance = 0.0;
+  double period = 0.0;
 };
 
 struct TwistCombinerCounters {

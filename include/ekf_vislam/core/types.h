@@ -24,6 +24,16 @@ struct TwistData {
   bool hasCovariance() const { return !covariance.isZero(0.0); }
 };
 
+/// One accelerometer sample in the IMU frame: the mean specific force (m/s^2; at rest and level
+/// +g along up) over the period ending at `stamp`, as an IMU integrates it.
+struct AccelerometerData {
+  double stamp = 0.0;
+  Eigen::Vector3d f_imu = Eigen::Vector3d::Zero();
+  /// Covariance of one sample (the message's own); zero = unknown (estimated online).
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  bool hasCovariance() const { return !covariance.isZero(0.0); }
+};
+
 /// One tracked feature in a rectified stereo pair (pixels); the core side of the
 /// ekf_vislam/StereoFeature message.
 struct StereoObservation {

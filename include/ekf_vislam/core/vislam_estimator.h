@@ -15,7 +15,7 @@
 // Outputs (map covariances, pose covariance) are converted to ordinary additive errors.
 
 // The estimator orchestrates small components: InputScreening, Propagator, VehicleTiltUpdater
-// (the road tilt prior, SLAM mode), LandmarkManager,
+// (the road tilt prior, SLAM mode), GravityUpdater (the accelerometer, SLAM mode), LandmarkManager,
 // StereoUpdater (through state_helper's generic EKF operations on a FilterState),
 // RepeatedFrameHandler and HealthMonitor.
 //
@@ -29,6 +29,7 @@
 #include "ekf_vislam/core/estimator_stats.h"
 #include "ekf_vislam/core/feed_result.h"
 #include "ekf_vislam/core/filter_state.h"
+#include "ekf_vislam/core/gravity_updater.h"
 #include "ekf_vislam/core/health_monitor.h"
 #include "ekf_vislam/core/input_screening.h"
 #include "ekf_vislam/core/landmark_manager.h"
@@ -63,6 +64,9 @@ class VislamEstimator {
 
   FeedResult feedTwist(const TwistData& twist);
   FeedResult feedFeatures(const FeatureFrame& frame);
+  /// An accelerometer sample (IMU frame), in stamp order with the other accelerometer samples;
+  /// used by the gravity update at the twists after it (gravity/, SLAM mode).
+  FeedResult feedAccelerometer(const AccelerometerData& sample);
 
   /// Back to the state before the first message (pose identity, prior covariance, empty map).
   /// Calibration and statistics are kept.
@@ -100,6 +104,11 @@ class VislamEstimator {
   /// Tilt of the road under the vehicle against the first pose's level, degrees (vehicle/
   /// tilt_sigma; 0 without the road tilt in the state).
   double roadTiltDegrees() const;
+  /// The first pose's tilt against gravity (degrees; gravity/, 0 without its states) and the
+  /// estimated accelerometer bias (m/s^2, IMU axes) with its standard deviations.
+  double levelTiltDegrees() const;
+  const Eigen::Vector3d& accelBias() const { return state_.accel_bias_imu; }
+  Eigen::Vector3d accelBiasSigma() const;
   /// Frame-to-frame correlation of the tracks' residuals (noise/report_track_correlation; 0
   /// until enough tracks were seen twice) and the factor (1 + rho) / (1 - rho) on the pixel
   /// variance of the reported covariance.
@@ -120,6 +129,8 @@ class VislamEstimator {
   Eigen::MatrixXd stateCovariance() const { return state_.covariance(); }
 
  private:
+  /// The gravity update's part of an accepted twist that moved the filter to its stamp.
+  void updateGravity(const TwistData& twist);
   /// Predicts from the filter time to `stamp` with `twist`; twist_stamp is the time of the last
   /// twist (a gap beyond limits/max_twist_gap follows the gap policy, once per gap).
   void advanceTo(double stamp, const TwistData& twist, double twist_stamp, FeedResult* result);
@@ -147,6 +158,7 @@ class VislamEstimator {
   InputScreening screening_;
   Propagator propagator_;
   VehicleTiltUpdater tilt_updater_;
+  GravityUpdater gravity_updater_;
   StereoUpdater updater_;
   LandmarkManager landmarks_;
   RepeatedFrameHandler repeated_handler_;

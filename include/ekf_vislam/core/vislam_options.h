@@ -140,6 +140,24 @@ struct VehicleOptions {
   double tilt_update_period = 1.0;           ///< s between two tilt pseudo-observations
 };
 
+/// gravity/: the accelerometer (sensor_msgs/Imu linear_acceleration) holds roll and pitch against
+/// gravity in SLAM mode. Over each window of twist samples (window s at least) the mean specific
+/// force, less the acceleration the twist shows (its velocity change and the gyro's rotation), is
+/// g R^T up + b_a: up the gravity's up axis in world axes (the world is the first pose, whose
+/// tilt against gravity is a state of level_sigma prior), b_a the accelerometer bias (a state).
+/// The accelerometer's white noise comes from the message covariance or is estimated online from
+/// its samples (as the twist's); accel_noise_density until then. Without accelerometer samples
+/// the two states stay at their prior and nothing else changes (doc/estimator.md, Gravity).
+struct GravityOptions {
+  bool enabled = true;
+  double window = 1.0;                   ///< s of twist samples per update (at least)
+  double magnitude = 9.80665;            ///< m/s^2
+  double level_sigma = 0.2;              ///< rad, prior of the first pose's tilt against gravity
+  double accel_bias_sigma = 0.1;         ///< m/s^2, prior of each axis of the bias
+  double accel_bias_random_walk = 1e-3;  ///< m/s^2/sqrt(s)
+  double accel_noise_density = 0.05;     ///< m/s^2/sqrt(Hz), until the online estimate is ready
+};
+
 /// landmarks/: initialization, gating and the life cycle of landmarks.
 struct LandmarkOptions {
   double min_disparity_px = 1.0;     ///< smaller (or negative) disparity: not initialized
@@ -205,6 +223,7 @@ struct VislamOptions {
   IntrinsicOptions intrinsic;
   TrackDriftOptions track_drift;
   VehicleOptions vehicle;
+  GravityOptions gravity;
   LandmarkOptions landmarks;
   LimitsOptions limits;
   HealthOptions health;

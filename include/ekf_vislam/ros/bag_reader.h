@@ -31,8 +31,10 @@ struct BagTopics {
   std::string left_info = "/stereo/left/camera_info";
   std::string right_info = "/stereo/right/camera_info";
   std::string tf_static = "/tf_static";
-  std::string imu_data = "/imu/data";              ///< gyro (sensor_msgs/Imu), with the ...
-  std::string wheel_odometry = "/wheel/odometry";  ///< ... wheel odometry: combined twist
+  /// sensor_msgs/Imu: its accelerometer (gravity/), and its gyro with the wheel odometry when
+  /// the twist is combined
+  std::string imu_data = "/imu/data";
+  std::string wheel_odometry = "/wheel/odometry";  ///< with the gyro: a combined twist
 };
 
 /// What the bag says about the calibration (first message of each camera_info topic).
@@ -71,7 +73,12 @@ class BagReader {
   void useTwistCombiner(const TwistCombinerOptions& options, double time_jump_reset);
   const TwistCombiner* twistCombiner() const { return combiner_.get(); }
 
-  /// Every twist (TwistStamped, TwistWithCovarianceStamped or Odometry) and feature message in
+  /// Also reads the accelerometer of topics.imu_data (samples whose Imu says it has none are
+  /// skipped), as the estimator node does live. Call after setTwistFrames.
+  void useAccelerometer() { accelerometer_ = true; }
+
+  /// Every twist (TwistStamped, TwistWithCovarianceStamped or Odometry), accelerometer sample
+  /// (useAccelerometer) and feature message in
   /// bag order, converted; `fraction` in [0, 1] is the progress through the bag. False (with a
   /// message) on a message of another type, or an odometry frame with no transform to the IMU.
   using Callback = std::function<void(Measurement&& measurement, double fraction)>;
@@ -82,6 +89,9 @@ class BagReader {
   /// Feeds a gyro or wheel message to the combiner and passes on the twists it completes.
   bool combineTwist(const rosbag::MessageInstance& m, const Callback& callback, double fraction,
                     std::string* error);
+  /// An Imu's accelerometer sample, when it has one.
+  bool readAccelerometer(const rosbag::MessageInstance& m, const Callback& callback,
+                         double fraction, std::string* error);
   /// imu_frame <- frame from the static transforms (identity for the IMU frame itself).
   bool imuTFrame(const std::string& frame, Eigen::Isometry3d* imu_T_frame, std::string* error);
 
@@ -92,6 +102,7 @@ class BagReader {
   std::string imu_T_child_frame_;  ///< child frame of the cached transform
   Eigen::Isometry3d imu_T_child_ = Eigen::Isometry3d::Identity();
   std::unique_ptr<TwistCombiner> combiner_;
+  bool accelerometer_ = false;
   std::map<std::string, Eigen::Isometry3d> imu_T_frame_cache_;
   TimeJumpDetector combiner_time_jumps_{0.0, 2};
 };

@@ -14,10 +14,12 @@
 #include <nav_msgs/Odometry.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Imu.h>
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <boost/array.hpp>
 
+#include <optional>
 #include <string>
 
 namespace ekf_vislam {
@@ -46,6 +48,13 @@ TwistData toTwistData(const nav_msgs::Odometry& msg, const Eigen::Isometry3d& im
 /// The combined twist as TwistWithCovarianceStamped (all-zero covariance when it has none).
 geometry_msgs::TwistWithCovarianceStamped toTwistWithCovarianceMsg(const TwistData& twist,
                                                                    const std::string& frame_id);
+/// sensor_msgs/Imu -> the accelerometer sample (linear_acceleration, the specific force) rotated
+/// into the IMU frame by R_imu_from_msg (a lever arm is not compensated: mount the accelerometer
+/// at the IMU frame's origin); nothing when linear_acceleration_covariance[0] = -1 (no data, the
+/// Imu convention). An all-zero covariance is unknown (estimated online).
+std::optional<AccelerometerData> toAccelerometerData(const sensor_msgs::Imu& msg,
+                                                     const Eigen::Matrix3d& R_imu_from_msg);
+
 /// sensor_msgs/Imu -> the gyro sample of TwistCombiner, rotated into the IMU frame by
 /// R_imu_from_msg (identity when the message is in it). angular_velocity_covariance[0] = -1
 /// (unknown, the Imu convention) or all zero gives no covariance.

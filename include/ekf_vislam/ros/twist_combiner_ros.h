@@ -12,6 +12,7 @@
 #include "ekf_vislam/core/twist_combiner.h"
 
 #include "ekf_vislam/ros/periodic_diagnostics.h"
+#include "ekf_vislam/ros/tf_waiting_queue.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <nav_msgs/Odometry.h>
@@ -51,24 +52,12 @@ class TwistCombinerRos {
  private:
   void imuCallback(const sensor_msgs::Imu::ConstPtr& msg);
   void odometryCallback(const nav_msgs::Odometry::ConstPtr& msg);
-  /// The messages of one input, in arrival order, until tf knows their frame.
-  template <typename Msg>
-  struct WaitingStream {
-    explicit WaitingStream(const char* topic_name) : topic(topic_name) {}
-    const char* topic;
-    std::deque<typename Msg::ConstPtr> messages;
-    uint64_t without_tf = 0;  ///< dropped after waiting ros/tf_wait s of message time
-  };
-
-  /// imu_frame <- frame from tf (cached: the frames are fixed); false while tf has none.
-  bool imuTFrame(const std::string& frame, Eigen::Isometry3d* imu_T_frame);
   /// Feeds both inputs' waiting messages whose frames tf knows to the combiner, then publishes.
   void feedWaitingMessages();
-  /// feed(msg, imu_T_frame, &why) for each waiting message of `stream` in order, while tf knows
-  /// frame_of(msg); a message tf still lacks waits until its stream is ros/tf_wait s of message
-  /// time past it, then is dropped (counted, warned).
+  /// feed(msg, imu_T_frame, &why) for each waiting message of `queue` in order, while tf knows
+  /// frame_of(msg); one tf still lacks after ros/tf_wait s of message time is dropped (warned).
   template <typename Msg, typename FrameOf, typename Feed>
-  void feedWaiting(WaitingStream<Msg>* stream, const FrameOf& frame_of, const Feed& feed);
+  void feedWaiting(TfWaitingQueue<Msg>* queue, const FrameOf& frame_of, const Feed& feed);
   void restartIfTimeJumped(int stream, double stamp);
   void publishReady();
   void warnRefused(const char* what, const std::string& why);
@@ -85,9 +74,9 @@ class TwistCombinerRos {
   std::unique_ptr<PeriodicDiagnostics> diagnostics_;
 
   std::mutex mutex_;
-  std::map<std::string, Eigen::Isometry3d> imu_T_frame_;  ///< tf cache
-  WaitingStream<sensor_msgs::Imu> imu_waiting_{"imu/data"};
-  WaitingStream<nav_msgs::Odometry> odometry_waiting_{"wheel/odometry"};
+  FixedFrameTransforms imu_T_frame_;
+  TfWaitingQueue<sensor_msgs::Imu> imu_waiting_{"imu/data"};
+  TfWaitingQueue<nav_msgs::Odometry> odometry_waiting_{"wheel/odometry"};
   TimeJumpDetector time_jumps_{0.0, 2};  ///< gyro 0, wheel 1
   uint64_t time_jump_resets_ = 0;
   uint64_t twists_published_ = 0;

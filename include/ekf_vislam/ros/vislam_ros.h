@@ -20,6 +20,7 @@
 #include "ekf_vislam/core/estimator_runner.h"
 #include "ekf_vislam/core/types.h"
 #include "ekf_vislam/ros/periodic_diagnostics.h"
+#include "ekf_vislam/ros/tf_waiting_queue.h"
 #include "ekf_vislam/ros/vislam_ros_options.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -29,6 +30,7 @@
 #include <nav_msgs/Path.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Imu.h>
 #include <std_srvs/Trigger.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
@@ -59,6 +61,8 @@ class VislamRos {
   void odometryTwistCallback(const nav_msgs::Odometry::ConstPtr& msg);
   void warnIfNotImuFrame(const std::string& frame_id) const;
   void onTwist(const TwistData& twist, bool covariance_invalid);  // locked
+  /// imu/data: the accelerometer for the gravity update (gravity/enabled, SLAM mode).
+  void imuCallback(const sensor_msgs::Imu::ConstPtr& msg);
   void featuresCallback(const ekf_vislam::StereoFeatureArray::ConstPtr& msg);
   void leftInfoCallback(const sensor_msgs::CameraInfo::ConstPtr& msg);
   void rightInfoCallback(const sensor_msgs::CameraInfo::ConstPtr& msg);
@@ -141,10 +145,13 @@ class VislamRos {
   uint64_t twists_received_ = 0;
   uint64_t twist_covariance_invalid_ = 0;
   uint64_t twists_without_tf_ = 0;
+  uint64_t accel_received_ = 0;
+  uint64_t accel_without_data_ = 0;  ///< Imu messages whose accelerometer is marked missing
+  /// imu/data messages until tf knows their frame (ros/tf_wait of message time).
+  TfWaitingQueue<sensor_msgs::Imu> accel_waiting_{"imu/data"};
+  FixedFrameTransforms imu_T_frame_;               ///< imu_frame <- input frames (fixed tf, cached)
   uint64_t base_frame_without_tf_ = 0;             ///< outputs not published: no tf to base_frame
   std::optional<Eigen::Isometry3d> imu_T_output_;  ///< cached imu_T_output (ros/base_frame)
-  std::string imu_T_twist_child_frame_;  ///< frame of the cached imu_T_twist_child_ ("" = none)
-  Eigen::Isometry3d imu_T_twist_child_ = Eigen::Isometry3d::Identity();
   uint64_t frames_received_ = 0;
   uint64_t twists_at_last_diag_ = 0;
   uint64_t frames_at_last_diag_ = 0;
@@ -163,7 +170,7 @@ class VislamRos {
   int last_processed_count_ = 0;
 
   // Publishing.
-  ros::Subscriber twist_sub_, features_sub_, left_info_sub_, right_info_sub_;
+  ros::Subscriber twist_sub_, features_sub_, left_info_sub_, right_info_sub_, imu_sub_;
   ros::Publisher odometry_pub_, odometry_update_pub_, path_pub_, landmarks_pub_;
   ros::ServiceServer reset_srv_, save_srv_;
   ros::WallTimer calibration_timer_, landmark_timer_;

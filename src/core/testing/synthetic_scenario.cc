@@ -68,6 +68,23 @@ Scenario makeScenario(const ScenarioOptions& o) {
   }
   s.true_twists[0] = s.true_twists[1];
   s.true_twists[0].stamp = 1000.0;
+  if (o.accel_noise >= 0.0) {
+    // Its own stream: the other noises stay those of the drive without an accelerometer.
+    std::mt19937 accel_rng(o.seed + 7919);
+    const Eigen::Vector3d up = o.up_world.normalized();
+    for (size_t k = 0; k < s.world_T_imu.size(); ++k) {
+      const size_t j = std::max<size_t>(k, 1);  // sample 0 repeats sample 1
+      const Eigen::Matrix3d R = s.world_T_imu[j].topLeftCorner<3, 3>();
+      const Eigen::Matrix3d R_previous = s.world_T_imu[j - 1].topLeftCorner<3, 3>();
+      const Eigen::Vector3d a_world =
+          (R * s.true_twists[j].v_imu - R_previous * s.true_twists[j - 1].v_imu) / o.dt;
+      AccelerometerData sample;
+      sample.stamp = s.twists[k].stamp;
+      sample.f_imu = R.transpose() * (a_world + 9.80665 * up) + o.accel_bias;
+      for (int i = 0; i < 3; ++i) sample.f_imu(i) += o.accel_noise * normal(accel_rng);
+      s.accels.push_back(sample);
+    }
+  }
 
   // Landmarks along both sides of the path.
   std::vector<Eigen::Vector3d> points;

@@ -32,13 +32,21 @@ struct ScenarioOptions {
   double disparity_offset_px = 0.0;
   int target_observations = 70;
   uint32_t seed = 1;
+  /// Accelerometer: white noise per sample (m/s^2; negative: no accelerometer), constant bias,
+  /// and gravity's up axis in world axes (the world is the first pose).
+  double accel_noise = -1.0;
+  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();
+  Eigen::Vector3d up_world = Eigen::Vector3d::UnitZ();
 };
 
 struct Scenario {
   StereoCalibration calibration;
-  std::vector<TwistData> twists;                ///< measured, one per frame
-  std::vector<TwistData> true_twists;           ///< noiseless, bias-free
-  std::vector<FeatureFrame> frames;             ///< one per frame, same stamps
+  std::vector<TwistData> twists;       ///< measured, one per frame
+  std::vector<TwistData> true_twists;  ///< noiseless, bias-free
+  std::vector<FeatureFrame> frames;    ///< one per frame, same stamps
+  /// One per frame, same stamps (ScenarioOptions::accel_noise >= 0): the mean specific force over
+  /// the period ending there, IMU frame.
+  std::vector<AccelerometerData> accels;
   std::vector<Eigen::Matrix4d> world_T_imu;     ///< ground truth per frame
   std::map<uint32_t, Eigen::Vector3d> p_world;  ///< ground truth landmark of each id
 };

@@ -1,0 +1,96 @@
+// Inputs given in another frame than the body's: the fixed transforms from tf (cached), and a
+// queue that holds a stream's messages until tf knows their frame, so a /tf_static that comes a
+// moment after the first messages loses nothing. Used by the twist combiner and the estimator.
+#pragma once
+
+#include "ekf_vislam/ros/conversions.h"
+
+#include <ros/ros.h>
+#include <tf2_ros/buffer.h>
+
+#include <Eigen/Geometry>
+
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <string>
+
+namespace ekf_vislam {
+
+/// body_T_frame for fixed frames, from tf, cached once found.
+class FixedFrameTransforms {
+ public:
+  FixedFrameTransforms() = default;
+  FixedFrameTransforms(const tf2_ros::Buffer* buffer, std::string body_frame)
+      : buffer_(buffer), body_frame_(std::move(body_frame)) {}
+  const std::string& bodyFrame() const { return body_frame_; }
+  /// Identity for the body frame itself (or an empty frame); false while tf has no transform.
+  bool lookup(const std::string& frame, Eigen::Isometry3d* body_T_frame) {
+    if (frame.empty() || frame == body_frame_) {
+      body_T_frame->setIdentity();
+      return true;
+    }
+    const auto cached = cache_.find(frame);
+    if (cached != cache_.end()) {
+      *body_T_frame = cached->second;
+      return true;
+    }
+    if (buffer_ == nullptr) return false;
+    try {
+      *body_T_frame = ros_conversions::toIsometry(
+          buffer_->lookupTransform(body_frame_, frame, ros::Time(0)).transform);
+    } catch (const tf2::TransformException&) {
+      return false;
+    }
+    cache_[frame] = *body_T_frame;
+    return true;
+  }
+
+ private:
+  const tf2_ros::Buffer* buffer_ = nullptr;  ///< not owned
+  std::string body_frame_;
+  std::map<std::string, Eigen::Isometry3d> cache_;
+};
+
+/// The messages of one input, in arrival order, until tf knows their frame. A message whose
+/// frame tf lacks waits until its stream is `wait` s of message time past it (never wall time,
+/// so live equals offline under load), then is dropped and counted.
+template <typename Msg>
+class TfWaitingQueue {
+ public:
+  explicit TfWaitingQueue(const char* topic) : topic_(topic) {}
+  const char* topic() const { return topic_; }
+  void push(const typename Msg::ConstPtr& msg) { messages_.push_back(msg); }
+  void clear() { messages_.clear(); }
+  size_t size() const { return messages_.size(); }
+  /// Messages dropped after waiting for their frame.
+  uint64_t droppedWithoutTf() const { return dropped_; }
+
+  /// use(msg, body_T_frame) for each waiting message in order while `transforms` knows
+  /// frame_of(msg); a message that waited long enough is dropped: dropped(msg, frame).
+  template <typename FrameOf, typename Use, typename Dropped>
+  void drain(double wait, FixedFrameTransforms* transforms, const FrameOf& frame_of, const Use& use,
+             const Dropped& dropped) {
+    while (!messages_.empty()) {
+      const Msg& msg = *messages_.front();
+      const std::string frame = frame_of(msg);
+      Eigen::Isometry3d body_T_frame;
+      if (!transforms->lookup(frame, &body_T_frame)) {
+        const double waited = (messages_.back()->header.stamp - msg.header.stamp).toSec();
+        if (waited <= wait) return;  // tf may still come (message time)
+        ++dropped_;
+        dropped(msg, frame);
+      } else {
+        use(msg, body_T_frame);
+      }
+      messages_.pop_front();
+    }
+  }
+
+ private:
+  const char* topic_;
+  std::deque<typename Msg::ConstPtr> messages_;
+  uint64_t dropped_ = 0;
+};
+
+}  // namespace ekf_vislam

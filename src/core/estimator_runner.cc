@@ -121,7 +121,11 @@ void EstimatorRunner::feed(const Measurement& measurement, const Observer& obser
   }
   if (const AccelerometerData* sample = std::get_if<AccelerometerData>(&measurement)) {
     // The estimator keeps it until the twists after it are integrated.
-    estimator_.feedAccelerometer(*sample);
+    Processed processed;
+    processed.is_accelerometer = true;
+    processed.stamp = sample->stamp;
+    processed.result = estimator_.feedAccelerometer(*sample);
+    if (observer) observer(processed);
     return;
   }
   feedFrame(std::get<FeatureFrame>(measurement), observer);

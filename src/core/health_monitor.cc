@@ -39,6 +39,16 @@ std::string sparseObservationsHint(EstimatorMode mode, uint64_t observations_upd
   return text.str();
 }
 
+std::string accelerometerHint(uint64_t refused, uint64_t used) {
+  if (refused == 0) return "";
+  std::ostringstream text;
+  text << refused << " of " << refused + used
+       << " accelerometer samples refused (non-finite, or |f| outside 0.3-4 g): the gravity "
+          "update needs the raw specific force in m/s^2 (about 9.8 up at rest), not an "
+          "acceleration with gravity removed; set gravity/enabled false for such an IMU";
+  return text.str();
+}
+
 std::string roadTiltHint(double road_tilt_deg, const VehicleOptions& vehicle) {
   const double prior_deg = vehicle.tilt_sigma * 180.0 / M_PI;
   if (!(vehicle.tilt_sigma > 0.0) || !(road_tilt_deg > kTiltHintSigmas * prior_deg)) return "";

@@ -110,5 +110,13 @@ TEST(HealthMonitor, MostObservationsGatedForManyFramesIsDivergence) {
   EXPECT_NE(why.find("blew up"), std::string::npos) << why;
 }
 
+TEST(HealthHints, RefusedAccelerometerSamplesNameTheLikelyCause) {
+  EXPECT_EQ(accelerometerHint(0, 300), "");
+  const std::string hint = accelerometerHint(300, 0);
+  EXPECT_NE(hint.find("300 of 300"), std::string::npos) << hint;
+  EXPECT_NE(hint.find("gravity removed"), std::string::npos) << hint;
+  EXPECT_NE(hint.find("gravity/enabled"), std::string::npos) << hint;
+}
+
 }  // namespace
 }  // namespace ekf_vislam

@@ -324,7 +324,9 @@ void printSummary(const EstimatorRunner& runner, const std::string& out_dir) {
       travelDirectionHint(estimator.travelDirection(), options.vehicle),
       sparseObservationsHint(options.mode, stats.get(Counter::kObservationUpdate),
                              stats.get(Counter::kFrameUsed)),
-      roadTiltHint(estimator.roadTiltDegrees(), options.vehicle)};
+      roadTiltHint(estimator.roadTiltDegrees(), options.vehicle),
+      accelerometerHint(stats.get(Counter::kAccelImplausible) + stats.get(Counter::kAccelNonFinite),
+                        stats.get(Counter::kAccelUsed))};
   for (const std::string& hint : hints) {
     if (!hint.empty()) std::fprintf(stderr, "vislam_offline: warning: %s\n", hint.c_str());
   }

@@ -369,7 +369,9 @@ void VislamRos::onProcessed(const EstimatorRunner::Processed& processed) {
                       static_cast<unsigned long>(runner_->framesWithoutCalibration()));
   } else if (!processed.result.accepted) {
     ROS_WARN_THROTTLE(5.0, "%s: %s rejected: %s", name_.c_str(),
-                      processed.is_frame ? "feature frame" : "twist",
+                      processed.is_frame           ? "feature frame"
+                      : processed.is_accelerometer ? "accelerometer sample"
+                                                   : "twist",
                       processed.result.message.c_str());
   } else if (!processed.result.message.empty()) {
     ROS_DEBUG("%s: %s", name_.c_str(), processed.result.message.c_str());

@@ -1,5 +1,6 @@
 """vislam_offline's warnings about the regime: few observations updating the filter
-(sparseObservationsHint) and a road tilt beyond its prior (roadTiltHint)."""
+(sparseObservationsHint), a road tilt beyond its prior (roadTiltHint) and an accelerometer whose
+samples are refused (accelerometerHint)."""
 import json
 import os
 import subprocess
@@ -20,11 +21,14 @@ class RegimeWarningsTest(unittest.TestCase):
             self.skipTest('vislam_offline not built')
         self.tmp = paths.make_temp_dir(self)
 
-    def run_offline(self, name, target_obs, mode='slam', seed=4, frames=200, **options):
-        """Simulates a drive tracking about target_obs features per frame; returns the run's
-        stderr and stats.json."""
+    def run_offline(self, name, target_obs, mode='slam', seed=4, frames=200, change=None,
+                    **options):
+        """Simulates a drive tracking about target_obs features per frame (its arrays passed
+        through change, when given); returns the run's stderr and stats.json."""
         arrays = simulator.dataset_arrays(simulator.simulate(seed, frames=frames,
                                                              target_obs=target_obs, **options))
+        if change is not None:
+            change(arrays)
         npz = paths.write_npz(self.tmp, name + '.npz', arrays)
         bag = os.path.join(self.tmp, name + '.bag')
         subprocess.run([paths.PYTHON, TO_BAG, npz, bag], check=True, capture_output=True)
@@ -48,6 +52,22 @@ class RegimeWarningsTest(unittest.TestCase):
         stderr, stats = self.run_offline('sparse', target_obs=3, mode='mapping')
         self.assertGreater(stats['observations_per_frame'], 0.5)
         self.assertNotIn(WARNING, stderr)
+
+    def test_an_accelerometer_with_gravity_removed_is_named(self):
+        # A driver that publishes the acceleration without gravity: every sample refused,
+        # counted, and the run says what to check; the raw specific force is used silently.
+        stderr, stats = self.run_offline('accel', target_obs=70, accel_noise=0.05)
+        self.assertEqual(stats['counters']['accel_used'], 200)
+        self.assertGreater(stats['counters']['gravity_update'], 10)
+        self.assertNotIn('accelerometer samples refused', stderr)
+
+        def remove_gravity(arrays):
+            arrays['specific_force'] = arrays['specific_force'] - [[0.0], [0.0], [9.80665]]
+        stderr, stats = self.run_offline('no_gravity', target_obs=70, accel_noise=0.05,
+                                         change=remove_gravity)
+        self.assertEqual(stats['counters']['accel_implausible'], 200)
+        self.assertEqual(stats['counters']['gravity_update'], 0)
+        self.assertIn('200 of 200 accelerometer samples refused', stderr)
 
     def test_dense_tracks_say_nothing(self):
         stderr, stats = self.run_offline('dense', target_obs=70)

@@ -34,6 +34,7 @@ class EstimatorRunner {
   /// What happened to one released measurement.
   struct Processed {
     bool is_frame = false;
+    bool is_accelerometer = false;  ///< an accelerometer sample (neither frame nor twist)
     double stamp = 0.0;
     FeedResult result;
     double processing_ms = 0.0;        ///< feedFeatures time (frames only)

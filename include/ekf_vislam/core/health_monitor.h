@@ -50,6 +50,10 @@ std::string sparseObservationsHint(EstimatorMode mode, uint64_t observations_upd
 constexpr double kTiltHintSigmas = 3.0;
 std::string roadTiltHint(double road_tilt_deg, const VehicleOptions& vehicle);
 
+/// Accelerometer samples refused (non-finite, or |f| outside 0.3-4 g: a driver that removes
+/// gravity, other units): what to check. Empty when none was.
+std::string accelerometerHint(uint64_t refused, uint64_t used);
+
 class HealthMonitor {
  public:
   explicit HealthMonitor(const VislamOptions& options) : options_(&options) {}

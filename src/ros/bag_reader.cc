@@ -97,13 +97,29 @@ bool BagReader::readCalibrationData(BagCalibrationData* data, std::string* error
   return true;
 }
 
+namespace {
+
+/// A tf buffer holding these static transforms (bad ones are left out: tf2 logs them, and a
+/// lookup then says what is missing).
+std::unique_ptr<tf2::BufferCore> staticBuffer(
+    const std::vector<geometry_msgs::TransformStamped>& transforms) {
+  auto buffer = std::make_unique<tf2::BufferCore>();
+  for (const geometry_msgs::TransformStamped& t : transforms) {
+    try {
+      buffer->setTransform(t, "bag", true);
+    } catch (const std::exception&) {
+    }
+  }
+  return buffer;
+}
+
+}  // namespace
+
 void BagReader::setTwistFrames(
     const std::string& imu_frame,
     const std::vector<geometry_msgs::TransformStamped>& static_transforms) {
-  imu_frame_ = imu_frame;
-  static_transforms_ = static_transforms;
-  imu_T_child_frame_.clear();
-  imu_T_frame_cache_.clear();
+  static_tf_ = staticBuffer(static_transforms);
+  imu_T_frame_ = FixedFrameTransforms(static_tf_.get(), imu_frame);
 }
 
 void BagReader::useTwistCombiner(const TwistCombinerOptions& options, double time_jump_reset) {
@@ -113,20 +129,11 @@ void BagReader::useTwistCombiner(const TwistCombinerOptions& options, double tim
 
 bool BagReader::imuTFrame(const std::string& frame, Eigen::Isometry3d* imu_T_frame,
                           std::string* error) {
-  if (frame.empty() || frame == imu_frame_) {
-    imu_T_frame->setIdentity();
-    return true;
-  }
-  const auto cached = imu_T_frame_cache_.find(frame);
-  if (cached != imu_T_frame_cache_.end()) {
-    *imu_T_frame = cached->second;
-    return true;
-  }
-  if (!lookupStaticTransform(static_transforms_, imu_frame_, frame, imu_T_frame, error)) {
-    return false;
-  }
-  imu_T_frame_cache_[frame] = *imu_T_frame;
-  return true;
+  std::string why;
+  if (imu_T_frame_.lookup(frame, imu_T_frame, &why)) return true;
+  if (error)
+    *error = "no static transform " + imu_T_frame_.bodyFrame() + " -> " + frame + ": " + why;
+  return false;
 }
 
 bool BagReader::combineTwist(const rosbag::MessageInstance& m, const Callback& callback,
@@ -187,17 +194,9 @@ bool BagReader::convertTwist(const rosbag::MessageInstance& m, TwistData* twist,
     if (error) *error = topics_.twist + " holds " + m.getDataType() + ", not a twist type";
     return false;
   }
-  const std::string child =
-      odometry->child_frame_id.empty() ? imu_frame_ : odometry->child_frame_id;
-  if (child != imu_T_child_frame_) {
-    imu_T_child_.setIdentity();
-    if (child != imu_frame_ &&
-        !lookupStaticTransform(static_transforms_, imu_frame_, child, &imu_T_child_, error)) {
-      return false;
-    }
-    imu_T_child_frame_ = child;
-  }
-  *twist = ros_conversions::toTwistData(*odometry, imu_T_child_);
+  Eigen::Isometry3d imu_T_child;
+  if (!imuTFrame(odometry->child_frame_id, &imu_T_child, error)) return false;
+  *twist = ros_conversions::toTwistData(*odometry, imu_T_child);
   return true;
 }
 
@@ -245,18 +244,10 @@ bool BagReader::forEachMeasurement(const Callback& callback, std::string* error)
 bool lookupStaticTransform(const std::vector<geometry_msgs::TransformStamped>& transforms,
                            const std::string& target_frame, const std::string& source_frame,
                            Eigen::Isometry3d* target_T_source, std::string* error) {
-  tf2::BufferCore buffer;
-  for (const geometry_msgs::TransformStamped& t : transforms) {
-    try {
-      buffer.setTransform(t, "bag", true);
-    } catch (const std::exception&) {
-      // tf2 logs bad transforms; the lookup below reports what is missing.
-    }
-  }
+  const std::unique_ptr<tf2::BufferCore> buffer = staticBuffer(transforms);
   try {
-    const geometry_msgs::TransformStamped t =
-        buffer.lookupTransform(target_frame, source_frame, ros::Time(0));
-    *target_T_source = ros_conversions::toIsometry(t.transform);
+    *target_T_source = ros_conversions::toIsometry(
+        buffer->lookupTransform(target_frame, source_frame, ros::Time(0)).transform);
   } catch (const tf2::TransformException& e) {
     if (error)
       *error = "no static transform " + target_frame + " -> " + source_frame + ": " + e.what();

@@ -454,27 +454,15 @@ const std::string& VislamRos::outputFrame() const {
 }
 
 bool VislamRos::imuTOutput(Eigen::Isometry3d* imu_T_output) {
-  if (outputFrame() == ros_options_.imu_frame) {
-    imu_T_output->setIdentity();
-    return true;
-  }
-  if (!imu_T_output_) {
-    try {
-      imu_T_output_ = ros_conversions::toIsometry(
-          tf_buffer_.lookupTransform(ros_options_.imu_frame, outputFrame(), ros::Time(0))
-              .transform);
-    } catch (const tf2::TransformException& e) {
-      ++base_frame_without_tf_;
-      ROS_WARN_THROTTLE(5.0,
-                        "%s: no tf %s -> ros/base_frame %s yet (%s): odometry, tf and path not "
-                        "published (%lu times so far)",
-                        name_.c_str(), ros_options_.imu_frame.c_str(), outputFrame().c_str(),
-                        e.what(), static_cast<unsigned long>(base_frame_without_tf_));
-      return false;
-    }
-  }
-  *imu_T_output = *imu_T_output_;
-  return true;
+  std::string why;
+  if (imu_T_frame_.lookup(outputFrame(), imu_T_output, &why)) return true;
+  ++base_frame_without_tf_;
+  ROS_WARN_THROTTLE(5.0,
+                    "%s: no tf %s -> ros/base_frame %s yet (%s): odometry, tf and path not "
+                    "published (%lu times so far)",
+                    name_.c_str(), ros_options_.imu_frame.c_str(), outputFrame().c_str(),
+                    why.c_str(), static_cast<unsigned long>(base_frame_without_tf_));
+  return false;
 }
 
 void VislamRos::publishPath() {

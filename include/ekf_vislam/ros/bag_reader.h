@@ -6,6 +6,7 @@
 #include "ekf_vislam/core/measurement_sequencer.h"
 #include "ekf_vislam/core/time_jump_detector.h"
 #include "ekf_vislam/core/twist_combiner.h"
+#include "ekf_vislam/ros/tf_waiting_queue.h"
 
 #include <geometry_msgs/TransformStamped.h>
 #include <sensor_msgs/CameraInfo.h>
@@ -97,13 +98,10 @@ class BagReader {
 
   std::unique_ptr<rosbag::Bag> bag_;
   BagTopics topics_;
-  std::string imu_frame_ = "imu";
-  std::vector<geometry_msgs::TransformStamped> static_transforms_;
-  std::string imu_T_child_frame_;  ///< child frame of the cached transform
-  Eigen::Isometry3d imu_T_child_ = Eigen::Isometry3d::Identity();
+  std::unique_ptr<tf2::BufferCore> static_tf_;        ///< the bag's static transforms
+  FixedFrameTransforms imu_T_frame_{nullptr, "imu"};  ///< imu_frame <- input frames, cached
   std::unique_ptr<TwistCombiner> combiner_;
   bool accelerometer_ = false;
-  std::map<std::string, Eigen::Isometry3d> imu_T_frame_cache_;
   TimeJumpDetector combiner_time_jumps_{0.0, 2};
 };
 

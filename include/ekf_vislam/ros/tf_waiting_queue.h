@@ -1,12 +1,14 @@
-// Inputs given in another frame than the body's: the fixed transforms from tf (cached), and a
-// queue that holds a stream's messages until tf knows their frame, so a /tf_static that comes a
-// moment after the first messages loses nothing. Used by the twist combiner and the estimator.
+// Inputs given in another frame than the body's: the fixed transforms from tf (cached; live tf or
+// a bag's static transforms), and a queue that holds a stream's messages until tf knows their
+// frame, so a /tf_static that comes a moment after the first messages loses nothing. Used by the
+// twist combiner, the estimator node and the bag reader.
 #pragma once
 
 #include "ekf_vislam/ros/conversions.h"
 
 #include <ros/ros.h>
-#include <tf2_ros/buffer.h>
+#include <tf2/buffer_core.h>
+#include <tf2/exceptions.h>
 
 #include <Eigen/Geometry>
 
@@ -17,15 +19,18 @@
 
 namespace ekf_vislam {
 
-/// body_T_frame for fixed frames, from tf, cached once found.
+/// body_T_frame for fixed frames, from a tf buffer (tf2_ros::Buffer live, a BufferCore of a bag's
+/// static transforms offline), cached once found.
 class FixedFrameTransforms {
  public:
   FixedFrameTransforms() = default;
-  FixedFrameTransforms(const tf2_ros::Buffer* buffer, std::string body_frame)
+  FixedFrameTransforms(const tf2::BufferCore* buffer, std::string body_frame)
       : buffer_(buffer), body_frame_(std::move(body_frame)) {}
   const std::string& bodyFrame() const { return body_frame_; }
-  /// Identity for the body frame itself (or an empty frame); false while tf has no transform.
-  bool lookup(const std::string& frame, Eigen::Isometry3d* body_T_frame) {
+  /// Identity for the body frame itself (or an empty frame); false while tf has no transform
+  /// (*why, when given: tf's reason).
+  bool lookup(const std::string& frame, Eigen::Isometry3d* body_T_frame,
+              std::string* why = nullptr) {
     if (frame.empty() || frame == body_frame_) {
       body_T_frame->setIdentity();
       return true;
@@ -35,11 +40,15 @@ class FixedFrameTransforms {
       *body_T_frame = cached->second;
       return true;
     }
-    if (buffer_ == nullptr) return false;
+    if (buffer_ == nullptr) {
+      if (why != nullptr) *why = "no tf buffer";
+      return false;
+    }
     try {
       *body_T_frame = ros_conversions::toIsometry(
           buffer_->lookupTransform(body_frame_, frame, ros::Time(0)).transform);
-    } catch (const tf2::TransformException&) {
+    } catch (const tf2::TransformException& e) {
+      if (why != nullptr) *why = e.what();
       return false;
     }
     cache_[frame] = *body_T_frame;
@@ -47,7 +56,7 @@ class FixedFrameTransforms {
   }
 
  private:
-  const tf2_ros::Buffer* buffer_ = nullptr;  ///< not owned
+  const tf2::BufferCore* buffer_ = nullptr;  ///< not owned
   std::string body_frame_;
   std::map<std::string, Eigen::Isometry3d> cache_;
 };

@@ -149,9 +149,8 @@ class VislamRos {
   uint64_t accel_without_data_ = 0;  ///< Imu messages whose accelerometer is marked missing
   /// imu/data messages until tf knows their frame (ros/tf_wait of message time).
   TfWaitingQueue<sensor_msgs::Imu> accel_waiting_{"imu/data"};
-  FixedFrameTransforms imu_T_frame_;               ///< imu_frame <- input frames (fixed tf, cached)
-  uint64_t base_frame_without_tf_ = 0;             ///< outputs not published: no tf to base_frame
-  std::optional<Eigen::Isometry3d> imu_T_output_;  ///< cached imu_T_output (ros/base_frame)
+  FixedFrameTransforms imu_T_frame_;    ///< imu_frame <- input frames (fixed tf, cached)
+  uint64_t base_frame_without_tf_ = 0;  ///< outputs not published: no tf to base_frame
   uint64_t frames_received_ = 0;
   uint64_t twists_at_last_diag_ = 0;
   uint64_t frames_at_last_diag_ = 0;

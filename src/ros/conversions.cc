@@ -88,33 +88,44 @@ geometry_msgs::TwistWithCovarianceStamped toTwistWithCovarianceMsg(const TwistDa
   return msg;
 }
 
+namespace {
+
+/// One of an Imu's vectors and its row-major covariance, turned into the IMU frame.
+struct ImuVector {
+  Eigen::Vector3d value;
+  Eigen::Matrix3d covariance;
+};
+
+ImuVector imuVector(const geometry_msgs::Vector3& v, const boost::array<double, 9>& covariance,
+                    const Eigen::Matrix3d& R_imu_from_msg) {
+  const Eigen::Matrix3d in_msg =
+      Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(covariance.data());
+  return {R_imu_from_msg * Eigen::Vector3d(v.x, v.y, v.z),
+          R_imu_from_msg * in_msg * R_imu_from_msg.transpose()};
+}
+
+}  // namespace
+
 std::optional<AccelerometerData> toAccelerometerData(const sensor_msgs::Imu& msg,
                                                      const Eigen::Matrix3d& R_imu_from_msg) {
   if (msg.linear_acceleration_covariance[0] == -1.0) return std::nullopt;
+  const ImuVector f =
+      imuVector(msg.linear_acceleration, msg.linear_acceleration_covariance, R_imu_from_msg);
   AccelerometerData sample;
   sample.stamp = msg.header.stamp.toSec();
-  const Eigen::Vector3d f_msg(msg.linear_acceleration.x, msg.linear_acceleration.y,
-                              msg.linear_acceleration.z);
-  sample.f_imu = R_imu_from_msg * f_msg;
-  const Eigen::Matrix3d covariance = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(
-      msg.linear_acceleration_covariance.data());
-  sample.covariance = R_imu_from_msg * covariance * R_imu_from_msg.transpose();
+  sample.f_imu = f.value;
+  sample.covariance = f.covariance;
   return sample;
 }
 
 AngularVelocitySample toAngularVelocitySample(const sensor_msgs::Imu& msg,
                                               const Eigen::Matrix3d& R_imu_from_msg) {
+  const ImuVector w =
+      imuVector(msg.angular_velocity, msg.angular_velocity_covariance, R_imu_from_msg);
   AngularVelocitySample sample;
   sample.stamp = msg.header.stamp.toSec();
-  const Eigen::Vector3d w_msg(msg.angular_velocity.x, msg.angular_velocity.y,
-                              msg.angular_velocity.z);
-  sample.w_imu = R_imu_from_msg * w_msg;
-  if (msg.angular_velocity_covariance[0] != -1.0) {
-    const Eigen::Matrix3d covariance =
-        Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(
-            msg.angular_velocity_covariance.data());
-    sample.covariance = R_imu_from_msg * covariance * R_imu_from_msg.transpose();
-  }
+  sample.w_imu = w.value;
+  if (msg.angular_velocity_covariance[0] != -1.0) sample.covariance = w.covariance;
   return sample;
 }
 

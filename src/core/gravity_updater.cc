@@ -49,10 +49,8 @@ void GravityUpdater::reset() {
                                          options_->noise.twist_noise_min_samples);
   pending_.clear();
   last_added_stamp_ = kNoStamp;
-  last_sample_stamp_ = kNoStamp;
   last_twist_stamp_ = kNoStamp;
-  has_samples_ = false;
-  opened_before_ = false;
+  windows_open_after_ = kNoStamp;
   open_ = false;
 }
 
@@ -65,17 +63,19 @@ bool GravityUpdater::addSample(const AccelerometerData& sample, EstimatorStats* 
   as_twist.stamp = sample.stamp;
   as_twist.v_imu = sample.f_imu;
   noise_estimator_.add(as_twist);
-  PendingSample pending{sample, 0.0};
-  pending.variance =
-      sample.hasCovariance()
-          ? sample.covariance.trace() / 3.0
-          : std::pow(sampleSigma(last_added_stamp_ == kNoStamp ? options_->gravity.window
-                                                               : sample.stamp - last_added_stamp_),
-                     2);
+  const bool first = last_added_stamp_ == kNoStamp;
+  // The first window starts a window length after the first sample: live, the first samples
+  // may reach the estimator after a few twists (a connection made later than the others'), and
+  // this margin keeps the windows those of the same input offline.
+  if (first) windows_open_after_ = sample.stamp + options_->gravity.window;
+  PendingSample pending{sample, last_added_stamp_, 0.0};
+  pending.variance = sample.hasCovariance()
+                         ? sample.covariance.trace() / 3.0
+                         : std::pow(sampleSigma(first ? options_->gravity.window
+                                                      : sample.stamp - last_added_stamp_),
+                                    2);
   last_added_stamp_ = sample.stamp;
   pending_.push_back(pending);
-  if (!has_samples_) first_sample_stamp_ = sample.stamp;
-  has_samples_ = true;
   stats->increment(Counter::kAccelUsed);
   while (pending_.size() > kMaxPending) pending_.pop_front();
   return true;
@@ -91,10 +91,9 @@ double GravityUpdater::sampleSigma(double period) const {
 void GravityUpdater::integrateSamples(double twist_stamp, const Eigen::Vector3d& w) {
   while (!pending_.empty() && pending_.front().sample.stamp <= twist_stamp) {
     const AccelerometerData sample = pending_.front().sample;
+    const double previous = pending_.front().previous_stamp;
     const double variance = pending_.front().variance;
     pending_.pop_front();
-    const double previous = last_sample_stamp_;
-    last_sample_stamp_ = sample.stamp;
     if (!open_ || previous == kNoStamp || sample.stamp <= start_) continue;
     const double dt = sample.stamp - std::max(previous, start_);
     const Eigen::Matrix3d start_R_sample =
@@ -127,7 +126,7 @@ std::optional<UpdateStatus> GravityUpdater::onTwist(double twist_stamp, const Ve
                                                     const Eigen::MatrixXd& d_w_d_bias,
                                                     FilterState* state, EstimatorStats* stats) {
   // Without an accelerometer (yet) no window opens: nothing to count.
-  if (twist_stamp <= last_twist_stamp_ || !has_samples_) return std::nullopt;
+  if (twist_stamp <= last_twist_stamp_ || last_added_stamp_ == kNoStamp) return std::nullopt;
   const Eigen::Vector3d w = u.tail<3>();
   if (open_) {
     integrateSamples(twist_stamp, w);
@@ -140,12 +139,9 @@ std::optional<UpdateStatus> GravityUpdater::onTwist(double twist_stamp, const Ve
   }
   last_twist_stamp_ = twist_stamp;
   if (!open_) {
-    // The first window starts a window length after the first sample: live, the first samples
-    // may reach the estimator after a few twists (a connection made later than the others'), and
-    // this margin keeps the windows those of the same input offline. The state gets its gravity
-    // rows here.
-    if (twist_stamp > first_sample_stamp_ + options_->gravity.window || opened_before_) {
-      opened_before_ = true;
+    // The state gets its gravity rows with the first window.
+    if (twist_stamp > windows_open_after_) {
+      windows_open_after_ = kNoStamp;
       state->addGravityRows(options_->gravity.level_sigma, options_->gravity.accel_bias_sigma);
       openWindow(twist_stamp, u, u_covariance);
     }
@@ -153,34 +149,32 @@ std::optional<UpdateStatus> GravityUpdater::onTwist(double twist_stamp, const Ve
   }
   if (twist_stamp - start_ < options_->gravity.window) return std::nullopt;
   // Close; the next twist opens the next window, so no two windows share a velocity sample.
-  v_end_ = u.head<3>();
-  v_end_covariance_ = u_covariance.topLeftCorner<3, 3>();
-  end_ = twist_stamp;
   open_ = false;
-  if (covered_ < kMinCoverage * (end_ - start_)) {
+  if (covered_ < kMinCoverage * (twist_stamp - start_)) {
     stats->increment(Counter::kGravityIncomplete);
     return std::nullopt;
   }
-  last_window_ = closeWindow();
+  last_window_ = closeWindow(twist_stamp, u.head<3>(), u_covariance.topLeftCorner<3, 3>());
   return apply(last_window_, d_w_d_bias, state, stats);
 }
 
-GravityWindow GravityUpdater::closeWindow() const {
+GravityWindow GravityUpdater::closeWindow(double end, const Eigen::Vector3d& v_end,
+                                          const Eigen::Matrix3d& v_end_covariance) const {
   GravityWindow window;
-  window.end = end_;
-  window.duration = end_ - start_;
+  window.end = end;
+  window.duration = end - start_;
   const double duration = window.duration;
   const Eigen::Matrix3d end_R_start = start_R_now_.transpose();
   const Eigen::Vector3d mean_force = end_R_start * force_sum_ / covered_;
   const Eigen::Vector3d v_start_end = end_R_start * v_start_;
-  window.z = mean_force - (v_end_ - v_start_end) / duration;
+  window.z = mean_force - (v_end - v_start_end) / duration;
   // A rate error turns every rotation into the end frame: d(R_{b<-x} y) = (s_b - x) (R y)^ dw.
   const Eigen::Vector3d turned = end_R_start * (force_sum_ * duration - force_time_sum_) / covered_;
   window.dz_dw = se3::hat(turned) + se3::hat(v_start_end);
   window.dz_dbias = end_R_start * rotation_sum_ / covered_;
   const Eigen::Vector3d rotated = mean_force + v_start_end / duration;
   window.noise = Eigen::Matrix3d::Identity() * force_variance_ / (covered_ * covered_) +
-                 (v_end_covariance_ + end_R_start * v_start_covariance_ * end_R_start.transpose()) /
+                 (v_end_covariance + end_R_start * v_start_covariance_ * end_R_start.transpose()) /
                      (duration * duration) +
                  se3::hat(rotated) * rotation_covariance_ * se3::hat(rotated).transpose();
   return window;

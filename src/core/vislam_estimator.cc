@@ -159,8 +159,7 @@ FeedResult VislamEstimator::feedTwist(const TwistData& twist) {
 
 FeedResult VislamEstimator::feedAccelerometer(const AccelerometerData& sample) {
   FeedResult result;
-  const VislamOptions& o = *options_;
-  if (!o.gravity.enabled || o.mode != EstimatorMode::kSlam) return result;  // not used
+  if (!usesAccelerometer(*options_)) return result;
   std::string why;
   if (const std::optional<Counter> bad = screening_.checkAccelerometer(sample, &why)) {
     stats_.increment(*bad);
@@ -176,8 +175,7 @@ FeedResult VislamEstimator::feedAccelerometer(const AccelerometerData& sample) {
 }
 
 void VislamEstimator::updateGravity(const TwistData& twist) {
-  const VislamOptions& o = *options_;
-  if (!o.gravity.enabled || o.mode != EstimatorMode::kSlam) return;
+  if (!usesAccelerometer(*options_)) return;
   const StateLayout& layout = state_.layout();
   // d w_corrected / d bias: w = R_m (w_measured - b) on the gyro components.
   Eigen::MatrixXd d_w_d_bias = Eigen::MatrixXd::Zero(3, layout.biasDim());

@@ -361,8 +361,7 @@ int run(int argc, char** argv) {
               << topics.imu_data << " and " << topics.wheel_odometry << " ("
               << describeTwistCombinerOptions(combiner_options) << ")\n";
   }
-  if (options.gravity.enabled && options.mode == EstimatorMode::kSlam &&
-      bag.messageCount(topics.imu_data) > 0) {
+  if (usesAccelerometer(options) && bag.messageCount(topics.imu_data) > 0) {
     bag.useAccelerometer();
     std::cerr << "vislam_offline: the accelerometer of " << topics.imu_data
               << " holds roll and pitch (gravity/enabled)\n";

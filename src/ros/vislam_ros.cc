@@ -72,7 +72,7 @@ VislamRos::VislamRos(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, cons
   }
   features_sub_ =
       nh_.subscribe("stereo/features", queue, &VislamRos::featuresCallback, this, hints);
-  if (options_.gravity.enabled && options_.mode == EstimatorMode::kSlam) {
+  if (usesAccelerometer(options_)) {
     imu_sub_ = nh_.subscribe("imu/data", queue, &VislamRos::imuCallback, this, hints);
   }
   left_info_sub_ = nh_.subscribe("stereo/left/camera_info", 10, &VislamRos::leftInfoCallback, this);

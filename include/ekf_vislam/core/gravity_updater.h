@@ -88,35 +88,34 @@ class GravityUpdater {
  private:
   void integrateSamples(double twist_stamp, const Eigen::Vector3d& w);
   void openWindow(double stamp, const Vector6d& u, const Matrix6d& u_covariance);
-  /// The open window's measurement, closed at end_.
-  GravityWindow closeWindow() const;
+  /// The open window's measurement, closed at the twist `end` of velocity v_end (covariance
+  /// v_end_covariance).
+  GravityWindow closeWindow(double end, const Eigen::Vector3d& v_end,
+                            const Eigen::Matrix3d& v_end_covariance) const;
   UpdateStatus apply(const GravityWindow& window, const Eigen::MatrixXd& d_w_d_bias,
                      FilterState* state, EstimatorStats* stats);
 
   const VislamOptions* options_;         ///< not owned (the estimator keeps it alive)
   TwistNoiseEstimator noise_estimator_;  ///< the accelerometer's, its samples as linear parts
-  /// A sample waiting for its twist, with its noise variance (each axis) as it was when the
-  /// sample came: read then, it depends on the samples before it only, not on when the twists
-  /// come (live equals offline).
+  /// A sample waiting for its twist, with the stamp of the sample before it (its period starts
+  /// there) and its noise variance (each axis) as it was when the sample came: read then, it
+  /// depends on the samples before it only, not on when the twists come (live equals offline).
   struct PendingSample {
     AccelerometerData sample;
+    double previous_stamp = -1e300;
     double variance = 0.0;
   };
   std::deque<PendingSample> pending_;
-  double last_added_stamp_ = -1e300;   ///< stamp of the last sample accepted
-  double last_sample_stamp_ = -1e300;  ///< stamp of the last sample integrated or skipped
+  double last_added_stamp_ = -1e300;  ///< stamp of the last sample accepted (none: -1e300)
   double last_twist_stamp_ = -1e300;
-  bool has_samples_ = false;  ///< an accelerometer sample arrived since the reset
-  double first_sample_stamp_ = 0.0;
-  bool opened_before_ = false;  ///< a window was opened since the reset
+  /// A window opens at a twist after this stamp: a window length after the first sample, then
+  /// (once one opened) any.
+  double windows_open_after_ = -1e300;
 
   bool open_ = false;
   double start_ = 0.0;
   Eigen::Vector3d v_start_ = Eigen::Vector3d::Zero();
   Eigen::Matrix3d v_start_covariance_ = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d v_end_ = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d v_end_covariance_ = Eigen::Matrix3d::Zero();
-  double end_ = 0.0;
   Eigen::Matrix3d start_R_now_ = Eigen::Matrix3d::Identity();  ///< R_{a<-last twist}
   Eigen::Vector3d force_sum_ = Eigen::Vector3d::Zero();        ///< sum R_{a<-i} f_i dt_i
   Eigen::Vector3d force_time_sum_ = Eigen::Vector3d::Zero();  ///< sum R_{a<-i} f_i dt_i (s_i - s_a)

@@ -233,6 +233,12 @@ struct VislamOptions {
   std::string validate() const;
 };
 
+/// Whether an accelerometer is used: gravity/enabled, and SLAM mode (dead reckoning stays the
+/// twist alone, mapping keeps the dead-reckoned poses).
+inline bool usesAccelerometer(const VislamOptions& options) {
+  return options.gravity.enabled && options.mode == EstimatorMode::kSlam;
+}
+
 /// Fills `options` from `source`: absent keys keep their current values; unknown enum names or
 /// values of the wrong type or out of range make it return false with a message naming the key,
 /// and leave `options` unchanged.

@@ -17,7 +17,6 @@ namespace {
 constexpr double kMinCoverage = 0.9;
 /// Chi-square gate of a window (3 dof).
 constexpr double kGateProbability = 0.9999;
-constexpr double kNoStamp = -1e300;
 
 }  // namespace
 
@@ -126,7 +125,7 @@ std::optional<UpdateStatus> GravityUpdater::onTwist(double twist_stamp, const Ve
                                                     const Eigen::MatrixXd& d_w_d_bias,
                                                     FilterState* state, EstimatorStats* stats) {
   // Without an accelerometer (yet) no window opens: nothing to count.
-  if (twist_stamp <= last_twist_stamp_ || last_added_stamp_ == kNoStamp) return std::nullopt;
+  if (twist_stamp <= last_twist_stamp_ || !hasSamples()) return std::nullopt;
   const Eigen::Vector3d w = u.tail<3>();
   if (open_) {
     integrateSamples(twist_stamp, w);

@@ -175,7 +175,8 @@ FeedResult VislamEstimator::feedAccelerometer(const AccelerometerData& sample) {
 }
 
 void VislamEstimator::updateGravity(const TwistData& twist) {
-  if (!usesAccelerometer(*options_)) return;
+  // Without an accelerometer sample yet, nothing to integrate: no work at twist rate.
+  if (!usesAccelerometer(*options_) || !gravity_updater_.hasSamples()) return;
   const StateLayout& layout = state_.layout();
   // d w_corrected / d bias: w = R_m (w_measured - b) on the gyro components.
   Eigen::MatrixXd d_w_d_bias = Eigen::MatrixXd::Zero(3, layout.biasDim());

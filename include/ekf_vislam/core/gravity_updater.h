@@ -60,6 +60,8 @@ class GravityUpdater {
  public:
   /// Accelerometer samples kept waiting for their twist at most.
   static constexpr size_t kMaxPending = 10000;
+  /// A stamp not set yet.
+  static constexpr double kNoStamp = -1e300;
 
   explicit GravityUpdater(const VislamOptions& options);
 
@@ -79,6 +81,8 @@ class GravityUpdater {
                                       const Eigen::MatrixXd& d_w_d_bias, FilterState* state,
                                       EstimatorStats* stats);
 
+  /// An accelerometer sample came since the reset (before, onTwist does nothing).
+  bool hasSamples() const { return last_added_stamp_ != kNoStamp; }
   /// The last window closed (tests, diagnostics).
   const GravityWindow& lastWindow() const { return last_window_; }
   /// Per-sample noise std of the accelerometer in use now (m/s^2, each axis) for samples this
@@ -102,15 +106,15 @@ class GravityUpdater {
   /// depends on the samples before it only, not on when the twists come (live equals offline).
   struct PendingSample {
     AccelerometerData sample;
-    double previous_stamp = -1e300;
+    double previous_stamp = kNoStamp;
     double variance = 0.0;
   };
   std::deque<PendingSample> pending_;
-  double last_added_stamp_ = -1e300;  ///< stamp of the last sample accepted (none: -1e300)
-  double last_twist_stamp_ = -1e300;
+  double last_added_stamp_ = kNoStamp;  ///< stamp of the last sample accepted
+  double last_twist_stamp_ = kNoStamp;
   /// A window opens at a twist after this stamp: a window length after the first sample, then
   /// (once one opened) any.
-  double windows_open_after_ = -1e300;
+  double windows_open_after_ = kNoStamp;
 
   bool open_ = false;
   double start_ = 0.0;

@@ -136,35 +136,8 @@ bool BagReader::imuTFrame(const std::string& frame, Eigen::Isometry3d* imu_T_fra
   return false;
 }
 
-bool BagReader::combineTwist(const rosbag::MessageInstance& m, const Callback& callback,
-                             double fraction, std::string* error) {
-  Eigen::Isometry3d imu_T_frame;
-  if (m.getTopic() == topics_.imu_data) {
-    auto imu = m.instantiate<sensor_msgs::Imu>();
-    if (!imu) {
-      if (error) *error = topics_.imu_data + " is not sensor_msgs/Imu";
-      return false;
-    }
-    if (combiner_time_jumps_.jumpedBack(0, imu->header.stamp.toSec())) combiner_->reset();
-    if (!imuTFrame(imu->header.frame_id, &imu_T_frame, error)) return false;
-    combiner_->addAngularVelocity(
-        ros_conversions::toAngularVelocitySample(*imu, imu_T_frame.linear()));
-  } else {
-    auto odometry = m.instantiate<nav_msgs::Odometry>();
-    if (!odometry) {
-      if (error) *error = topics_.wheel_odometry + " is not nav_msgs/Odometry";
-      return false;
-    }
-    if (combiner_time_jumps_.jumpedBack(1, odometry->header.stamp.toSec())) combiner_->reset();
-    if (!imuTFrame(odometry->child_frame_id, &imu_T_frame, error)) return false;
-    combiner_->addLinearVelocity(ros_conversions::toLinearVelocitySample(*odometry, imu_T_frame));
-  }
-  for (TwistData& twist : combiner_->takeReady()) callback(Measurement(twist), fraction);
-  return true;
-}
-
-bool BagReader::readAccelerometer(const rosbag::MessageInstance& m, const Callback& callback,
-                                  double fraction, std::string* error) {
+bool BagReader::readImu(const rosbag::MessageInstance& m, const Callback& callback, double fraction,
+                        std::string* error) {
   auto imu = m.instantiate<sensor_msgs::Imu>();
   if (!imu) {
     if (error) *error = topics_.imu_data + " is not sensor_msgs/Imu";
@@ -172,10 +145,33 @@ bool BagReader::readAccelerometer(const rosbag::MessageInstance& m, const Callba
   }
   Eigen::Isometry3d imu_T_frame;
   if (!imuTFrame(imu->header.frame_id, &imu_T_frame, error)) return false;
-  if (const std::optional<AccelerometerData> sample =
-          ros_conversions::toAccelerometerData(*imu, imu_T_frame.linear())) {
-    callback(Measurement(*sample), fraction);
+  if (accelerometer_) {
+    if (const std::optional<AccelerometerData> sample =
+            ros_conversions::toAccelerometerData(*imu, imu_T_frame.linear())) {
+      callback(Measurement(*sample), fraction);
+    }
   }
+  if (combiner_) {
+    if (combiner_time_jumps_.jumpedBack(0, imu->header.stamp.toSec())) combiner_->reset();
+    combiner_->addAngularVelocity(
+        ros_conversions::toAngularVelocitySample(*imu, imu_T_frame.linear()));
+    for (TwistData& twist : combiner_->takeReady()) callback(Measurement(twist), fraction);
+  }
+  return true;
+}
+
+bool BagReader::readWheelOdometry(const rosbag::MessageInstance& m, const Callback& callback,
+                                  double fraction, std::string* error) {
+  auto odometry = m.instantiate<nav_msgs::Odometry>();
+  if (!odometry) {
+    if (error) *error = topics_.wheel_odometry + " is not nav_msgs/Odometry";
+    return false;
+  }
+  if (combiner_time_jumps_.jumpedBack(1, odometry->header.stamp.toSec())) combiner_->reset();
+  Eigen::Isometry3d imu_T_frame;
+  if (!imuTFrame(odometry->child_frame_id, &imu_T_frame, error)) return false;
+  combiner_->addLinearVelocity(ros_conversions::toLinearVelocitySample(*odometry, imu_T_frame));
+  for (TwistData& twist : combiner_->takeReady()) callback(Measurement(twist), fraction);
   return true;
 }
 
@@ -213,14 +209,11 @@ bool BagReader::forEachMeasurement(const Callback& callback, std::string* error)
     const double span = std::max(1e-9, view.getEndTime().toSec() - begin);
     for (const rosbag::MessageInstance& m : view) {
       const double fraction = (m.getTime().toSec() - begin) / span;
-      if (accelerometer_ && m.getTopic() == topics_.imu_data &&
-          !readAccelerometer(m, callback, fraction, error)) {
-        return false;
-      }
-      if (combiner_ && m.getTopic() != topics_.features) {
-        if (!combineTwist(m, callback, fraction, error)) return false;
-      } else if (m.getTopic() == topics_.imu_data) {
-        continue;  // the accelerometer only (read above)
+      // One Imu feeds the accelerometer and, when the twist is combined, the gyro.
+      if (m.getTopic() == topics_.imu_data) {
+        if (!readImu(m, callback, fraction, error)) return false;
+      } else if (combiner_ && m.getTopic() == topics_.wheel_odometry) {
+        if (!readWheelOdometry(m, callback, fraction, error)) return false;
       } else if (m.getTopic() == topics_.twist) {
         TwistData twist;
         if (!convertTwist(m, &twist, error)) return false;

@@ -87,11 +87,12 @@ class BagReader {
 
  private:
   bool convertTwist(const rosbag::MessageInstance& m, TwistData* twist, std::string* error);
-  /// Feeds a gyro or wheel message to the combiner and passes on the twists it completes.
-  bool combineTwist(const rosbag::MessageInstance& m, const Callback& callback, double fraction,
-                    std::string* error);
-  /// An Imu's accelerometer sample, when it has one.
-  bool readAccelerometer(const rosbag::MessageInstance& m, const Callback& callback,
+  /// An Imu message: its accelerometer sample (useAccelerometer, when it has one) and its gyro
+  /// sample to the combiner (useTwistCombiner), then the twists the combiner completes.
+  bool readImu(const rosbag::MessageInstance& m, const Callback& callback, double fraction,
+               std::string* error);
+  /// A wheel odometry message to the combiner, then the twists it completes.
+  bool readWheelOdometry(const rosbag::MessageInstance& m, const Callback& callback,
                          double fraction, std::string* error);
   /// imu_frame <- frame from the static transforms (identity for the IMU frame itself).
   bool imuTFrame(const std::string& frame, Eigen::Isometry3d* imu_T_frame, std::string* error);

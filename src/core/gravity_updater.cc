@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <tuple>
 #include <vector>
 
 namespace ekf_vislam {
@@ -49,6 +50,7 @@ void GravityUpdater::reset() {
   pending_.clear();
   last_added_stamp_ = kNoStamp;
   last_twist_stamp_ = kNoStamp;
+  p_accel_in_imu_.setZero();
   windows_open_after_ = kNoStamp;
   open_ = false;
 }
@@ -93,6 +95,7 @@ void GravityUpdater::integrateSamples(double twist_stamp, const Eigen::Vector3d&
     const double previous = pending_.front().previous_stamp;
     const double variance = pending_.front().variance;
     pending_.pop_front();
+    p_accel_in_imu_ = sample.p_accel_in_imu;
     if (!open_ || previous == kNoStamp || sample.stamp <= start_) continue;
     const double dt = sample.stamp - std::max(previous, start_);
     const Eigen::Matrix3d start_R_sample =
@@ -106,11 +109,18 @@ void GravityUpdater::integrateSamples(double twist_stamp, const Eigen::Vector3d&
   }
 }
 
+std::pair<Eigen::Vector3d, Eigen::Matrix3d> GravityUpdater::accelVelocity(
+    const Vector6d& u, const Matrix6d& u_covariance) const {
+  // v + w^ r = [I, -r^] u.
+  Eigen::Matrix<double, 3, 6> J;
+  J << Eigen::Matrix3d::Identity(), -se3::hat(p_accel_in_imu_);
+  return {J * u, J * u_covariance * J.transpose()};
+}
+
 void GravityUpdater::openWindow(double stamp, const Vector6d& u, const Matrix6d& u_covariance) {
   open_ = true;
   start_ = stamp;
-  v_start_ = u.head<3>();
-  v_start_covariance_ = u_covariance.topLeftCorner<3, 3>();
+  std::tie(v_start_, v_start_covariance_) = accelVelocity(u, u_covariance);
   start_R_now_.setIdentity();
   force_sum_.setZero();
   force_time_sum_.setZero();
@@ -153,7 +163,8 @@ std::optional<UpdateStatus> GravityUpdater::onTwist(double twist_stamp, const Ve
     stats->increment(Counter::kGravityIncomplete);
     return std::nullopt;
   }
-  last_window_ = closeWindow(twist_stamp, u.head<3>(), u_covariance.topLeftCorner<3, 3>());
+  const auto [v_end, v_end_covariance] = accelVelocity(u, u_covariance);
+  last_window_ = closeWindow(twist_stamp, v_end, v_end_covariance);
   return apply(last_window_, d_w_d_bias, state, stats);
 }
 
@@ -169,7 +180,10 @@ GravityWindow GravityUpdater::closeWindow(double end, const Eigen::Vector3d& v_e
   window.z = mean_force - (v_end - v_start_end) / duration;
   // A rate error turns every rotation into the end frame: d(R_{b<-x} y) = (s_b - x) (R y)^ dw.
   const Eigen::Vector3d turned = end_R_start * (force_sum_ * duration - force_time_sum_) / covered_;
-  window.dz_dw = se3::hat(turned) + se3::hat(v_start_end);
+  // The lever arm's velocities w^ r at both ends move with the rate too: d(w^ r) = -r^ dw.
+  const Eigen::Matrix3d r_hat = se3::hat(p_accel_in_imu_);
+  window.dz_dw =
+      se3::hat(turned) + se3::hat(v_start_end) + (r_hat - end_R_start * r_hat) / duration;
   window.dz_dbias = end_R_start * rotation_sum_ / covered_;
   const Eigen::Vector3d rotated = mean_force + v_start_end / duration;
   window.noise = Eigen::Matrix3d::Identity() * force_variance_ / (covered_ * covered_) +

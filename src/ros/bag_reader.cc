@@ -147,7 +147,7 @@ bool BagReader::readImu(const rosbag::MessageInstance& m, const Callback& callba
   if (!imuTFrame(imu->header.frame_id, &imu_T_frame, error)) return false;
   if (accelerometer_) {
     if (const std::optional<AccelerometerData> sample =
-            ros_conversions::toAccelerometerData(*imu, imu_T_frame.linear())) {
+            ros_conversions::toAccelerometerData(*imu, imu_T_frame)) {
       callback(Measurement(*sample), fraction);
     }
   }

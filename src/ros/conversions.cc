@@ -107,13 +107,14 @@ ImuVector imuVector(const geometry_msgs::Vector3& v, const boost::array<double, 
 }  // namespace
 
 std::optional<AccelerometerData> toAccelerometerData(const sensor_msgs::Imu& msg,
-                                                     const Eigen::Matrix3d& R_imu_from_msg) {
+                                                     const Eigen::Isometry3d& imu_T_msg) {
   if (msg.linear_acceleration_covariance[0] == -1.0) return std::nullopt;
   const ImuVector f =
-      imuVector(msg.linear_acceleration, msg.linear_acceleration_covariance, R_imu_from_msg);
+      imuVector(msg.linear_acceleration, msg.linear_acceleration_covariance, imu_T_msg.linear());
   AccelerometerData sample;
   sample.stamp = msg.header.stamp.toSec();
   sample.f_imu = f.value;
+  sample.p_accel_in_imu = imu_T_msg.translation();
   sample.covariance = f.covariance;
   return sample;
 }

@@ -146,19 +146,23 @@ TEST(Conversions, ImuAccelerometerIsRotatedIntoTheImuFrameOrMissing) {
   imu.linear_acceleration.z = 9.8;
   imu.linear_acceleration_covariance = {4e-4, 0, 0, 0, 1e-4, 0, 0, 0, 9e-4};
   const Eigen::Matrix3d R = se3::expSO3(Eigen::Vector3d(0.0, 0.0, M_PI / 2));
-  std::optional<AccelerometerData> sample = rc::toAccelerometerData(imu, R);
+  Eigen::Isometry3d imu_T_frame = Eigen::Isometry3d::Identity();
+  imu_T_frame.linear() = R;
+  imu_T_frame.translation() = Eigen::Vector3d(0.3, -0.2, 0.1);  // the lever arm, kept
+  std::optional<AccelerometerData> sample = rc::toAccelerometerData(imu, imu_T_frame);
   ASSERT_TRUE(sample.has_value());
   EXPECT_DOUBLE_EQ(sample->stamp, 3.25);
   EXPECT_LT((sample->f_imu - R * Eigen::Vector3d(0.5, -0.1, 9.8)).norm(), 1e-14);
+  EXPECT_EQ(sample->p_accel_in_imu, imu_T_frame.translation());
   // A quarter turn about z: x and y variances swap.
   EXPECT_NEAR(sample->covariance(0, 0), 1e-4, 1e-18);
   EXPECT_NEAR(sample->covariance(1, 1), 4e-4, 1e-18);
   imu.linear_acceleration_covariance = {};  // unknown: estimated online
-  sample = rc::toAccelerometerData(imu, Eigen::Matrix3d::Identity());
+  sample = rc::toAccelerometerData(imu, Eigen::Isometry3d::Identity());
   ASSERT_TRUE(sample.has_value());
   EXPECT_FALSE(sample->hasCovariance());
   imu.linear_acceleration_covariance[0] = -1.0;  // the Imu convention: no accelerometer
-  EXPECT_FALSE(rc::toAccelerometerData(imu, Eigen::Matrix3d::Identity()).has_value());
+  EXPECT_FALSE(rc::toAccelerometerData(imu, Eigen::Isometry3d::Identity()).has_value());
 }
 
 TEST(Conversions, OdometryTwistInAnotherFrameMatchesRigidBodyMotion) {

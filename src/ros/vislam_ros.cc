@@ -198,14 +198,15 @@ void VislamRos::imuCallback(const sensor_msgs::Imu::ConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (shut_down_) return;
   ++accel_received_;
-  // Its axes turned into the IMU frame's (fixed tf; no lever arm), once tf knows the frame.
+  // Into the IMU frame (fixed tf: its axes turned, its origin the lever arm), once tf knows the
+  // frame.
   accel_waiting_.push(msg);
   accel_waiting_.drain(
       ros_options_.tf_wait, &imu_T_frame_,
       [](const sensor_msgs::Imu& m) { return m.header.frame_id; },
       [this](const sensor_msgs::Imu& m, const Eigen::Isometry3d& imu_T_frame) {
         const std::optional<AccelerometerData> sample =
-            ros_conversions::toAccelerometerData(m, imu_T_frame.linear());
+            ros_conversions::toAccelerometerData(m, imu_T_frame);
         if (sample) {
           push(Measurement(*sample));
           return;

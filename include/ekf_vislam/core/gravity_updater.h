@@ -6,8 +6,10 @@
 //   z = (sum_i R_{b<-i} f_i dt_i) / dt - (v_b - R_{b<-a} v_a) / dt  =  g R_b^T up + b_a + n,
 //
 // R_b = world_R_imu at s_b, up = gravity's up axis in world axes (level state: its x and y), b_a
-// the accelerometer bias (M b_a: M the mean rotation from a sample to s_b). Windows do not share a
-// twist sample, so their noises are independent. The noise: the accelerometer's (message
+// the accelerometer bias (M b_a: M the mean rotation from a sample to s_b). An accelerometer at
+// r in the IMU frame (its lever arm) moves at v + w^ r: that velocity stands for v at both ends,
+// and the equation holds for it exactly. Windows do not share a twist sample, so their noises are
+// independent. The noise: the accelerometer's (message
 // covariance, else estimated online from its samples), the two velocities' and the gyro's over the
 // window. No ROS.
 #pragma once
@@ -24,6 +26,7 @@
 #include <cstdint>
 #include <deque>
 #include <optional>
+#include <utility>
 
 namespace ekf_vislam {
 
@@ -91,9 +94,12 @@ class GravityUpdater {
 
  private:
   void integrateSamples(double twist_stamp, const Eigen::Vector3d& w);
+  /// The accelerometer's velocity v + w^ r (IMU axes) and its covariance, from the twist u.
+  std::pair<Eigen::Vector3d, Eigen::Matrix3d> accelVelocity(const Vector6d& u,
+                                                            const Matrix6d& u_covariance) const;
   void openWindow(double stamp, const Vector6d& u, const Matrix6d& u_covariance);
-  /// The open window's measurement, closed at the twist `end` of velocity v_end (covariance
-  /// v_end_covariance).
+  /// The open window's measurement, closed at the twist `end` of velocity v_end (the
+  /// accelerometer's, covariance v_end_covariance).
   GravityWindow closeWindow(double end, const Eigen::Vector3d& v_end,
                             const Eigen::Matrix3d& v_end_covariance) const;
   UpdateStatus apply(const GravityWindow& window, const Eigen::MatrixXd& d_w_d_bias,
@@ -112,6 +118,8 @@ class GravityUpdater {
   std::deque<PendingSample> pending_;
   double last_added_stamp_ = kNoStamp;  ///< stamp of the last sample accepted
   double last_twist_stamp_ = kNoStamp;
+  /// The lever arm of the last sample integrated (fixed by the mount; read in stamp order).
+  Eigen::Vector3d p_accel_in_imu_ = Eigen::Vector3d::Zero();
   /// A window opens at a twist after this stamp: a window length after the first sample, then
   /// (once one opened) any.
   double windows_open_after_ = kNoStamp;

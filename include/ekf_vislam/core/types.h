@@ -29,6 +29,8 @@ struct TwistData {
 struct AccelerometerData {
   double stamp = 0.0;
   Eigen::Vector3d f_imu = Eigen::Vector3d::Zero();
+  /// m, where the accelerometer sits in the IMU frame (its lever arm; zero: at the origin).
+  Eigen::Vector3d p_accel_in_imu = Eigen::Vector3d::Zero();
   /// Covariance of one sample (the message's own); zero = unknown (estimated online).
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
   bool hasCovariance() const { return !covariance.isZero(0.0); }

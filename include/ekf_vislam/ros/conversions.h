@@ -49,11 +49,11 @@ TwistData toTwistData(const nav_msgs::Odometry& msg, const Eigen::Isometry3d& im
 geometry_msgs::TwistWithCovarianceStamped toTwistWithCovarianceMsg(const TwistData& twist,
                                                                    const std::string& frame_id);
 /// sensor_msgs/Imu -> the accelerometer sample (linear_acceleration, the specific force) rotated
-/// into the IMU frame by R_imu_from_msg (a lever arm is not compensated: mount the accelerometer
-/// at the IMU frame's origin); nothing when linear_acceleration_covariance[0] = -1 (no data, the
-/// Imu convention). An all-zero covariance is unknown (estimated online).
+/// into the IMU frame by imu_T_msg, whose translation is the accelerometer's lever arm (the
+/// gravity update takes it into account); nothing when linear_acceleration_covariance[0] = -1
+/// (no data, the Imu convention). An all-zero covariance is unknown (estimated online).
 std::optional<AccelerometerData> toAccelerometerData(const sensor_msgs::Imu& msg,
-                                                     const Eigen::Matrix3d& R_imu_from_msg);
+                                                     const Eigen::Isometry3d& imu_T_msg);
 
 /// sensor_msgs/Imu -> the gyro sample of TwistCombiner, rotated into the IMU frame by
 /// R_imu_from_msg (identity when the message is in it). angular_velocity_covariance[0] = -1

@@ -76,10 +76,16 @@ Scenario makeScenario(const ScenarioOptions& o) {
       const size_t j = std::max<size_t>(k, 1);  // sample 0 repeats sample 1
       const Eigen::Matrix3d R = s.world_T_imu[j].topLeftCorner<3, 3>();
       const Eigen::Matrix3d R_previous = s.world_T_imu[j - 1].topLeftCorner<3, 3>();
+      // The accelerometer's own velocity, v + w^ r.
+      auto accelVelocity = [&](const TwistData& u) {
+        return Eigen::Vector3d(u.v_imu + u.w_imu.cross(o.accel_lever_arm));
+      };
       const Eigen::Vector3d a_world =
-          (R * s.true_twists[j].v_imu - R_previous * s.true_twists[j - 1].v_imu) / o.dt;
+          (R * accelVelocity(s.true_twists[j]) - R_previous * accelVelocity(s.true_twists[j - 1])) /
+          o.dt;
       AccelerometerData sample;
       sample.stamp = s.twists[k].stamp;
+      sample.p_accel_in_imu = o.accel_lever_arm;
       sample.f_imu = R.transpose() * (a_world + 9.80665 * up) + o.accel_bias;
       for (int i = 0; i < 3; ++i) sample.f_imu(i) += o.accel_noise * normal(accel_rng);
       s.accels.push_back(sample);

@@ -37,6 +37,8 @@ struct ScenarioOptions {
   double accel_noise = -1.0;
   Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();
   Eigen::Vector3d up_world = Eigen::Vector3d::UnitZ();
+  /// m, where the accelerometer sits in the IMU frame (each sample carries it).
+  Eigen::Vector3d accel_lever_arm = Eigen::Vector3d::Zero();
 };
 
 struct Scenario {
@@ -45,7 +47,7 @@ struct Scenario {
   std::vector<TwistData> true_twists;  ///< noiseless, bias-free
   std::vector<FeatureFrame> frames;    ///< one per frame, same stamps
   /// One per frame, same stamps (ScenarioOptions::accel_noise >= 0): the mean specific force over
-  /// the period ending there, IMU frame.
+  /// the period ending there at ScenarioOptions::accel_lever_arm, IMU axes.
   std::vector<AccelerometerData> accels;
   std::vector<Eigen::Matrix4d> world_T_imu;     ///< ground truth per frame
   std::map<uint32_t, Eigen::Vector3d> p_world;  ///< ground truth landmark of each id

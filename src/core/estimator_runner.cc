@@ -122,13 +122,22 @@ void EstimatorRunner::feed(const Measurement& measurement, const Observer& obser
   if (const AccelerometerData* sample = std::get_if<AccelerometerData>(&measurement)) {
     // The estimator keeps it until the twists after it are integrated.
     Processed processed;
-    processed.is_accelerometer = true;
+    processed.kind = Kind::kAccelerometer;
     processed.stamp = sample->stamp;
     processed.result = estimator_.feedAccelerometer(*sample);
     if (observer) observer(processed);
     return;
   }
   feedFrame(std::get<FeatureFrame>(measurement), observer);
+}
+
+const char* EstimatorRunner::kindName(Kind kind) {
+  switch (kind) {
+    case Kind::kFrame: return "feature frame";
+    case Kind::kAccelerometer: return "accelerometer sample";
+    case Kind::kTwist: break;
+  }
+  return "twist";
 }
 
 void EstimatorRunner::integrateWaitingTwists(double stamp, const Observer& observer) {
@@ -152,7 +161,7 @@ void EstimatorRunner::feedFrame(const FeatureFrame& frame, const Observer& obser
   if (std::isfinite(frame.stamp)) integrateWaitingTwists(frame.stamp, observer);
   Processed processed;
   processed.stamp = frame.stamp;
-  processed.is_frame = true;
+  processed.kind = Kind::kFrame;
   processed.without_calibration = !estimator_.hasCalibration();
   if (processed.without_calibration) ++frames_without_calibration_;
   const auto start = Clock::now();

@@ -55,7 +55,7 @@ TEST(EstimatorRunner, FeedsInStampOrderAndRecordsTheTrajectory) {
   ASSERT_TRUE(runner.estimator().setCalibration(calibration, &error)) << error;
   std::vector<std::pair<bool, double>> seen;
   const auto observer = [&](const EstimatorRunner::Processed& p) {
-    seen.emplace_back(p.is_frame, p.stamp);
+    seen.emplace_back(p.kind == EstimatorRunner::Kind::kFrame, p.stamp);
     EXPECT_FALSE(p.without_calibration);
   };
   for (int k = 0; k < 5; ++k) {

@@ -79,10 +79,10 @@ bool TwistCombiner::addLinearVelocity(const LinearVelocitySample& sample, std::s
   const bool finite = sample.v_base.allFinite() && sample.covariance.allFinite() &&
                       sample.imu_T_base.matrix().allFinite();
   if (!admit(finite, for_noise, &wheel_, "linear velocity", why)) return false;
-  linear_.push_back(sample);
-  LinearVelocitySample& admitted = linear_.back();
+  AdmittedLinearVelocity admitted{sample};
   if (wheel_.noise.ready()) admitted.estimated_variance = std::pow(wheel_.noise.linearSigma(), 2);
   admitted.period = wheel_.period;
+  linear_.push_back(admitted);
   release();
   return true;
 }
@@ -140,7 +140,7 @@ bool TwistCombiner::tryCombine(const AngularGroup& group, double newest_angular_
   // The first wheel sample at or after t, and the last one before it.
   auto after = std::lower_bound(
       linear_.begin(), linear_.end(), t,
-      [](const LinearVelocitySample& sample, double stamp) { return sample.stamp < stamp; });
+      [](const AdmittedLinearVelocity& sample, double stamp) { return sample.stamp < stamp; });
   const bool has_before = after != linear_.begin();
   if (after != linear_.end()) {
     if (!has_before || after->stamp == t) {
@@ -152,7 +152,7 @@ bool TwistCombiner::tryCombine(const AngularGroup& group, double newest_angular_
       if (after->stamp != t) ++counters_.velocity_held;
       ready_.push_back(combine(group, *after, *after, 0.0));
     } else {
-      const LinearVelocitySample& before = *std::prev(after);
+      const AdmittedLinearVelocity& before = *std::prev(after);
       const double weight_after = (t - before.stamp) / (after->stamp - before.stamp);
       ready_.push_back(combine(group, before, *after, weight_after));
     }
@@ -171,8 +171,8 @@ bool TwistCombiner::tryCombine(const AngularGroup& group, double newest_angular_
   return true;
 }
 
-TwistData TwistCombiner::combine(const AngularGroup& group, const LinearVelocitySample& before,
-                                 const LinearVelocitySample& after, double weight_after) const {
+TwistData TwistCombiner::combine(const AngularGroup& group, const AdmittedLinearVelocity& before,
+                                 const AdmittedLinearVelocity& after, double weight_after) const {
   // Each wheel sample moved to the IMU origin with this twist's angular velocity, then
   // interpolated: v_imu = R v_base + p x w_imu, d v_imu / d w_imu = [p]x.
   auto at_imu = [&group](const LinearVelocitySample& sample) {
@@ -198,8 +198,8 @@ TwistData TwistCombiner::combine(const AngularGroup& group, const LinearVelocity
 }
 
 Eigen::Matrix3d TwistCombiner::wheelCovariance(const AngularGroup& group,
-                                               const LinearVelocitySample& before,
-                                               const LinearVelocitySample& after,
+                                               const AdmittedLinearVelocity& before,
+                                               const AdmittedLinearVelocity& after,
                                                double weight_after) const {
   Eigen::Matrix3d per_sample;
   if (!before.covariance.isZero(0.0) && !after.covariance.isZero(0.0)) {

@@ -362,7 +362,8 @@ void VislamRos::reportRefusedCalibration(const std::string& why) {
 
 void VislamRos::onProcessed(const EstimatorRunner::Processed& processed) {
   const VislamEstimator& estimator = runner_->estimator();
-  if (processed.is_frame && processed.without_calibration) {
+  const bool is_frame = processed.kind == EstimatorRunner::Kind::kFrame;
+  if (is_frame && processed.without_calibration) {
     ROS_WARN_THROTTLE(5.0,
                       "%s: no valid calibration yet (%s): feature frames are skipped, "
                       "prediction continues (%lu frames so far)",
@@ -370,25 +371,22 @@ void VislamRos::onProcessed(const EstimatorRunner::Processed& processed) {
                       static_cast<unsigned long>(runner_->framesWithoutCalibration()));
   } else if (!processed.result.accepted) {
     ROS_WARN_THROTTLE(5.0, "%s: %s rejected: %s", name_.c_str(),
-                      processed.is_frame           ? "feature frame"
-                      : processed.is_accelerometer ? "accelerometer sample"
-                                                   : "twist",
-                      processed.result.message.c_str());
+                      EstimatorRunner::kindName(processed.kind), processed.result.message.c_str());
   } else if (!processed.result.message.empty()) {
     ROS_DEBUG("%s: %s", name_.c_str(), processed.result.message.c_str());
   }
-  if (processed.is_frame) {
+  if (is_frame) {
     last_update_ms_ = processed.processing_ms;
     ++last_processed_count_;
   }
-  if (!processed.is_frame || !processed.result.accepted || !estimator.initialized()) return;
+  if (!is_frame || !processed.result.accepted || !estimator.initialized()) return;
   last_stamp_ = estimator.time();
   if (publishing_) {
     publishOdometry(last_stamp_, estimator.worldTImu(), estimator.poseCovarianceWorld(),
                     estimator.correctedTwist(), estimator.correctedTwistCovariance(), true);
   }
   Eigen::Isometry3d imu_T_output;
-  if (processed.is_frame && !runner_->trajectory().empty() && imuTOutput(&imu_T_output)) {
+  if (!runner_->trajectory().empty() && imuTOutput(&imu_T_output)) {
     geometry_msgs::PoseStamped pose;
     pose.header.frame_id = ros_options_.world_frame;
     pose.header.stamp = ros_conversions::toRosTime(runner_->trajectory().back().stamp);

@@ -32,9 +32,12 @@ namespace ekf_vislam {
 class EstimatorRunner {
  public:
   /// What happened to one released measurement.
+  /// Which stream a released measurement came from.
+  enum class Kind { kTwist, kFrame, kAccelerometer };
+  /// "twist", "feature frame", "accelerometer sample" (log messages).
+  static const char* kindName(Kind kind);
   struct Processed {
-    bool is_frame = false;
-    bool is_accelerometer = false;  ///< an accelerometer sample (neither frame nor twist)
+    Kind kind = Kind::kTwist;
     double stamp = 0.0;
     FeedResult result;
     double processing_ms = 0.0;        ///< feedFeatures time (frames only)

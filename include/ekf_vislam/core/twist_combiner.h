@@ -56,11 +56,6 @@ struct LinearVelocitySample {
   Eigen::Vector3d v_base = Eigen::Vector3d::Zero();
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  ///< m^2/s^2; all zero: unknown
   Eigen::Isometry3d imu_T_base = Eigen::Isometry3d::Identity();
-  /// Set by TwistCombiner when it admits the sample: the stream's estimated per-sample variance
-  /// (0: not ready) and period as they were then, so that a twist's covariance depends on the
-  /// samples up to its wheel samples only, not on when the other stream's messages came.
-  double estimated_variance = 0.0;
-  double period = 0.0;
 };
 
 struct TwistCombinerCounters {
@@ -103,10 +98,17 @@ class TwistCombiner {
     Eigen::Vector3d w_imu = Eigen::Vector3d::Zero();
     Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  ///< of the mean; zero: unknown
   };
+  /// A wheel sample as admitted, with the stream's estimated per-sample variance (0: not ready)
+  /// and period as they were then, so that a twist's covariance depends on the samples up to its
+  /// wheel samples only, not on when the other stream's messages came.
+  struct AdmittedLinearVelocity : LinearVelocitySample {
+    double estimated_variance = 0.0;
+    double period = 0.0;
+  };
   /// Per-sample covariance of the wheel velocity at `t` between `before` and `after` (messages'
   /// or estimated), scaled to the twist's period; zero while unknown.
-  Eigen::Matrix3d wheelCovariance(const AngularGroup& group, const LinearVelocitySample& before,
-                                  const LinearVelocitySample& after, double weight_after) const;
+  Eigen::Matrix3d wheelCovariance(const AngularGroup& group, const AdmittedLinearVelocity& before,
+                                  const AdmittedLinearVelocity& after, double weight_after) const;
   /// One input stream: its last stamp, its sample period and its white noise, estimated from
   /// its own samples (windows as the estimator's defaults: noise/twist_noise_window 300,
   /// twist_noise_min_samples 5).
@@ -123,14 +125,14 @@ class TwistCombiner {
   void release();
   /// False while the group must wait for a wheel sample.
   bool tryCombine(const AngularGroup& group, double newest_angular_stamp);
-  TwistData combine(const AngularGroup& group, const LinearVelocitySample& before,
-                    const LinearVelocitySample& after, double weight_after) const;
+  TwistData combine(const AngularGroup& group, const AdmittedLinearVelocity& before,
+                    const AdmittedLinearVelocity& after, double weight_after) const;
   void pruneLinear(double released_stamp);
 
   TwistCombinerOptions options_;
   std::vector<AngularVelocitySample> open_group_;  ///< gyro samples of the twist being filled
   std::deque<AngularGroup> waiting_;               ///< complete gyro parts, stamp order
-  std::deque<LinearVelocitySample> linear_;        ///< wheel samples, stamp order
+  std::deque<AdmittedLinearVelocity> linear_;      ///< wheel samples, stamp order
   std::vector<TwistData> ready_;
   StreamState gyro_, wheel_;
   TwistCombinerCounters counters_;

@@ -955,6 +955,29 @@ TEST(VislamEstimator, TracksTurningAwayFromTheirPointsAreExplainedByTheDriftRate
   EXPECT_LT(nees_with, nees_without);
 }
 
+/// The drifting-track drive of the tilt tests: 600 frames, AR(1) 0.85 tracks turning away from
+/// their points about the vehicle's forward and lateral axes.
+ScenarioOptions driftingTracksDrive(int seed, int observations) {
+  ScenarioOptions so;
+  so.seed = seed;
+  so.frames = 600;
+  so.target_observations = observations;
+  so.pixel_correlation = 0.85;
+  so.track_drift_rate_imu = Eigen::Vector3d(3.0e-3, 2.0e-3, 0.0);
+  return so;
+}
+
+/// RMS angle between the true and the estimated up axis (world = first pose).
+double rmsTiltError(const Scenario& truth, const RunResult& r) {
+  double sq = 0.0;
+  const size_t frames = truth.world_T_imu.size();
+  for (size_t k = 0; k < frames; ++k) {
+    const double c = truth.world_T_imu[k].block<3, 1>(0, 2).dot(r.world_T_imu[k].block<3, 1>(0, 2));
+    sq += std::pow(std::acos(std::min(1.0, c)), 2);
+  }
+  return std::sqrt(sq / frames);
+}
+
 TEST(VislamEstimator, FewDriftingTracksDoNotTiltTheVehicleBeyondTheRoadTiltPrior) {
   // A few tracks per frame (about 4), whose pixel errors drift (AR(1) 0.85) and which turn away
   // from their points about the vehicle's forward and lateral axes: the filter reads them as roll
@@ -963,27 +986,13 @@ TEST(VislamEstimator, FewDriftingTracksDoNotTiltTheVehicleBeyondTheRoadTiltPrior
   const int seeds = 3;
   double tilt_without = 0.0, tilt_with = 0.0, ate_without = 0.0, ate_with = 0.0;
   for (int seed = 1; seed <= seeds; ++seed) {
-    ScenarioOptions so;
-    so.seed = seed;
-    so.frames = 600;
-    so.target_observations = 4;
-    so.pixel_correlation = 0.85;
-    so.track_drift_rate_imu = Eigen::Vector3d(3.0e-3, 2.0e-3, 0.0);
+    const ScenarioOptions so = driftingTracksDrive(seed, 4);
     const Scenario s = makeScenario(so);
     VislamOptions with = testing::matchedOptions(so), without = with;
     ASSERT_GT(with.vehicle.tilt_sigma, 0.0) << "the shipped default has the prior on";
     without.vehicle.tilt_sigma = 0.0;
     const RunResult a = run(s, without), b = run(s, with);
-    // RMS angle between the true and the estimated up axis.
-    auto rmsTilt = [&](const RunResult& r) {
-      double sq = 0.0;
-      for (size_t k = 0; k < s.world_T_imu.size(); ++k) {
-        const double c = s.world_T_imu[k].block<3, 1>(0, 2).dot(r.world_T_imu[k].block<3, 1>(0, 2));
-        sq += std::pow(std::acos(std::min(1.0, c)), 2);
-      }
-      return std::sqrt(sq / static_cast<double>(s.world_T_imu.size()));
-    };
-    const double ta = rmsTilt(a), tb = rmsTilt(b);
+    const double ta = rmsTiltError(s, a), tb = rmsTiltError(s, b);
     std::printf(
         "seed %d: without the prior tilt %.4f rad ATE %.3f m NEES %.2f, with it tilt "
         "%.4f rad ATE %.3f m NEES %.2f\n",
@@ -1015,12 +1024,7 @@ TEST(VislamEstimator, AnAccelerometerHoldsTheTiltAgainstDriftingTracks) {
     double tilt_without = 0.0, tilt_with = 0.0, ate_without = 0.0, ate_with = 0.0;
     double nees_with = 0.0;
     for (int seed = 1; seed <= seeds; ++seed) {
-      ScenarioOptions so;
-      so.seed = seed;
-      so.frames = 600;
-      so.target_observations = observations;
-      so.pixel_correlation = 0.85;
-      so.track_drift_rate_imu = Eigen::Vector3d(3.0e-3, 2.0e-3, 0.0);
+      ScenarioOptions so = driftingTracksDrive(seed, observations);
       so.up_world = Eigen::Vector3d(0.03, -0.025, 1.0).normalized();
       const Scenario without_accel = makeScenario(so);
       so.accel_noise = 0.05;
@@ -1031,17 +1035,7 @@ TEST(VislamEstimator, AnAccelerometerHoldsTheTiltAgainstDriftingTracks) {
       const RunResult a = run(without_accel, options), b = run(with_accel, options);
       EXPECT_GT(b.stats.get(Counter::kGravityUpdate), 45u);
       EXPECT_EQ(a.stats.get(Counter::kGravityUpdate), 0u);
-      // RMS angle between the true and the estimated up axis (world = first pose).
-      auto rmsTilt = [&](const RunResult& r) {
-        double sq = 0.0;
-        for (int k = 0; k < so.frames; ++k) {
-          const double c =
-              with_accel.world_T_imu[k].block<3, 1>(0, 2).dot(r.world_T_imu[k].block<3, 1>(0, 2));
-          sq += std::pow(std::acos(std::min(1.0, c)), 2);
-        }
-        return std::sqrt(sq / so.frames);
-      };
-      const double ta = rmsTilt(a), tb = rmsTilt(b);
+      const double ta = rmsTiltError(with_accel, a), tb = rmsTiltError(with_accel, b);
       std::printf(
           "%d per frame, seed %d: without an accelerometer tilt %.4f rad ATE %.3f m NEES %.2f, "
           "with one tilt %.4f rad ATE %.3f m NEES %.2f (%lu windows, %lu gated)\n",
@@ -1081,12 +1075,7 @@ TEST(VislamEstimator, AnAccelerometerAwayFromTheImuIsCompensated) {
   const Eigen::Vector3d lever_arm(2.0, 0.8, 0.5);
   double tilt_origin = 0.0, tilt_told = 0.0, tilt_untold = 0.0, ate_told = 0.0, ate_untold = 0.0;
   for (int seed = 1; seed <= 3; ++seed) {
-    ScenarioOptions so;
-    so.seed = seed;
-    so.frames = 600;
-    so.target_observations = 4;
-    so.pixel_correlation = 0.85;
-    so.track_drift_rate_imu = Eigen::Vector3d(3.0e-3, 2.0e-3, 0.0);
+    ScenarioOptions so = driftingTracksDrive(seed, 4);
     so.up_world = Eigen::Vector3d(0.03, -0.025, 1.0).normalized();
     so.accel_noise = 0.05;
     so.accel_bias = Eigen::Vector3d(0.03, -0.02, 0.04);
@@ -1099,15 +1088,7 @@ TEST(VislamEstimator, AnAccelerometerAwayFromTheImuIsCompensated) {
     Scenario untold = away;
     for (AccelerometerData& sample : untold.accels) sample.p_accel_in_imu.setZero();
     const VislamOptions options = testing::matchedOptions(so);
-    auto rmsTilt = [&](const RunResult& r) {
-      double sq = 0.0;
-      for (int k = 0; k < so.frames; ++k) {
-        const double c =
-            away.world_T_imu[k].block<3, 1>(0, 2).dot(r.world_T_imu[k].block<3, 1>(0, 2));
-        sq += std::pow(std::acos(std::min(1.0, c)), 2);
-      }
-      return std::sqrt(sq / so.frames);
-    };
+    auto rmsTilt = [&](const RunResult& r) { return rmsTiltError(away, r); };
     const RunResult origin = run(at_origin, options), told = run(away, options),
                     not_told = run(untold, options);
     std::printf(

@@ -319,6 +319,11 @@ def print_summary(results, primary, out_dir):
                  _fmt(lm['landmark_rmse_m'], '.3f'), _fmt(lm['landmark_median_m'], '.3f'),
                  _fmt(lm['landmark_within_3sigma'], '.3f')))
     for label, r in results.items():
+        axes = r.get('error_over_sigma_rms')
+        if axes:
+            print('error / sigma RMS (%s; 1 = the covariance is right about that axis): %s'
+                  % (label, ' '.join('%s %.2f' % (name, axes[name]) for name in metrics.POSE_AXES)))
+    for label, r in results.items():
         if r['rpe_note']:
             print('note (%s): RPE not computed: %s' % (label, r['rpe_note']))
     print('wrote %s' % os.path.join(out_dir, 'metrics.json'))

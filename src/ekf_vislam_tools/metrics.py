@@ -488,6 +488,19 @@ def nees_stats(values, dof):
                 inside_95=float(np.mean(values <= CHI2_95[dof])), dof=dof, poses=int(values.size))
 
 
+#: Names of the pose error's axes, in the covariance's (ROS) order, world axes.
+POSE_AXES = ('x', 'y', 'z', 'rot_x', 'rot_y', 'rot_z')
+
+
+def normalized_error_rms(errors, covariances):
+    """Per axis, the RMS over the rows of error / sigma (sigma: the square root of that axis's
+    variance): 1 when the covariance is right about that axis, below 1 when it is too wide, above
+    1 when too narrow. Errors (N,k), covariances (N,k,k)."""
+    errors = np.asarray(errors, dtype=float)
+    sigmas = np.sqrt(np.einsum('nii->ni', np.asarray(covariances, dtype=float)))
+    return np.sqrt(np.mean((errors / sigmas) ** 2, axis=0))
+
+
 def consistency(t_est, estworld_T_imu, t_cov, covariances, t_gt, gtworld_T_imu, max_dt=0.02):
     """Position (3 dof) and pose (6 dof) NEES of an estimate with its per-pose covariance."""
     idx_cov, idx_cov_est = associate(t_cov, t_est, max_dt)
@@ -504,4 +517,6 @@ def consistency(t_est, estworld_T_imu, t_cov, covariances, t_gt, gtworld_T_imu, 
     keep = np.arange(errors.shape[0]) > 0
     position = nees(errors[keep, :3], P[keep][:, :3, :3])
     pose = nees(errors[keep], P[keep])
-    return dict(nees_position=nees_stats(position, 3), nees_pose=nees_stats(pose, 6))
+    per_axis = normalized_error_rms(errors[keep], P[keep])
+    return dict(nees_position=nees_stats(position, 3), nees_pose=nees_stats(pose, 6),
+                error_over_sigma_rms=dict(zip(POSE_AXES, (float(v) for v in per_axis))))

@@ -236,6 +236,18 @@ class ConsistencyTest(unittest.TestCase):
         self.assertAlmostEqual(pose['inside_95'], 0.95, delta=0.01)
         self.assertAlmostEqual(position['inside_95'], 0.95, delta=0.01)
 
+    def test_error_over_sigma_per_axis(self):
+        # Right about every axis but the fourth, whose variance is 4 times too large (its sigma 2x).
+        errors, P = self.sample(20000, 1.0, 4)
+        wide = P.copy()
+        scale = np.ones(6)
+        scale[3] = 2.0
+        wide = wide * np.outer(scale, scale)[None]
+        axes = metrics.normalized_error_rms(errors, wide)
+        for i in (0, 1, 2, 4, 5):
+            self.assertAlmostEqual(axes[i], 1.0, delta=0.03)
+        self.assertAlmostEqual(axes[3], 0.5, delta=0.02)
+
     def test_nees_of_overconfident_covariance(self):
         errors, P = self.sample(20000, 2.0, 2)
         pose = metrics.nees_stats(metrics.nees(errors, P), 6)

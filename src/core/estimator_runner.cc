@@ -47,9 +47,8 @@ EstimatorRunner::EstimatorRunner(const VislamOptions& options,
       preview_estimator_(options) {}
 
 void EstimatorRunner::push(Measurement measurement) {
-  const bool is_twist = std::holds_alternative<TwistData>(measurement);
-  const int stream = is_twist ? 0 : std::holds_alternative<FeatureFrame>(measurement) ? 1 : 2;
-  if (time_jumps_.jumpedBack(stream, stampOf(measurement))) {
+  const MeasurementKind kind = kindOf(measurement);
+  if (time_jumps_.jumpedBack(static_cast<int>(kind), stampOf(measurement))) {
     clear();
     ++time_jump_resets_;
   }
@@ -59,7 +58,8 @@ void EstimatorRunner::push(Measurement measurement) {
     if (preview_enabled_) updatePreview(copy);
     return;
   }
-  if (stream == 1) frame_arrivals_.emplace_back(stampOf(measurement), Clock::now());
+  if (kind == MeasurementKind::kFrame)
+    frame_arrivals_.emplace_back(stampOf(measurement), Clock::now());
   sequencer_.push(std::move(measurement));
 }
 
@@ -129,15 +129,6 @@ void EstimatorRunner::feed(const Measurement& measurement, const Observer& obser
     return;
   }
   feedFrame(std::get<FeatureFrame>(measurement), observer);
-}
-
-const char* EstimatorRunner::kindName(Kind kind) {
-  switch (kind) {
-    case Kind::kFrame: return "feature frame";
-    case Kind::kAccelerometer: return "accelerometer sample";
-    case Kind::kTwist: break;
-  }
-  return "twist";
 }
 
 void EstimatorRunner::integrateWaitingTwists(double stamp, const Observer& observer) {

@@ -7,8 +7,12 @@ namespace {
 
 // At equal stamps: accelerometer sample (its period ends there), twist, frame.
 int rank(const Measurement& m) {
-  if (std::holds_alternative<AccelerometerData>(m)) return 0;
-  return std::holds_alternative<TwistData>(m) ? 1 : 2;
+  switch (kindOf(m)) {
+    case MeasurementKind::kAccelerometer: return 0;
+    case MeasurementKind::kTwist: return 1;
+    case MeasurementKind::kFrame: break;
+  }
+  return 2;
 }
 
 // Strict order: by stamp, then rank.
@@ -20,15 +24,24 @@ bool before(const Measurement& a, const Measurement& b) {
 
 }  // namespace
 
+const char* kindName(MeasurementKind kind) {
+  switch (kind) {
+    case MeasurementKind::kFrame: return "feature frame";
+    case MeasurementKind::kAccelerometer: return "accelerometer sample";
+    case MeasurementKind::kTwist: break;
+  }
+  return "twist";
+}
+
 void MeasurementSequencer::push(Measurement measurement) {
   const double stamp = stampOf(measurement);
   if (stamp < released_until_) ++late_;
-  if (std::holds_alternative<TwistData>(measurement)) {
-    newest_twist_ = std::max(newest_twist_, stamp);
-  } else if (std::holds_alternative<FeatureFrame>(measurement)) {
-    newest_frame_ = std::max(newest_frame_, stamp);
-  } else {
-    newest_accel_ = newest_accel_ == 1e300 ? stamp : std::max(newest_accel_, stamp);
+  switch (kindOf(measurement)) {
+    case MeasurementKind::kTwist: newest_twist_ = std::max(newest_twist_, stamp); break;
+    case MeasurementKind::kFrame: newest_frame_ = std::max(newest_frame_, stamp); break;
+    case MeasurementKind::kAccelerometer:
+      newest_accel_ = std::max(newest_accel_.value_or(stamp), stamp);
+      break;
   }
   // Insert after every element that is not after it (stable for equal keys).
   auto it = std::upper_bound(buffer_.begin(), buffer_.end(), measurement, before);
@@ -37,9 +50,9 @@ void MeasurementSequencer::push(Measurement measurement) {
 
 std::vector<Measurement> MeasurementSequencer::popReady() {
   std::vector<Measurement> ready;
-  const double all_seen = std::min({newest_twist_, newest_frame_, newest_accel_});
-  const double newest =
-      std::max({newest_twist_, newest_frame_, newest_accel_ == 1e300 ? -1e300 : newest_accel_});
+  // A stream that never delivered (the accelerometer) holds nothing back.
+  const double all_seen = std::min({newest_twist_, newest_frame_, newest_accel_.value_or(1e300)});
+  const double newest = std::max({newest_twist_, newest_frame_, newest_accel_.value_or(-1e300)});
   while (!buffer_.empty()) {
     const double stamp = stampOf(buffer_.front());
     // Every stream has reached this stamp: nothing earlier can still arrive (each stream is
@@ -74,7 +87,7 @@ std::vector<TwistData> MeasurementSequencer::bufferedTwists() const {
 void MeasurementSequencer::clear() {
   buffer_.clear();
   newest_twist_ = newest_frame_ = released_until_ = -1e300;
-  newest_accel_ = 1e300;
+  newest_accel_.reset();
 }
 
 }  // namespace ekf_vislam

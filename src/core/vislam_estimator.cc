@@ -177,16 +177,12 @@ FeedResult VislamEstimator::feedAccelerometer(const AccelerometerData& sample) {
 void VislamEstimator::updateGravity(const TwistData& twist) {
   // Without an accelerometer sample yet, nothing to integrate: no work at twist rate.
   if (!usesAccelerometer(*options_) || !gravity_updater_.hasSamples()) return;
-  const StateLayout& layout = state_.layout();
-  // d w_corrected / d bias: w = R_m (w_measured - b) on the gyro components.
-  Eigen::MatrixXd d_w_d_bias = Eigen::MatrixXd::Zero(3, layout.biasDim());
-  for (int i = 0; i < layout.biasDim(); ++i) {
-    const int component = layout.bias_components[i];
-    if (component >= 3) d_w_d_bias.col(i) = -state_.imu_R_twist.col(component - 3);
-  }
+  const Vector6d u = propagator_.correctedTwist(state_, twist);
+  // d w_corrected / d bias: the rate rows of the bias columns of the prediction's du/daux.
+  const Eigen::MatrixXd d_w_d_bias =
+      propagator_.twistJacobian(state_, twist, u).bottomLeftCorner(3, state_.layout().biasDim());
   const std::optional<UpdateStatus> status = gravity_updater_.onTwist(
-      twist.stamp, propagator_.correctedTwist(state_, twist),
-      propagator_.sampleCovariance(state_, twist), d_w_d_bias, &state_, &stats_);
+      twist.stamp, u, propagator_.sampleCovariance(state_, twist), d_w_d_bias, &state_, &stats_);
   if (status && *status != UpdateStatus::kApplied) stats_.increment(Counter::kUpdateNonFinite);
 }
 

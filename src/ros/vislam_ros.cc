@@ -252,9 +252,9 @@ void VislamRos::rightInfoCallback(const sensor_msgs::CameraInfo::ConstPtr& msg) 
 
 void VislamRos::push(Measurement measurement) {
   last_input_ = ros::WallTime::now();
-  const char* topic = std::holds_alternative<TwistData>(measurement)      ? "imu/twist"
-                      : std::holds_alternative<FeatureFrame>(measurement) ? "stereo/features"
-                                                                          : "imu/data";
+  // The input topic of each MeasurementKind, in its order.
+  static constexpr const char* kTopics[] = {"imu/twist", "stereo/features", "imu/data"};
+  const char* topic = kTopics[static_cast<int>(kindOf(measurement))];
   const double stamp = stampOf(measurement);
   const uint64_t resets = runner_->timeJumpResets();
   runner_->push(std::move(measurement));
@@ -370,8 +370,8 @@ void VislamRos::onProcessed(const EstimatorRunner::Processed& processed) {
                       name_.c_str(), calibration_status_.c_str(),
                       static_cast<unsigned long>(runner_->framesWithoutCalibration()));
   } else if (!processed.result.accepted) {
-    ROS_WARN_THROTTLE(5.0, "%s: %s rejected: %s", name_.c_str(),
-                      EstimatorRunner::kindName(processed.kind), processed.result.message.c_str());
+    ROS_WARN_THROTTLE(5.0, "%s: %s rejected: %s", name_.c_str(), kindName(processed.kind),
+                      processed.result.message.c_str());
   } else if (!processed.result.message.empty()) {
     ROS_DEBUG("%s: %s", name_.c_str(), processed.result.message.c_str());
   }

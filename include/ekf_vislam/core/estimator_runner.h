@@ -33,9 +33,7 @@ class EstimatorRunner {
  public:
   /// What happened to one released measurement.
   /// Which stream a released measurement came from.
-  enum class Kind { kTwist, kFrame, kAccelerometer };
-  /// "twist", "feature frame", "accelerometer sample" (log messages).
-  static const char* kindName(Kind kind);
+  using Kind = MeasurementKind;
   struct Processed {
     Kind kind = Kind::kTwist;
     double stamp = 0.0;

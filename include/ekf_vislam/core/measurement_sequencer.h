@@ -6,12 +6,21 @@
 
 #include <cstddef>
 #include <deque>
+#include <optional>
 #include <variant>
 #include <vector>
 
 namespace ekf_vislam {
 
 using Measurement = std::variant<TwistData, FeatureFrame, AccelerometerData>;
+
+/// Which stream a measurement belongs to: the alternatives of Measurement, in their order.
+enum class MeasurementKind { kTwist = 0, kFrame = 1, kAccelerometer = 2 };
+inline MeasurementKind kindOf(const Measurement& m) {
+  return static_cast<MeasurementKind>(m.index());
+}
+/// "twist", "feature frame", "accelerometer sample" (log messages).
+const char* kindName(MeasurementKind kind);
 
 inline double stampOf(const Measurement& m) {
   return std::visit([](const auto& data) { return data.stamp; }, m);
@@ -47,10 +56,10 @@ class MeasurementSequencer {
 
  private:
   Options options_;
-  std::deque<Measurement> buffer_;  ///< sorted by (stamp, twist first)
+  std::deque<Measurement> buffer_;  ///< sorted by (stamp, then accelerometer, twist, frame)
   double newest_twist_ = -1e300;
   double newest_frame_ = -1e300;
-  double newest_accel_ = 1e300;  ///< +inf until the first accelerometer sample
+  std::optional<double> newest_accel_;  ///< none until the first accelerometer sample
   double released_until_ = -1e300;
   size_t late_ = 0;
 };

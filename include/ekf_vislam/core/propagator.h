@@ -59,6 +59,9 @@ class Propagator {
   Matrix6d noiseDensity(const FilterState& state, const TwistData& twist) const;
   /// Covariance of one corrected twist sample [v; w] (density / period).
   Matrix6d sampleCovariance(const FilterState& state, const TwistData& twist) const;
+  /// d u / d (bias, twist rotation), 6 x aux (calibration columns zero), u = correctedTwist.
+  Eigen::MatrixXd twistJacobian(const FilterState& state, const TwistData& twist,
+                                const Vector6d& u) const;
 
  private:
   /// Per-component factor of the vehicle prior on u = [v; w] (1 where there is none).
@@ -66,9 +69,6 @@ class Propagator {
   bool usesMessageCovariance(const TwistData& twist) const;
   /// The message's per-sample covariance in the IMU frame times the sample period.
   Matrix6d messageDensity(const FilterState& state, const TwistData& twist) const;
-  /// d u / d (bias, twist rotation), 6 x aux (calibration columns zero).
-  Eigen::MatrixXd twistJacobian(const FilterState& state, const TwistData& twist,
-                                const Vector6d& u) const;
   /// The road tilt's Gauss-Markov step over `distance` m travelled (vehicle/).
   void propagateRoadTilt(double distance, FilterState* state) const;
   /// The variances the random walks add over dt, per auxiliary row (auxDim; tilt rows 0).

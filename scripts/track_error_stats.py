@@ -6,9 +6,10 @@
 GT.tum holds world_T_imu (frames matched to the dataset by time stamp). Each track gets the
 landmark that best fits all its stereo observations from the ground-truth poses; its residuals
 are its pixel errors. Prints their std, their correlation from one frame to the next (the
-value of noise/pixel_correlation that describes them), the part shared by the tracks of a frame,
-and the mean drift per frame by image region (ekf_vislam_tools/track_errors.py). The residuals
-also carry the ground truth's own pose error.
+value of noise/pixel_correlation that describes them), their random-walk rate (the value of
+noise/track_random_walk: px/sqrt(s) from the variogram over 1-3 frames), the part shared by the
+tracks of a frame, and the mean drift per frame by image region (ekf_vislam_tools/
+track_errors.py). The residuals also carry the ground truth's own pose error.
 
 Exit status: 0 on success, 2 on unusable input (one-line message on stderr).
 """
@@ -48,6 +49,14 @@ def report(stats):
     lines.append('frame-to-frame correlation rho = %.3f; std of e_k - rho e_(k-1): %s px' % (
         stats['rho'], fmt(stats['differenced_std'])))
     lines.append('disparity error correlation at lag 1: %.3f' % stats['disparity_correlation'])
+    walk = stats['random_walk']
+    lines.append('random walk: variance of e_(k+L) - e_k for L = %s: %s px^2 (uL, vL); per frame '
+                 '%s px^2 (a white part of %s px^2): noise/track_random_walk %.2f px/sqrt(s) '
+                 'at the median frame period %.3f s' % (
+                     '/'.join(str(lag) for lag in walk['lags']),
+                     ' / '.join(fmt(v[:2]) for v in walk['variogram_px2']),
+                     fmt(walk['step_variance_px2_per_frame']), fmt(walk['white_variance_px2']),
+                     walk['rate_px_per_sqrt_s'], walk['frame_period_s']))
     drift = stats['drift_per_frame']
     lines.append('mean drift per frame: %s px (standard error %s)' % (
         fmt(drift['all']), fmt(drift['standard_error'])))
@@ -82,6 +91,11 @@ def main(argv):
         residual, frame, track, z = track_errors.track_residuals(
             data.features, camera_poses(data, args.groundtruth), data.K, data.b)
         stats = track_errors.statistics(residual, frame, track, z)
+        walk = stats['random_walk']
+        walk['frame_period_s'] = float(np.median(np.diff(data.t)))
+        # Image axes uL and vL (uR, vR repeat them); negative steps read as no random walk.
+        step = max(0.0, float(np.mean(walk['step_variance_px2_per_frame'][:2])))
+        walk['rate_px_per_sqrt_s'] = float(np.sqrt(step / walk['frame_period_s']))
     except (OSError, ValueError) as error:
         print('track_error_stats.py: %s' % ' '.join(str(error).split()), file=sys.stderr)
         return 2

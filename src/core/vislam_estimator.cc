@@ -1,15 +1,20 @@
 #include "ekf_vislam/core/vislam_estimator.h"
 
+#include "ekf_vislam/core/landmark_drift.h"
 #include "ekf_vislam/core/se3.h"
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <unordered_set>
 
 namespace ekf_vislam {
 
 namespace {
+
+// s: a longer time between processed frames drifts the landmarks as this long.
+constexpr double kMaxDriftInterval = 1.0;
 
 StateLayout layoutFor(const VislamOptions& options) {
   StateLayout layout;
@@ -95,6 +100,7 @@ void VislamEstimator::initializeState() {
   repeated_frames_.reset();
   jump_test_paused_ = false;
   last_frame_stamp_ = 0.0;
+  drift_stamp_ = std::numeric_limits<double>::quiet_NaN();
   held_twist_ = TwistData();
   propagator_.resetTwistEstimates();
   tilt_updater_.reset();
@@ -291,6 +297,11 @@ FeedResult VislamEstimator::feedFeatures(const FeatureFrame& frame) {
     stats_.increment(Counter::kObsIgnoredDeadReckoning, frame.features.size());
     return result;
   }
+  // The landmarks drift with their tracks over the time since the last processed frame.
+  const double drift_interval =
+      std::isnan(drift_stamp_) ? 0.0 : std::min(frame.stamp - drift_stamp_, kMaxDriftInterval);
+  landmark_drift::apply(camera_, options_->noise.track_random_walk, drift_interval, &state_);
+  drift_stamp_ = frame.stamp;
   processFrame(frame, &result);
   return result;
 }

@@ -29,6 +29,7 @@ void visitVislamOptions(Options& o, Visitor& v) {
   v.number("noise/pixel_sigma", noise.pixel_sigma, Bound::kPositive);
   v.number("noise/pixel_correlation", noise.pixel_correlation, Bound::kCorrelation);
   v.flag("noise/merge_stereo_rows", noise.merge_stereo_rows);
+  v.number("noise/track_random_walk", noise.track_random_walk, Bound::kNonNegative);
   v.number("noise/linear_velocity_noise", noise.linear_velocity_noise, Bound::kNonNegative);
   v.number("noise/angular_velocity_noise", noise.angular_velocity_noise, Bound::kNonNegative);
   v.flag("noise/use_message_covariance", noise.use_message_covariance);

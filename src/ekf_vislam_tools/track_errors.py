@@ -5,7 +5,8 @@ stereo observations from the ground-truth camera poses (Gauss-Newton, Huber weig
 residuals are then the track's pixel errors (plus the ground truth's own pose error). From them:
 the stationary std, the correlation from one frame to the next (lag 1, 2, 5, 10), the part
 shared by all tracks of a frame, the std of the differenced error e_k - rho e_(k-1), the mean
-drift per frame by image region (a systematic error no noise model averages away), and how
+drift per frame by image region (a systematic error no noise model averages away), the
+random-walk rate of the error (its variogram over 1-3 frames: noise/track_random_walk), and how
 unequal the tracks are (each track's RMS error and drift rate; the share of all squared error
 that the worst tracks hold).
 """
@@ -17,6 +18,7 @@ INLIER_PX = 6.0       # residuals beyond this are outliers for the statistics
 TRACK_MAX_PX = 20.0   # a track with a larger residual is dropped (wrong association)
 MIN_TRACK = 4         # observations
 LAGS = (1, 2, 5, 10)
+RANDOM_WALK_LAGS = (1, 2, 3)  # frames: the lags the random-walk part is fitted over
 PER_TRACK_MIN = 6     # inlier observations for a track's own RMS and drift rate
 PERCENTILES = (10, 50, 90)
 
@@ -100,6 +102,16 @@ def statistics(residual, frame, track, z):
         result['correlation' + name] = {
             lag: [float(np.corrcoef(p[:, 0, i], p[:, 1, i])[0, 1]) for i in range(4)]
             for lag in LAGS for p in [_consecutive_pairs(values, f, k, lag)]}
+    # Random-walk part: the variance of a track's error difference over L frames, a + q L for a
+    # white part of variance a / 2 and a random walk of q px^2 per frame, fitted over short lags
+    # (the fitted landmark takes up the slow part of long tracks).
+    lags = np.array(RANDOM_WALK_LAGS, float)
+    variogram = np.array([np.mean(np.diff(_consecutive_pairs(r, f, k, lag), axis=1)[:, 0] ** 2, 0)
+                          for lag in RANDOM_WALK_LAGS])
+    slope, intercept = np.polyfit(lags, variogram, 1)
+    result['random_walk'] = dict(lags=list(RANDOM_WALK_LAGS), variogram_px2=variogram.tolist(),
+                                 step_variance_px2_per_frame=slope.tolist(),
+                                 white_variance_px2=(intercept / 2.0).tolist())
     rho = float(np.mean(result['correlation'][1]))
     pairs = _consecutive_pairs(r, f, k, 1)
     result['rho'] = rho

@@ -1,5 +1,5 @@
-"""scripts/track_error_stats.py: on simulated drives with known pixel errors it recovers their std
-and their frame-to-frame correlation (white and drifting tracks)."""
+"""scripts/track_error_stats.py: on simulated drives with known pixel errors it recovers their std,
+their frame-to-frame correlation and their random-walk rate (white and drifting tracks)."""
 import json
 import os
 import sys
@@ -45,6 +45,8 @@ class TrackErrorStatsTest(unittest.TestCase):
         self.assertAlmostEqual(p50, 1.0, delta=0.12)
         self.assertLess(p90 / p10, 1.5)
         self.assertLess(spread['worst_10_percent_share'], 0.18)
+        # No random walk: the error difference does not grow with the lag.
+        self.assertLess(s['random_walk']['rate_px_per_sqrt_s'], 0.5)
 
     def test_drifting_tracks(self):
         s = self.stats('drift', '--pixel-correlation', 0.85)
@@ -59,6 +61,11 @@ class TrackErrorStatsTest(unittest.TestCase):
         self.assertGreater(p90 / p10, 1.5)
         self.assertGreater(spread['worst_10_percent_share'], 0.18)
         self.assertGreater(spread['drift_percentiles_px_per_frame'][1], 0.035)
+        # AR(1) of 0.85 at 1 px: the difference over L frames has variance 2 (1 - 0.85^L), which
+        # grows by 0.26 px^2 per frame at short lags (1.6 px/sqrt(s) at 10 Hz); the fitted
+        # landmarks take up a part of it.
+        self.assertGreater(s['random_walk']['rate_px_per_sqrt_s'], 1.0)
+        self.assertLess(s['random_walk']['rate_px_per_sqrt_s'], 1.8)
 
     def test_groundtruth_without_matching_stamps_is_refused(self):
         prefix = os.path.join(self.tmp, 'refused')

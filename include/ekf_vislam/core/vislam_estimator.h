@@ -44,6 +44,7 @@
 
 #include <Eigen/Core>
 
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -175,6 +176,8 @@ class VislamEstimator {
   bool in_twist_gap_ = false;
   bool has_frame_ = false;
   double last_frame_stamp_ = 0.0;
+  /// Stamp up to which the landmarks' drift (noise/track_random_walk) has been added; NaN: none.
+  double drift_stamp_ = std::numeric_limits<double>::quiet_NaN();
   TwistData held_twist_;
   /// Set by a prediction across a twist gap: the next frame's pose error is too large for the
   /// linearized common-motion fit of the jump test, which is skipped once.

@@ -50,7 +50,11 @@ struct NoiseOptions {
   /// track, stationary std pixel_sigma); 0: white. Consecutive observations are differenced
   /// (stereo_updater.h).
   double pixel_correlation = 0.0;
-  bool merge_stereo_rows = true;          ///< observe [uL, (vL+vR)/2, uR] (3 rows) instead of 4
+  bool merge_stereo_rows = true;  ///< observe [uL, (vL+vR)/2, uR] (3 rows) instead of 4
+  /// px/sqrt(s): a track's pixel error as a random walk of this rate; every active landmark's
+  /// error then walks across its camera ray by the rate times depth / focal length
+  /// (landmark_drift.h). 0: landmarks are fixed points.
+  double track_random_walk = 0.0;
   double linear_velocity_noise = 0.10;    ///< m/s/sqrt(Hz): W_v = sigma^2 * tau
   double angular_velocity_noise = 0.015;  ///< rad/s/sqrt(Hz): W_w = sigma^2 * tau
   /// A twist message with a non-zero covariance (TwistWithCovarianceStamped, Odometry) supplies

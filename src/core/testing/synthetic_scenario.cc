@@ -13,6 +13,7 @@ VislamOptions matchedOptions(const ScenarioOptions& scenario) {
   VislamOptions o;
   o.noise.pixel_sigma = scenario.pixel_sigma;
   o.noise.pixel_correlation = scenario.pixel_correlation;
+  o.noise.track_random_walk = scenario.pixel_random_walk;
   o.noise.linear_velocity_noise = scenario.linear_velocity_noise * std::sqrt(scenario.dt);
   o.noise.angular_velocity_noise = scenario.angular_velocity_noise * std::sqrt(scenario.dt);
   o.landmarks.max_track_length = 0;
@@ -109,7 +110,8 @@ Scenario makeScenario(const ScenarioOptions& o) {
   uint32_t next_id = 0;
   // Pixel error of each track: e_k = rho e_(k-1) + sqrt(1 - rho^2) sigma n_k, e_0 = sigma n_0.
   std::map<uint32_t, Eigen::Vector4d> pixel_error;
-  std::map<uint32_t, double> track_start;  ///< stamp of each track's first observation
+  std::map<uint32_t, Eigen::Vector2d> pixel_walk;  ///< random-walk part (pixel_random_walk)
+  std::map<uint32_t, double> track_start;          ///< stamp of each track's first observation
   const double innovation = std::sqrt(1.0 - o.pixel_correlation * o.pixel_correlation);
   auto observe = [&](uint32_t id, const Eigen::Vector4d& z) {
     auto [it, first] = pixel_error.try_emplace(id, Eigen::Vector4d::Zero());
@@ -118,12 +120,21 @@ Scenario makeScenario(const ScenarioOptions& o) {
     for (int i = 0; i < 4; ++i) {
       e(i) = o.pixel_correlation * e(i) + scale * o.pixel_sigma * normal(rng);
     }
+    Eigen::Vector4d error = e;
+    if (o.pixel_random_walk > 0.0) {
+      // u and v step, shared by both images.
+      Eigen::Vector2d& walk = pixel_walk.try_emplace(id, Eigen::Vector2d::Zero()).first->second;
+      if (!first) {
+        walk += o.pixel_random_walk * std::sqrt(o.dt) * Eigen::Vector2d(normal(rng), normal(rng));
+      }
+      error += Eigen::Vector4d(walk(0), walk(1), walk(0), walk(1));
+    }
     StereoObservation f;
     f.id = id;
-    f.u_left = z(0) + e(0);
-    f.v_left = z(1) + e(1);
-    f.u_right = z(2) - o.disparity_offset_px + e(2);
-    f.v_right = z(3) + e(3);
+    f.u_left = z(0) + error(0);
+    f.v_left = z(1) + error(1);
+    f.u_right = z(2) - o.disparity_offset_px + error(2);
+    f.v_right = z(3) + error(3);
     return f;
   };
   for (size_t k = 0; k < s.world_T_imu.size(); ++k) {

@@ -21,6 +21,10 @@ struct ScenarioOptions {
   /// Drifting tracks: each track's pixel error is AR(1) with this correlation from one frame to
   /// the next (stationary std pixel_sigma); 0: white.
   double pixel_correlation = 0.0;
+  /// Tracks that wander: each track's pixel error also takes a random step of this rate
+  /// (px/sqrt(s)) every frame, the same in both images (the point it shows moves across the ray,
+  /// its disparity kept); 0: none.
+  double pixel_random_walk = 0.0;
   /// Tracks that turn away from their points: an observation of age a (s since its track
   /// started) shows the point turned by exp(a w^) about the IMU origin (rad/s, IMU axes).
   Eigen::Vector3d track_drift_rate_imu = Eigen::Vector3d::Zero();

@@ -1,5 +1,6 @@
 #include "ekf_vislam/core/filter_state.h"
 
+#include "ekf_vislam/core/inverse_depth_retraction.h"
 #include "ekf_vislam/core/se3.h"
 
 #include <algorithm>
@@ -206,6 +207,7 @@ void FilterState::keepRows(const std::vector<int>& rows) {
 void FilterState::applyCorrection(const Eigen::VectorXd& dx, bool correct_pose) {
   applyDeferredPredictions();  // D holds the landmark means
   const StateLayout& L = layout_;
+  const Eigen::Matrix4d imu_T_world_before = imu_T_world;
   if (correct_pose) {
     // world_T_imu <- exp(eps^) world_T_imu  <=>  imu_T_world <- imu_T_world exp(-eps^).
     imu_T_world = imu_T_world * se3::exp(-dx.head<6>());
@@ -230,8 +232,31 @@ void FilterState::applyCorrection(const Eigen::VectorXd& dx, bool correct_pose) 
       correct_pose ? Eigen::Vector3d(dx.segment<3>(3)) : Eigen::Vector3d::Zero();
   const Eigen::Matrix3d R = se3::expSO3(dphi);
   const Eigen::Matrix3d J = se3::leftJacobianSO3(dphi);
+  if (!inverse_depth_cam_T_imu) {
+    for (int row = L.headDim(); row < dim_; row += 3) {
+      landmark_means_.segment<3>(row) =
+          R * landmark_means_.segment<3>(row) + J * dx.segment<3>(row);
+    }
+    return;
+  }
+  // Seen from the pose, the landmark moves by dq = cam_R_imu R_before^T J_r(dphi) (dxi - drho)
+  // (camera axes, R_before = world_R_imu before the correction; J_r = exp(-dphi^) J_l): that
+  // move is taken along the inverse-depth line instead (inverse_depth_retraction.h).
+  const Eigen::Vector3d drho =
+      correct_pose ? Eigen::Vector3d(dx.head<3>()) : Eigen::Vector3d::Zero();
+  const Eigen::Matrix3d cam_R_imu = inverse_depth_cam_T_imu->topLeftCorner<3, 3>();
+  const Eigen::Matrix4d cam_T_world_before = *inverse_depth_cam_T_imu * imu_T_world_before;
+  const Eigen::Matrix3d to_camera = cam_T_world_before.topLeftCorner<3, 3>() * R.transpose() * J;
+  const Eigen::Matrix3d world_R_cam_after =
+      imu_T_world.topLeftCorner<3, 3>().transpose() * cam_R_imu.transpose();
   for (int row = L.headDim(); row < dim_; row += 3) {
-    landmark_means_.segment<3>(row) = R * landmark_means_.segment<3>(row) + J * dx.segment<3>(row);
+    const Eigen::Vector3d p_before = landmark_means_.segment<3>(row);
+    const Eigen::Vector3d dq = to_camera * (dx.segment<3>(row) - drho);
+    const Eigen::Vector3d q = cam_T_world_before.topLeftCorner<3, 3>() * p_before +
+                              cam_T_world_before.topRightCorner<3, 1>();
+    const Eigen::Vector3d bend = inverse_depth_retraction::move(q, dq) - (q + dq);
+    landmark_means_.segment<3>(row) =
+        R * p_before + J * dx.segment<3>(row) + world_R_cam_after * bend;
   }
 }
 

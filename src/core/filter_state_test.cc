@@ -1,5 +1,6 @@
 #include "ekf_vislam/core/filter_state.h"
 
+#include "ekf_vislam/core/inverse_depth_retraction.h"
 #include "ekf_vislam/core/se3.h"
 #include "testing/random_matrices.h"
 
@@ -342,6 +343,46 @@ TEST(FilterState, ApplyCorrectionWithPoseUsesTheExtendedPoseExponential) {
     const Eigen::Matrix<double, 5, 5> X_new = extendedExp(eps, dx.segment<3>(20 + 3 * k)) * X;
     EXPECT_LT((se3::inverse(state.imu_T_world) - X_new.topLeftCorner<4, 4>()).norm(), 1e-12);
     EXPECT_LT((state.landmark(k) - X_new.block<3, 1>(0, 4)).norm(), 1e-12) << "landmark " << k;
+  }
+}
+
+TEST(FilterState, ApplyCorrectionInInverseDepthMovesLandmarksAlongTheirInverseDepthLines) {
+  // The same correction as the Cartesian one seen from the pose (the pose itself unchanged),
+  // except that each landmark in front of the camera lands on inverse_depth_retraction::move of
+  // the Cartesian move; one behind the camera moves as before.
+  std::mt19937 rng(7);
+  FilterState cartesian = randomState(0, &rng);
+  Eigen::Matrix4d cam_T_imu = Eigen::Matrix4d::Identity();
+  cam_T_imu.topLeftCorner<3, 3>() << 0, -1, 0, 0, 0, -1, 1, 0, 0;  // x forward -> z forward
+  cam_T_imu.topRightCorner<3, 1>() << 0.1, -0.05, 0.3;
+  const Eigen::Matrix4d cam_T_world = cam_T_imu * cartesian.imu_T_world;
+  const Eigen::Matrix4d world_T_cam = se3::inverse(cam_T_world);
+  const std::vector<Eigen::Vector3d> points_cam = {
+      {2.0, -1.0, 5.0}, {-4.0, 1.0, 25.0}, {6.0, 0.5, 70.0}, {1.0, 0.0, -8.0}};
+  for (const Eigen::Vector3d& q : points_cam) {
+    cartesian.appendLandmark((world_T_cam * q.homogeneous()).head<3>(),
+                             Eigen::MatrixXd::Zero(3, cartesian.dim()),
+                             Eigen::Matrix3d::Identity());
+  }
+  FilterState inverse_depth = cartesian;
+  inverse_depth.inverse_depth_cam_T_imu = cam_T_imu;
+  Eigen::VectorXd dx = 0.05 * randomMatrix(cartesian.dim(), 1, &rng);
+  dx.tail(3 * points_cam.size()) *= 40.0;  // metres of landmark correction
+  cartesian.applyCorrection(dx, true);
+  inverse_depth.applyCorrection(dx, true);
+  EXPECT_TRUE(inverse_depth.imu_T_world == cartesian.imu_T_world);
+  const Eigen::Matrix4d cam_T_world_after = cam_T_imu * cartesian.imu_T_world;
+  for (size_t k = 0; k < points_cam.size(); ++k) {
+    const Eigen::Vector3d q_cartesian =
+        (cam_T_world_after * cartesian.landmark(k).homogeneous()).head<3>();
+    const Eigen::Vector3d q_moved =
+        (cam_T_world_after * inverse_depth.landmark(k).homogeneous()).head<3>();
+    const Eigen::Vector3d expected =
+        inverse_depth_retraction::move(points_cam[k], q_cartesian - points_cam[k]);
+    EXPECT_LT((q_moved - expected).norm(), 1e-9) << "landmark " << k;
+    if (k < 3) {
+      EXPECT_GT((q_moved - q_cartesian).norm(), 1e-3) << "landmark " << k;
+    }
   }
 }
 

@@ -378,6 +378,9 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result
   // Joint update with the re-observed landmarks, then new landmarks from the corrected pose.
   StereoUpdateOutcome outcome;
   if (!updates.empty()) {
+    if (options_->landmarks.inverse_depth_correction) {
+      state_.inverse_depth_cam_T_imu = camera_.camTImu();
+    }
     outcome = updater_.update(&updates, consumeJumpTest(), nominal_calibration_, &camera_, &state_,
                               &landmarks_, &stats_, result);
     landmarks_.apply(outcome.leaving, &state_, &stats_, result);

@@ -106,6 +106,7 @@ void visitVislamOptions(Options& o, Visitor& v) {
   v.flag("landmarks/keep_all_in_state", landmarks.keep_all_in_state);
   v.integer("landmarks/max_track_gap", landmarks.max_track_gap, Bound::kNonNegative);
   v.integer("landmarks/max_active", landmarks.max_active, Bound::kNonNegative);
+  v.flag("landmarks/inverse_depth_correction", landmarks.inverse_depth_correction);
 
   auto& limits = o.limits;
   v.number("limits/max_linear_speed", limits.max_linear_speed, Bound::kPositive);

@@ -14,6 +14,7 @@
 
 #include <Eigen/Core>
 
+#include <optional>
 #include <vector>
 
 namespace ekf_vislam {
@@ -142,6 +143,10 @@ class FilterState {
   /// the first pose is level.
   Eigen::Vector2d gravity_level_world = Eigen::Vector2d::Zero();
   Eigen::Vector3d accel_bias_imu = Eigen::Vector3d::Zero();  ///< m/s^2, measured minus true
+  /// When set, applyCorrection moves each landmark in front of this camera in inverse-depth
+  /// coordinates of the camera (x/z, y/z, 1/z), in which a stereo observation is linear, instead
+  /// of in world coordinates: the same first-order correction, a different retraction.
+  std::optional<Eigen::Matrix4d> inverse_depth_cam_T_imu;
   Eigen::Vector3d landmark(size_t index) const {
     return landmark_means_.segment<3>(layout_.landmarkRow(index));
   }

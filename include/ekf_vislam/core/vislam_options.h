@@ -189,6 +189,9 @@ struct LandmarkOptions {
   /// then starts from its observation of that frame. The update costs O(N^2 m) for N
   /// state rows and m observation rows, so this bounds the time per frame. 0 = no bound.
   int max_active = 100;
+  /// Corrections move a landmark in the inverse-depth coordinates of the current camera (where
+  /// the stereo observation is linear) instead of in world coordinates (FilterState).
+  bool inverse_depth_correction = true;
 };
 
 /// limits/: input sanity, twist gaps and repeated frames.

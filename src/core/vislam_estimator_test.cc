@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <limits>
 #include <random>
+#include <utility>
 
 namespace ekf_vislam {
 namespace {
@@ -846,11 +847,46 @@ TwoModels runBoth(const Scenario& s, const VislamOptions& a, const char* name_a,
   return r;
 }
 
-// 400 frames whose tracks drift: AR(1) pixel error, correlation 0.85 from frame to frame.
-ScenarioOptions driftingTracks(int seed) {
+// Means over seeds 1..seeds of two filter options (make_options(so) -> {a, b}) on the scenario
+// of each seed; each seed's runs go to check_seed. Prints every seed and the means.
+struct TwoModelMeans {
+  double ate_a = 0.0, nees_a = 0.0, ate_b = 0.0, nees_b = 0.0;
+};
+template <typename MakeScenario, typename MakeOptions, typename CheckSeed>
+TwoModelMeans meanOverSeeds(int seeds, MakeScenario scenario, MakeOptions make_options,
+                            const char* name_a, const char* name_b, CheckSeed check_seed) {
+  TwoModelMeans m;
+  for (int seed = 1; seed <= seeds; ++seed) {
+    const ScenarioOptions so = scenario(seed);
+    const auto [a, b] = make_options(so);
+    const TwoModels r = runBoth(makeScenario(so), a, name_a, b, name_b, seed);
+    check_seed(r, seed);
+    m.ate_a += r.a.ate_m / seeds;
+    m.nees_a += r.a.mean_nees / seeds;
+    m.ate_b += r.b.ate_m / seeds;
+    m.nees_b += r.b.mean_nees / seeds;
+  }
+  std::printf("mean: %s ATE %.3f m NEES %.2f, %s ATE %.3f m NEES %.2f\n", name_a, m.ate_a, m.nees_a,
+              name_b, m.ate_b, m.nees_b);
+  return m;
+}
+
+// Per-seed check: model b at most half of dead reckoning's ATE.
+void expectBHalfOfDeadReckoning(const TwoModels& r, int seed) {
+  EXPECT_LT(r.b.ate_m, 0.5 * r.dead.ate_m) << "seed " << seed;
+}
+
+// 400 frames, otherwise the simulator's defaults.
+ScenarioOptions longDrive(int seed) {
   ScenarioOptions so;
   so.seed = seed;
   so.frames = 400;
+  return so;
+}
+
+// 400 frames whose tracks drift: AR(1) pixel error, correlation 0.85 from frame to frame.
+ScenarioOptions driftingTracks(int seed) {
+  ScenarioOptions so = longDrive(seed);
   so.pixel_correlation = 0.85;
   return so;
 }
@@ -860,29 +896,20 @@ TEST(VislamEstimator, DriftingTracksModelledAsCorrelatedAreConsistentAndNoWorse)
   // the KITTI course tracks). A filter told white noise of the same std counts every
   // observation of a track as new information and is overconfident; one told the correlation
   // differences consecutive observations and stays consistent, at no cost in accuracy.
-  double nees_white = 0.0, nees_correlated = 0.0, ate_white = 0.0, ate_correlated = 0.0;
-  const int seeds = 3;
-  for (int seed = 1; seed <= seeds; ++seed) {
-    const ScenarioOptions so = driftingTracks(seed);
-    const Scenario s = makeScenario(so);
-    VislamOptions correlated = testing::matchedOptions(so);
-    correlated.noise.report_track_correlation = false;  // the gains' own covariance
-    VislamOptions white = correlated;
-    white.noise.pixel_correlation = 0.0;
-    const auto [a, b, dead] =
-        runBoth(s, white, "white model", correlated, "correlated model", seed);
-    EXPECT_LT(b.ate_m, 0.5 * dead.ate_m) << "seed " << seed;
-    nees_white += a.mean_nees / seeds;
-    nees_correlated += b.mean_nees / seeds;
-    ate_white += a.ate_m / seeds;
-    ate_correlated += b.ate_m / seeds;
-  }
-  std::printf("mean: white model ATE %.3f m NEES %.2f, correlated model ATE %.3f m NEES %.2f\n",
-              ate_white, nees_white, ate_correlated, nees_correlated);
+  const TwoModelMeans m = meanOverSeeds(
+      3, driftingTracks,
+      [](const ScenarioOptions& so) {
+        VislamOptions correlated = testing::matchedOptions(so);
+        correlated.noise.report_track_correlation = false;  // the gains' own covariance
+        VislamOptions white = correlated;
+        white.noise.pixel_correlation = 0.0;
+        return std::make_pair(white, correlated);
+      },
+      "white model", "correlated model", expectBHalfOfDeadReckoning);
   // Measured at its introduction: white 2.072 m / NEES 113.4, correlated 1.680 m / 22.1.
-  EXPECT_LT(nees_correlated, 0.3 * nees_white);
-  EXPECT_LT(nees_correlated, 30.0);
-  EXPECT_LE(ate_correlated, ate_white);
+  EXPECT_LT(m.nees_b, 0.3 * m.nees_a);
+  EXPECT_LT(m.nees_b, 30.0);
+  EXPECT_LE(m.ate_b, m.ate_a);
 }
 
 TEST(VislamEstimator, DriftingTracksAreReportedHonestlyWithTheWhiteGains) {
@@ -934,33 +961,28 @@ TEST(VislamEstimator, WanderingTracksWithTheRandomWalkModelDoNotSpoilAnAccurateT
   // each track for a fixed point is dragged along by the wandering tracks; one whose landmarks
   // random-walk across their rays at that rate (noise/track_random_walk) must not make the
   // twist worse, and its reported covariance must stay honest.
-  const int seeds = 3;
-  double ate_fixed = 0.0, ate_walk = 0.0, nees_fixed = 0.0, nees_walk = 0.0;
-  for (int seed = 1; seed <= seeds; ++seed) {
-    ScenarioOptions so;
-    so.seed = seed;
-    so.frames = 400;
-    so.pixel_random_walk = 2.5;
-    so.linear_velocity_noise = 0.05;
-    so.angular_velocity_noise = 0.005;
-    so.gyro_bias = Eigen::Vector3d::Constant(0.001);
-    const Scenario s = makeScenario(so);
-    const VislamOptions walk = testing::matchedOptions(so);
-    VislamOptions fixed = walk;
-    fixed.noise.track_random_walk = 0.0;
-    const auto [a, b, dead] = runBoth(s, fixed, "fixed points", walk, "random walk", seed);
-    EXPECT_LE(b.ate_m, dead.ate_m) << "seed " << seed;
-    ate_fixed += a.ate_m / seeds;
-    nees_fixed += a.mean_nees / seeds;
-    ate_walk += b.ate_m / seeds;
-    nees_walk += b.mean_nees / seeds;
-  }
-  std::printf("mean: fixed points ATE %.3f m NEES %.2f, random walk ATE %.3f m NEES %.2f\n",
-              ate_fixed, nees_fixed, ate_walk, nees_walk);
+  const TwoModelMeans m = meanOverSeeds(
+      3,
+      [](int seed) {
+        ScenarioOptions so = longDrive(seed);
+        so.pixel_random_walk = 2.5;
+        so.linear_velocity_noise = 0.05;
+        so.angular_velocity_noise = 0.005;
+        so.gyro_bias = Eigen::Vector3d::Constant(0.001);
+        return so;
+      },
+      [](const ScenarioOptions& so) {
+        const VislamOptions walk = testing::matchedOptions(so);
+        VislamOptions fixed = walk;
+        fixed.noise.track_random_walk = 0.0;
+        return std::make_pair(fixed, walk);
+      },
+      "fixed points", "random walk",
+      [](const TwoModels& r, int seed) { EXPECT_LE(r.b.ate_m, r.dead.ate_m) << "seed " << seed; });
   // Measured at its introduction: fixed points 0.982 m / NEES 51.08, random walk 0.436 m / 8.42,
   // dead reckoning 3.755 m.
-  EXPECT_LT(ate_walk, 0.7 * ate_fixed);
-  EXPECT_LT(nees_walk, 12.0);
+  EXPECT_LT(m.ate_b, 0.7 * m.ate_a);
+  EXPECT_LT(m.nees_b, 12.0);
 }
 
 TEST(VislamEstimator, FarPointsMovedAlongTheirInverseDepthLinesDoNotShortenTheDrive) {
@@ -969,30 +991,24 @@ TEST(VislamEstimator, FarPointsMovedAlongTheirInverseDepthLinesDoNotShortenTheDr
   // straight world line, an update leaves far points too near and the drive too short, and the
   // covariance far too small; moved along their inverse-depth lines (the default) they land
   // where the linearized observation put them.
-  const int seeds = 3;
-  double ate_world = 0.0, ate_inverse = 0.0, nees_world = 0.0, nees_inverse = 0.0;
-  for (int seed = 1; seed <= seeds; ++seed) {
-    ScenarioOptions so;
-    so.seed = seed;
-    so.frames = 400;
-    so.pixel_sigma = 2.0;
-    const Scenario s = makeScenario(so);
-    const VislamOptions inverse = testing::matchedOptions(so);
-    VislamOptions world = inverse;
-    world.landmarks.inverse_depth_correction = false;
-    const auto [a, b, dead] = runBoth(s, world, "world line", inverse, "inverse-depth line", seed);
-    EXPECT_LT(b.ate_m, 0.5 * dead.ate_m) << "seed " << seed;
-    ate_world += a.ate_m / seeds;
-    nees_world += a.mean_nees / seeds;
-    ate_inverse += b.ate_m / seeds;
-    nees_inverse += b.mean_nees / seeds;
-  }
-  std::printf("mean: world line ATE %.3f m NEES %.2f, inverse-depth line ATE %.3f m NEES %.2f\n",
-              ate_world, nees_world, ate_inverse, nees_inverse);
+  const TwoModelMeans m = meanOverSeeds(
+      3,
+      [](int seed) {
+        ScenarioOptions so = longDrive(seed);
+        so.pixel_sigma = 2.0;
+        return so;
+      },
+      [](const ScenarioOptions& so) {
+        const VislamOptions inverse = testing::matchedOptions(so);
+        VislamOptions world = inverse;
+        world.landmarks.inverse_depth_correction = false;
+        return std::make_pair(world, inverse);
+      },
+      "world line", "inverse-depth line", expectBHalfOfDeadReckoning);
   // Measured at its introduction: world line 2.860 m / pose NEES 57.66, inverse-depth line
   // 0.823 m / 7.17.
-  EXPECT_LT(ate_inverse, 0.5 * ate_world);
-  EXPECT_LT(nees_inverse, 12.0);
+  EXPECT_LT(m.ate_b, 0.5 * m.ate_a);
+  EXPECT_LT(m.nees_b, 12.0);
 }
 
 TEST(VislamEstimator, TracksTurningAwayFromTheirPointsAreExplainedByTheDriftRate) {

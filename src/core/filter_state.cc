@@ -4,6 +4,7 @@
 #include "ekf_vislam/core/se3.h"
 
 #include <algorithm>
+#include <optional>
 
 namespace ekf_vislam {
 
@@ -204,6 +205,39 @@ void FilterState::keepRows(const std::vector<int>& rows) {
   }
 }
 
+namespace {
+
+/// What takes a landmark from its world-line move (the SE_K(3) exponential) onto its
+/// inverse-depth line in the camera (inverse_depth_retraction.h), in world axes. Seen from the
+/// pose, the exponential moves the landmark by dq = cam_R_imu R_before^T J_r(dphi) (dxi - drho)
+/// (camera axes, R_before = world_R_imu before the correction; J_r = exp(-dphi^) J_l).
+class InverseDepthBend {
+ public:
+  InverseDepthBend(const Eigen::Matrix4d& cam_T_imu, const Eigen::Matrix4d& imu_T_world_before,
+                   const Eigen::Matrix4d& imu_T_world_after, const Eigen::Matrix3d& R,
+                   const Eigen::Matrix3d& J, const Eigen::Vector3d& drho)
+      : cam_T_world_before_(cam_T_imu * imu_T_world_before),
+        to_camera_(cam_T_world_before_.topLeftCorner<3, 3>() * R.transpose() * J),
+        world_R_cam_after_(imu_T_world_after.topLeftCorner<3, 3>().transpose() *
+                           cam_T_imu.topLeftCorner<3, 3>().transpose()),
+        drho_(drho) {}
+
+  Eigen::Vector3d operator()(const Eigen::Vector3d& p_before, const Eigen::Vector3d& dxi) const {
+    const Eigen::Vector3d dq = to_camera_ * (dxi - drho_);
+    const Eigen::Vector3d q = cam_T_world_before_.topLeftCorner<3, 3>() * p_before +
+                              cam_T_world_before_.topRightCorner<3, 1>();
+    return world_R_cam_after_ * (inverse_depth_retraction::move(q, dq) - (q + dq));
+  }
+
+ private:
+  Eigen::Matrix4d cam_T_world_before_;
+  Eigen::Matrix3d to_camera_;
+  Eigen::Matrix3d world_R_cam_after_;
+  Eigen::Vector3d drho_;
+};
+
+}  // namespace
+
 void FilterState::applyCorrection(const Eigen::VectorXd& dx, bool correct_pose) {
   applyDeferredPredictions();  // D holds the landmark means
   const StateLayout& L = layout_;
@@ -227,36 +261,24 @@ void FilterState::applyCorrection(const Eigen::VectorXd& dx, bool correct_pose) 
     gravity_level_world += dx.segment<2>(L.levelRow());
     accel_bias_imu += dx.segment<3>(L.accelBiasRow());
   }
-  // Landmarks: p <- exp(dphi^) p + J_l(dphi) dxi (the SE_K(3) exponential).
+  // Landmarks: p <- exp(dphi^) p + J_l(dphi) dxi (the SE_K(3) exponential), bent onto the
+  // inverse-depth line when inverse_depth_cam_T_imu is set.
   const Eigen::Vector3d dphi =
       correct_pose ? Eigen::Vector3d(dx.segment<3>(3)) : Eigen::Vector3d::Zero();
   const Eigen::Matrix3d R = se3::expSO3(dphi);
   const Eigen::Matrix3d J = se3::leftJacobianSO3(dphi);
-  if (!inverse_depth_cam_T_imu) {
-    for (int row = L.headDim(); row < dim_; row += 3) {
-      landmark_means_.segment<3>(row) =
-          R * landmark_means_.segment<3>(row) + J * dx.segment<3>(row);
-    }
-    return;
+  std::optional<InverseDepthBend> bend;
+  if (inverse_depth_cam_T_imu) {
+    const Eigen::Vector3d drho =
+        correct_pose ? Eigen::Vector3d(dx.head<3>()) : Eigen::Vector3d::Zero();
+    bend.emplace(*inverse_depth_cam_T_imu, imu_T_world_before, imu_T_world, R, J, drho);
   }
-  // Seen from the pose, the landmark moves by dq = cam_R_imu R_before^T J_r(dphi) (dxi - drho)
-  // (camera axes, R_before = world_R_imu before the correction; J_r = exp(-dphi^) J_l): that
-  // move is taken along the inverse-depth line instead (inverse_depth_retraction.h).
-  const Eigen::Vector3d drho =
-      correct_pose ? Eigen::Vector3d(dx.head<3>()) : Eigen::Vector3d::Zero();
-  const Eigen::Matrix3d cam_R_imu = inverse_depth_cam_T_imu->topLeftCorner<3, 3>();
-  const Eigen::Matrix4d cam_T_world_before = *inverse_depth_cam_T_imu * imu_T_world_before;
-  const Eigen::Matrix3d to_camera = cam_T_world_before.topLeftCorner<3, 3>() * R.transpose() * J;
-  const Eigen::Matrix3d world_R_cam_after =
-      imu_T_world.topLeftCorner<3, 3>().transpose() * cam_R_imu.transpose();
   for (int row = L.headDim(); row < dim_; row += 3) {
     const Eigen::Vector3d p_before = landmark_means_.segment<3>(row);
-    const Eigen::Vector3d dq = to_camera * (dx.segment<3>(row) - drho);
-    const Eigen::Vector3d q = cam_T_world_before.topLeftCorner<3, 3>() * p_before +
-                              cam_T_world_before.topRightCorner<3, 1>();
-    const Eigen::Vector3d bend = inverse_depth_retraction::move(q, dq) - (q + dq);
-    landmark_means_.segment<3>(row) =
-        R * p_before + J * dx.segment<3>(row) + world_R_cam_after * bend;
+    const Eigen::Vector3d dxi = dx.segment<3>(row);
+    Eigen::Vector3d p = R * p_before + J * dxi;
+    if (bend) p += (*bend)(p_before, dxi);
+    landmark_means_.segment<3>(row) = p;
   }
 }
 

@@ -90,8 +90,11 @@ def render(world_T_cam, K, size, atlas):
             best = np.where(hit, s, best)
             tex_x = np.where(hit, c[0] + s * d[..., 0], tex_x)
             tex_y = np.where(hit, z + offset, tex_y)
-    map_x = (tex_x * TEXTURE_PX_PER_M).astype(np.float32)
-    map_y = (tex_y * TEXTURE_PX_PER_M).astype(np.float32)
+    # Wrapped into the atlas here: cv2.remap saturates coordinates beyond 32767 px (it converts
+    # them to 16-bit fixed point), which smeared the right wall (texture offset 1500 m) into
+    # vertical stripes.
+    map_x = np.mod(tex_x * TEXTURE_PX_PER_M, atlas.shape[1]).astype(np.float32)
+    map_y = np.mod(tex_y * TEXTURE_PX_PER_M, atlas.shape[0]).astype(np.float32)
     image = cv2.remap(atlas, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
     depth = np.where(np.isfinite(best), best, np.inf)  # d_cam has z = 1: s is the z depth
     fog = np.clip((depth - FOG_START) / (FOG_END - FOG_START), 0, 1)

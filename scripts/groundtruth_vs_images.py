@@ -9,7 +9,7 @@ up to 2000 Shi-Tomasi corners, pyramidal KLT with a forward-backward check, RANS
 and its rotation compared with the poses' relative rotation. Prints the difference per frame
 (degrees about the camera's x, y and z; y is the yaw of a forward-looking camera) and the
 median of its size. The fit's own precision: a median of 0.027 degrees on KITTI's 1226-px images
-where the poses agree with them (odometry 06 from frame 12), 0.125 on the 640-px rendered drive
+where the poses agree with them (odometry 06 from frame 12), 0.102 on the 640-px rendered drive
 with exact poses. Where the difference is well above that, the ground truth errs by that much,
 and any estimate that follows the images leaves it (the first second of KITTI odometry 06: yaw
 differences of 0.03-0.175 degrees per frame).

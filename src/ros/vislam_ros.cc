@@ -219,8 +219,8 @@ void VislamRos::imuCallback(const sensor_msgs::Imu::ConstPtr& msg) {
       },
       [this](const sensor_msgs::Imu&, const std::string& frame) {
         ROS_WARN_THROTTLE(5.0,
-                          "%s: imu/data in frame '%s': no tf to '%s' after %.1f s of message "
-                          "time; accelerometer sample not used (%lu so far)",
+                          "%s: imu/data in frame '%s': no tf to '%s' after %.1f s (message and "
+                          "wall time); accelerometer sample not used (%lu so far)",
                           name_.c_str(), frame.c_str(), ros_options_.imu_frame.c_str(),
                           ros_options_.tf_wait,
                           static_cast<unsigned long>(accel_waiting_.droppedWithoutTf()));

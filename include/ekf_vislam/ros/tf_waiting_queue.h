@@ -12,6 +12,7 @@
 
 #include <Eigen/Geometry>
 
+#include <chrono>
 #include <cstdint>
 #include <deque>
 #include <map>
@@ -62,31 +63,41 @@ class FixedFrameTransforms {
 };
 
 /// The messages of one input, in arrival order, until tf knows their frame. A message whose
-/// frame tf lacks waits until its stream is `wait` s of message time past it (never wall time,
-/// so live equals offline under load), then is dropped and counted.
+/// frame tf lacks waits until its stream is `wait` s of message time past it and it has waited
+/// `wait` s of wall time, then is dropped and counted. Message time alone is not enough: a bag
+/// played fast on a loaded machine runs its messages ahead of a /tf_static whose connection is
+/// still being set up, and those messages would be lost for being early; wall time alone would
+/// drop more on a slow machine than on a fast one.
 template <typename Msg>
 class TfWaitingQueue {
  public:
+  using Clock = std::chrono::steady_clock;
+
   explicit TfWaitingQueue(const char* topic) : topic_(topic) {}
   const char* topic() const { return topic_; }
-  void push(const typename Msg::ConstPtr& msg) { messages_.push_back(msg); }
+  void push(const typename Msg::ConstPtr& msg, Clock::time_point arrival = Clock::now()) {
+    messages_.push_back({msg, arrival});
+  }
   void clear() { messages_.clear(); }
   size_t size() const { return messages_.size(); }
   /// Messages dropped after waiting for their frame.
   uint64_t droppedWithoutTf() const { return dropped_; }
 
   /// use(msg, body_T_frame) for each waiting message in order while `transforms` knows
-  /// frame_of(msg); a message that waited long enough is dropped: dropped(msg, frame).
+  /// frame_of(msg); a message that waited long enough (both clocks, at wall time `now`) is
+  /// dropped: dropped(msg, frame).
   template <typename FrameOf, typename Use, typename Dropped>
   void drain(double wait, FixedFrameTransforms* transforms, const FrameOf& frame_of, const Use& use,
-             const Dropped& dropped) {
+             const Dropped& dropped, Clock::time_point now = Clock::now()) {
     while (!messages_.empty()) {
-      const Msg& msg = *messages_.front();
+      const Waiting& front = messages_.front();
+      const Msg& msg = *front.msg;
       const std::string frame = frame_of(msg);
       Eigen::Isometry3d body_T_frame;
       if (!transforms->lookup(frame, &body_T_frame)) {
-        const double waited = (messages_.back()->header.stamp - msg.header.stamp).toSec();
-        if (waited <= wait) return;  // tf may still come (message time)
+        const double message_wait = (messages_.back().msg->header.stamp - msg.header.stamp).toSec();
+        const double wall_wait = std::chrono::duration<double>(now - front.arrival).count();
+        if (message_wait <= wait || wall_wait <= wait) return;  // tf may still come
         ++dropped_;
         dropped(msg, frame);
       } else {
@@ -97,8 +108,12 @@ class TfWaitingQueue {
   }
 
  private:
+  struct Waiting {
+    typename Msg::ConstPtr msg;
+    Clock::time_point arrival;
+  };
   const char* topic_;
-  std::deque<typename Msg::ConstPtr> messages_;
+  std::deque<Waiting> messages_;
   uint64_t dropped_ = 0;
 };
 

@@ -35,7 +35,7 @@ namespace ekf_vislam {
 struct TwistCombinerRosOptions {
   std::string imu_frame = "imu";   ///< frame of the output twist (the estimator's ros/imu_frame)
   int queue_size = 2000;           ///< subscriber queues (nothing dropped at 10x playback)
-  double tf_wait = 1.0;            ///< s of message time a sample waits for its frame's tf
+  double tf_wait = 1.0;            ///< s (message and wall time) a sample waits for its frame's tf
   double diagnostic_period = 1.0;  ///< s
   double time_jump_reset = 1.0;    ///< s back in time that restarts the combiner (0: never)
 };
@@ -55,7 +55,8 @@ class TwistCombinerRos {
   /// Feeds both inputs' waiting messages whose frames tf knows to the combiner, then publishes.
   void feedWaitingMessages();
   /// feed(msg, imu_T_frame, &why) for each waiting message of `queue` in order, while tf knows
-  /// frame_of(msg); one tf still lacks after ros/tf_wait s of message time is dropped (warned).
+  /// frame_of(msg); one tf still lacks after ros/tf_wait s of message time and of wall time is
+  /// dropped (warned).
   template <typename Msg, typename FrameOf, typename Feed>
   void feedWaiting(TfWaitingQueue<Msg>* queue, const FrameOf& frame_of, const Feed& feed);
   void restartIfTimeJumped(int stream, double stamp);

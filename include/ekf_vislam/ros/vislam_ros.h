@@ -147,7 +147,7 @@ class VislamRos {
   uint64_t twists_without_tf_ = 0;
   uint64_t accel_received_ = 0;
   uint64_t accel_without_data_ = 0;  ///< Imu messages whose accelerometer is marked missing
-  /// imu/data messages until tf knows their frame (ros/tf_wait of message time).
+  /// imu/data messages until tf knows their frame (ros/tf_wait of message time and of wall time).
   TfWaitingQueue<sensor_msgs::Imu> accel_waiting_{"imu/data"};
   FixedFrameTransforms imu_T_frame_;    ///< imu_frame <- input frames (fixed tf, cached)
   uint64_t base_frame_without_tf_ = 0;  ///< outputs not published: no tf to base_frame

@@ -36,7 +36,7 @@ struct VislamRosOptions {
   int sequencer_max_buffered = 2000;   ///< ros/sequencer_max_buffered, messages
   int queue_size = 2000;               ///< ros/queue_size of every subscriber
   double time_jump_reset = 1.0;        ///< ros/time_jump_reset, s (0 = off)
-  double tf_wait = 1.0;    ///< ros/tf_wait, s of message time an input waits for its frame's tf
+  double tf_wait = 1.0;    ///< ros/tf_wait, s (message and wall time) an input waits for tf
   std::string output_dir;  ///< ros/output_dir: save target ("" = no saving)
   CalibrationOverride calibration;  ///< ros/calibration/...
 

@@ -159,6 +159,15 @@ enum class Check {
   kMotionAfterRestart,
 };
 
+/// The drive's final position error within 2x a reference run's (named in the print) + 0.1 m.
+void expectFinalErrorNear(const VislamEstimator& e, double reference_error,
+                          const std::string& reference) {
+  const double error = positionError(e, kFrames - 1);
+  std::printf("    final position error %.3f m (%s %.3f m)\n", error, reference.c_str(),
+              reference_error);
+  EXPECT_LE(error, 2.0 * reference_error + 0.1);
+}
+
 /// Continues the drive from frame `from` to the end and checks the result (see Check).
 void expectRecovers(VislamEstimator* e, size_t from, const VislamOptions& o,
                     Check check = Check::kFinalError) {
@@ -167,12 +176,11 @@ void expectRecovers(VislamEstimator* e, size_t from, const VislamOptions& o,
   if (check == Check::kFinalError) {
     runFrames(e, from, kFrames);
     expectHealthy(*e, "end of the drive");
-    const double reference =
+    expectFinalErrorNear(
+        *e,
         (clean[last].topRightCorner<3, 1>() - drive().world_T_imu[last].topRightCorner<3, 1>())
-            .norm();
-    const double error = positionError(*e, last);
-    std::printf("    final position error %.3f m (clean drive %.3f m)\n", error, reference);
-    EXPECT_LE(error, 2.0 * reference + 0.1);
+            .norm(),
+        "clean drive");
     return;
   }
   step(e, from);
@@ -762,11 +770,8 @@ TEST(FaultHandling, FeaturesBeforeCalibrationAreRejectedAndPredictionContinues) 
     reference.feedFeatures(empty);
   }
   runFrames(&reference, uncalibrated, kFrames);
-  const double error = positionError(e, kFrames - 1);
-  const double reference_error = positionError(reference, kFrames - 1);
-  std::printf("    final position error %.3f m (features from frame %zu on: %.3f m)\n", error,
-              uncalibrated, reference_error);
-  EXPECT_LE(error, 2.0 * reference_error + 0.1);
+  expectFinalErrorNear(e, positionError(reference, kFrames - 1),
+                       "features from frame " + std::to_string(uncalibrated) + " on");
 }
 
 std::vector<std::pair<StereoCalibration, std::string>> invalidCalibrations() {

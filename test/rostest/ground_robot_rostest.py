@@ -89,7 +89,8 @@ class GroundRobotTest(unittest.TestCase):
         # Every tf listener connected too: the start does not depend on how fast /tf_static's
         # connections come up (the nodes would wait for it anyway, ros/tf_wait).
         required = {topic: ('/vislam_manager',) + BODY_NODES[topic] for topic in INPUTS}
-        required['/tf_static'] = ('/vislam_manager', '/body/twist_combiner', '/body/vislam')
+        required['/tf_static'] = ('/vislam_manager',) + tuple(
+            sorted({node for nodes in BODY_NODES.values() for node in nodes}))
         play_bag(cls.bags['combined'], '/ground_robot_player', PLAY_RATE, required)
         wait_until(lambda: len(cls.twists) >= FRAMES and len(cls.body_twists) >= FRAMES, 30.0)
         time.sleep(2.0)  # the estimator processes the last frame; one more diagnostics period

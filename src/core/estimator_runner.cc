@@ -1,5 +1,7 @@
 #include "ekf_vislam/core/estimator_runner.h"
 
+#include "ekf_vislam/core/late_stream_wait.h"
+
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <algorithm>
@@ -54,13 +56,17 @@ void EstimatorRunner::push(Measurement measurement) {
   }
   if (const TwistData* twist = std::get_if<TwistData>(&measurement)) {
     const TwistData copy = *twist;
-    sequencer_.push(std::move(measurement));
+    sequencer_.push(std::move(measurement), wallSeconds(MeasurementSequencer::kArrivedLongAgo));
     if (preview_enabled_) updatePreview(copy);
     return;
   }
   if (kind == MeasurementKind::kFrame)
     frame_arrivals_.emplace_back(stampOf(measurement), Clock::now());
-  sequencer_.push(std::move(measurement));
+  sequencer_.push(std::move(measurement), wallSeconds(MeasurementSequencer::kArrivedLongAgo));
+}
+
+double EstimatorRunner::wallSeconds(double without_wall_clock) const {
+  return wall_clock_wait_ ? steadyClockSeconds() : without_wall_clock;
 }
 
 void EstimatorRunner::updatePreview(const TwistData& twist) {
@@ -86,7 +92,8 @@ void EstimatorRunner::updatePreview(const TwistData& twist) {
 }
 
 size_t EstimatorRunner::processReady(const Observer& observer) {
-  const std::vector<Measurement> ready = sequencer_.popReady();
+  const std::vector<Measurement> ready =
+      sequencer_.popReady(wallSeconds(MeasurementSequencer::kNoWallClock));
   for (const Measurement& m : ready) feed(m, observer);
   return ready.size();
 }

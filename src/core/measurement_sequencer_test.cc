@@ -84,6 +84,27 @@ TEST(MeasurementSequencer, OneStreamStoppingReleasesAfterMaxDelay) {
   EXPECT_EQ(describe(seq.flush()), "T3 T4 T5 ");
 }
 
+// A bag played at 10x: frames every 0.01 s of wall time, the twist stream 0.1 s of wall time (1 s
+// of message time) behind them. Nothing is released out of order; once the twists stop, the frames
+// go after max_delay in both clocks.
+TEST(MeasurementSequencer, ALateStreamIsWaitedForInWallTimeToo) {
+  MeasurementSequencer::Options options;
+  options.max_delay = 0.25;
+  MeasurementSequencer seq(options);
+  seq.push(twist(0.0), 0.0);
+  for (int k = 0; k <= 10; ++k) seq.push(frame(0.1 * k), 0.01 * k);
+  // Message time alone would release the frames up to 0.7 here; the twists are only late.
+  EXPECT_EQ(describe(seq.popReady(0.10)), "T0 F0 ");
+  for (int k = 1; k <= 10; ++k) seq.push(twist(0.1 * k), 0.20);
+  EXPECT_EQ(describe(seq.popReady(0.20)),
+            "T1 F1 T2 F2 T3 F3 T4 F4 T5 F5 T6 F6 T7 F7 T8 F8 T9 F9 T10 F10 ");
+  EXPECT_EQ(seq.late(), 0u);
+  // The twist stream stops.
+  for (int k = 11; k <= 15; ++k) seq.push(frame(0.1 * k), 0.21 + 0.01 * (k - 11));
+  EXPECT_TRUE(seq.popReady(0.30).empty());              // 0.09 s or less of wall time
+  EXPECT_EQ(describe(seq.popReady(0.50)), "F11 F12 ");  // 1.5 - 1.3 is within 0.25
+}
+
 TEST(MeasurementSequencer, LateMessagesAreCountedAndStillReturned) {
   MeasurementSequencer seq;
   seq.push(twist(0.1));

@@ -1,5 +1,6 @@
 #include "ekf_vislam/core/twist_combiner.h"
 
+#include "ekf_vislam/core/late_stream_wait.h"
 #include "ekf_vislam/core/option_reader.h"
 #include "ekf_vislam/core/se3.h"
 
@@ -58,7 +59,8 @@ bool TwistCombiner::admit(bool finite, const TwistData& for_noise, StreamState* 
   return true;
 }
 
-bool TwistCombiner::addAngularVelocity(const AngularVelocitySample& sample, std::string* why) {
+bool TwistCombiner::addAngularVelocity(const AngularVelocitySample& sample, std::string* why,
+                                       double now) {
   ++counters_.angular_received;
   TwistData for_noise;
   for_noise.stamp = sample.stamp;
@@ -66,12 +68,13 @@ bool TwistCombiner::addAngularVelocity(const AngularVelocitySample& sample, std:
   const bool finite = sample.w_imu.allFinite() && sample.covariance.allFinite();
   if (!admit(finite, for_noise, &gyro_, "angular velocity", why)) return false;
   open_group_.push_back(sample);
-  closeGroupIfFull();
-  release();
+  closeGroupIfFull(now);
+  releaseWaiting(now);
   return true;
 }
 
-bool TwistCombiner::addLinearVelocity(const LinearVelocitySample& sample, std::string* why) {
+bool TwistCombiner::addLinearVelocity(const LinearVelocitySample& sample, std::string* why,
+                                      double now) {
   ++counters_.linear_received;
   TwistData for_noise;
   for_noise.stamp = sample.stamp;
@@ -83,7 +86,7 @@ bool TwistCombiner::addLinearVelocity(const LinearVelocitySample& sample, std::s
   if (wheel_.noise.ready()) admitted.estimated_variance = std::pow(wheel_.noise.linearSigma(), 2);
   admitted.period = wheel_.period;
   linear_.push_back(admitted);
-  release();
+  releaseWaiting(now);
   return true;
 }
 
@@ -102,10 +105,11 @@ void TwistCombiner::reset() {
   wheel_ = StreamState();
 }
 
-void TwistCombiner::closeGroupIfFull() {
+void TwistCombiner::closeGroupIfFull(double now) {
   if (static_cast<int>(open_group_.size()) < options_.imu_samples_per_twist) return;
   AngularGroup group;
   group.stamp = open_group_.back().stamp;
+  if (now != kNoWallClock) group.arrival = now;
   bool all_have_covariance = true;
   for (const AngularVelocitySample& sample : open_group_) {
     group.w_imu += sample.w_imu;
@@ -128,14 +132,14 @@ void TwistCombiner::closeGroupIfFull() {
   open_group_.clear();
 }
 
-void TwistCombiner::release() {
-  while (!waiting_.empty() && tryCombine(waiting_.front(), gyro_.last_stamp)) {
+void TwistCombiner::releaseWaiting(double now) {
+  while (!waiting_.empty() && tryCombine(waiting_.front(), gyro_.last_stamp, now)) {
     pruneLinear(waiting_.front().stamp);
     waiting_.pop_front();
   }
 }
 
-bool TwistCombiner::tryCombine(const AngularGroup& group, double newest_angular_stamp) {
+bool TwistCombiner::tryCombine(const AngularGroup& group, double newest_angular_stamp, double now) {
   const double t = group.stamp;
   // The first wheel sample at or after t, and the last one before it.
   auto after = std::lower_bound(
@@ -159,8 +163,12 @@ bool TwistCombiner::tryCombine(const AngularGroup& group, double newest_angular_
     ++counters_.twists;
     return true;
   }
-  // No wheel sample at or after t yet: wait, unless the gyro stream is too far ahead.
-  if (newest_angular_stamp - t <= options_.max_velocity_wait) return false;
+  // No wheel sample at or after t yet: wait, unless the gyro stream is too far ahead and the twist
+  // has waited as long in wall time.
+  if (!lateStreamWaitIsOver(newest_angular_stamp - t, now - group.arrival,
+                            options_.max_velocity_wait)) {
+    return false;
+  }
   if (!has_before || t - linear_.back().stamp > options_.max_velocity_age) {
     ++counters_.dropped_no_velocity;
     return true;

@@ -68,6 +68,36 @@ TEST(TwistCombiner, WaitsInMessageTimeForALaterWheelSampleThenHoldsTheLastOne) {
   EXPECT_NEAR(twists[1].v_imu.x(), 2.0 + 3.0 * (0.36 - 0.1) / 0.3, 1e-12);
 }
 
+// Played at 10x: the gyro runs 0.3 s of message time (0.03 s of wall time) ahead of a wheel stream
+// that is only late. The twist waits for it; once the wheel stream stops, the last velocity is
+// held after max_velocity_wait in both clocks.
+TEST(TwistCombiner, ALateWheelStreamIsWaitedForInWallTimeToo) {
+  TwistCombinerOptions options;
+  options.max_velocity_wait = 0.2;
+  TwistCombiner combiner(options);
+  combiner.addLinearVelocity(wheel(0.0, 1.0), nullptr, 10.0);
+  combiner.addLinearVelocity(wheel(0.1, 2.0), nullptr, 10.01);
+  combiner.addAngularVelocity(gyro(0.15), nullptr, 10.015);
+  combiner.addAngularVelocity(gyro(0.45), nullptr, 10.045);  // 0.3 s of message time ahead
+  EXPECT_TRUE(combiner.takeReady().empty()) << "message time alone would hold 2.0 m/s";
+  combiner.addLinearVelocity(wheel(0.2, 3.0), nullptr, 10.05);
+  std::vector<TwistData> twists = combiner.takeReady();
+  ASSERT_EQ(twists.size(), 1u);
+  EXPECT_NEAR(twists[0].v_imu.x(), 2.5, 1e-12);
+  EXPECT_EQ(combiner.counters().velocity_held, 0u);
+  // The wheel stream stops: 0.45 waits until it has waited 0.2 s of wall time (and the gyro is
+  // 0.2 s of message time past it).
+  combiner.addAngularVelocity(gyro(0.7), nullptr, 10.07);
+  combiner.releaseWaiting(10.2);
+  EXPECT_TRUE(combiner.takeReady().empty());
+  combiner.releaseWaiting(10.3);
+  twists = combiner.takeReady();
+  ASSERT_EQ(twists.size(), 1u);
+  EXPECT_DOUBLE_EQ(twists[0].stamp, 0.45);
+  EXPECT_DOUBLE_EQ(twists[0].v_imu.x(), 3.0);
+  EXPECT_EQ(combiner.counters().velocity_held, 1u);
+}
+
 TEST(TwistCombiner, DropsTwistsWithoutAWheelSampleNearEnough) {
   TwistCombinerOptions options;
   options.max_velocity_wait = 0.125;  // binary fractions: the comparisons below are exact

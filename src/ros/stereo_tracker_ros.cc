@@ -1,5 +1,6 @@
 #include "ekf_vislam/ros/stereo_tracker_ros.h"
 
+#include "ekf_vislam/core/late_stream_wait.h"
 #include "ekf_vislam/ros/ros_parameter_source.h"
 #include "ekf_vislam/tracker/debug_drawing.h"
 
@@ -49,6 +50,7 @@ StereoTrackerRos::StereoTrackerRos(const ros::NodeHandle& nh, const ros::NodeHan
   diagnostics_ = std::make_unique<PeriodicDiagnostics>(nh_, pnh_, name_, "stereo tracker",
                                                        ros_options_.diagnostic_period, this,
                                                        &StereoTrackerRos::produceDiagnostics);
+  wait_timer_ = nh_.createWallTimer(ros::WallDuration(0.1), &StereoTrackerRos::waitTimer, this);
 
   const int queue = ros_options_.queue_size;
   left_info_sub_ =
@@ -130,16 +132,26 @@ bool StereoTrackerRos::restartIfTimeJumped(int stream, const ros::Time& stamp) {
   return true;
 }
 
-bool StereoTrackerRos::pairReady(const ImagePair& pair) const {
+bool StereoTrackerRos::pairReady(const ImagePair& pair, const ros::WallTime& now) const {
   if (!hasCameraInfo()) return false;
-  if (!ros_options_.use_twist || twists_.empty()) return true;  // no twist stream: no wait
-  const ros::Time& stamp = pair.first->header.stamp;
-  if (twists_.back().stamp >= stamp.toSec()) return true;
-  return (waiting_pairs_.back().first->header.stamp - stamp).toSec() > ros_options_.max_twist_wait;
+  if (!ros_options_.use_twist) return true;
+  // No twist yet: wait for it only when imu/twist has a publisher (a stream about to start, such
+  // as a bag's or a driver's that comes up a moment after the camera's).
+  if (twists_.empty() && twist_sub_.getNumPublishers() == 0) return true;
+  const ros::Time& stamp = pair.left->header.stamp;
+  if (!twists_.empty() && twists_.back().stamp >= stamp.toSec()) return true;
+  return lateStreamWaitIsOver((waiting_pairs_.back().left->header.stamp - stamp).toSec(),
+                              (now - pair.arrival).toSec(), ros_options_.max_twist_wait);
+}
+
+void StereoTrackerRos::waitTimer(const ros::WallTimerEvent&) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!waiting_pairs_.empty()) processReadyPairs();
 }
 
 void StereoTrackerRos::processReadyPairs() {
-  while (!waiting_pairs_.empty() && pairReady(waiting_pairs_.front())) {
+  const ros::WallTime now = ros::WallTime::now();
+  while (!waiting_pairs_.empty() && pairReady(waiting_pairs_.front(), now)) {
     const ImagePair pair = waiting_pairs_.front();
     waiting_pairs_.pop_front();
     trackPair(pair);
@@ -156,7 +168,7 @@ void StereoTrackerRos::processReadyPairs() {
   }
   if (!hasCameraInfo() && !waiting_pairs_.empty()) {
     const double waited =
-        (waiting_pairs_.back().first->header.stamp - waiting_pairs_.front().first->header.stamp)
+        (waiting_pairs_.back().left->header.stamp - waiting_pairs_.front().left->header.stamp)
             .toSec();
     if (waited >= kCameraInfoPatience) {
       ROS_WARN_THROTTLE(kWarnPeriod,
@@ -165,6 +177,38 @@ void StereoTrackerRos::processReadyPairs() {
                         name_.c_str(), kNoCameraInfo, waiting_pairs_.size(), waited);
     }
   }
+}
+
+bool StereoTrackerRos::wellFormed(const sensor_msgs::Image& left, const sensor_msgs::Image& right) {
+  const double apart = std::abs((left.header.stamp - right.header.stamp).toSec());
+  if (apart > ros_options_.max_stamp_difference) {
+    ++unsynchronized_;
+    ROS_WARN_THROTTLE(kWarnPeriod,
+                      "%s: left and right images %.4f s apart (more than "
+                      "ros/max_stamp_difference): pair skipped (%lu so far)",
+                      name_.c_str(), apart, unsynchronized_);
+    return false;
+  }
+  namespace enc = sensor_msgs::image_encodings;
+  for (const sensor_msgs::Image* image : {&left, &right}) {
+    if (image->encoding != enc::MONO8 && image->encoding != enc::BGR8 &&
+        image->encoding != enc::RGB8) {
+      ++bad_encoding_;
+      ROS_WARN_THROTTLE(kWarnPeriod,
+                        "%s: encoding '%s' (expected mono8, bgr8 or rgb8): pair skipped (%lu so "
+                        "far)",
+                        name_.c_str(), image->encoding.c_str(), bad_encoding_);
+      return false;
+    }
+  }
+  if (left.width != right.width || left.height != right.height) {
+    ++size_mismatch_;
+    ROS_WARN_THROTTLE(kWarnPeriod, "%s: left image %ux%u, right %ux%u: pair skipped (%lu so far)",
+                      name_.c_str(), left.width, left.height, right.width, right.height,
+                      size_mismatch_);
+    return false;
+  }
+  return true;
 }
 
 bool StereoTrackerRos::toGray(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray,
@@ -240,7 +284,7 @@ void StereoTrackerRos::imageCallback(const sensor_msgs::ImageConstPtr& left_msg,
   ++pairs_received_;
   restartIfTimeJumped(0, left_msg->header.stamp);
   if (!waiting_pairs_.empty() &&
-      left_msg->header.stamp <= waiting_pairs_.back().first->header.stamp) {
+      left_msg->header.stamp <= waiting_pairs_.back().left->header.stamp) {
     ++pairs_out_of_order_;
     ROS_WARN_THROTTLE(kWarnPeriod,
                       "%s: pair stamp %.4f not after the last one: pair skipped "
@@ -248,13 +292,14 @@ void StereoTrackerRos::imageCallback(const sensor_msgs::ImageConstPtr& left_msg,
                       name_.c_str(), left_msg->header.stamp.toSec(), pairs_out_of_order_);
     return;
   }
-  waiting_pairs_.emplace_back(left_msg, right_msg);
+  if (!wellFormed(*left_msg, *right_msg)) return;
+  waiting_pairs_.push_back({left_msg, right_msg, ros::WallTime::now()});
   processReadyPairs();
 }
 
 void StereoTrackerRos::trackPair(const ImagePair& pair) {
-  const sensor_msgs::ImageConstPtr& left_msg = pair.first;
-  const sensor_msgs::ImageConstPtr& right_msg = pair.second;
+  const sensor_msgs::ImageConstPtr& left_msg = pair.left;
+  const sensor_msgs::ImageConstPtr& right_msg = pair.right;
   const double stamp = left_msg->header.stamp.toSec();
   if (prev_stamp_ > 0 && stamp <= prev_stamp_) {
     ++pairs_out_of_order_;
@@ -264,27 +309,12 @@ void StereoTrackerRos::trackPair(const ImagePair& pair) {
                       name_.c_str(), stamp, pairs_out_of_order_);
     return;
   }
-  if (std::abs(stamp - right_msg->header.stamp.toSec()) > ros_options_.max_stamp_difference) {
-    ++unsynchronized_;
-    ROS_WARN_THROTTLE(kWarnPeriod,
-                      "%s: left and right images %.4f s apart (more than "
-                      "ros/max_stamp_difference): pair skipped (%lu so far)",
-                      name_.c_str(), std::abs(stamp - right_msg->header.stamp.toSec()),
-                      unsynchronized_);
-    return;
-  }
   cv::Mat left, right;
   std::string why;
   if (!toGray(left_msg, &left, &why) || !toGray(right_msg, &right, &why)) {
-    ++bad_encoding_;
+    ++bad_encoding_;  // an encoding checked at arrival whose data cv_bridge refuses
     ROS_WARN_THROTTLE(kWarnPeriod, "%s: %s: pair skipped (%lu so far)", name_.c_str(), why.c_str(),
                       bad_encoding_);
-    return;
-  }
-  if (left.size() != right.size()) {
-    ++size_mismatch_;
-    ROS_WARN_THROTTLE(kWarnPeriod, "%s: left image %dx%d, right %dx%d: pair skipped (%lu so far)",
-                      name_.c_str(), left.cols, left.rows, right.cols, right.rows, size_mismatch_);
     return;
   }
   RectifiedStereo stereo;

@@ -1,5 +1,6 @@
 #include "ekf_vislam/ros/twist_combiner_ros.h"
 
+#include "ekf_vislam/core/late_stream_wait.h"
 #include "ekf_vislam/core/option_reader.h"
 #include "ekf_vislam/ros/conversions.h"
 #include "ekf_vislam/ros/ros_parameter_source.h"
@@ -78,6 +79,9 @@ TwistCombinerRos::TwistCombinerRos(const ros::NodeHandle& nh, const ros::NodeHan
                            this, hints);
   odometry_sub_ = nh_.subscribe("wheel/odometry", ros_options_.queue_size,
                                 &TwistCombinerRos::odometryCallback, this, hints);
+  // A twist whose wheel sample is late goes on with the last one only after
+  // combiner/max_velocity_wait of wall time too: this timer acts on it without new input.
+  wait_timer_ = nh_.createWallTimer(ros::WallDuration(0.1), &TwistCombinerRos::waitTimer, this);
   ROS_INFO("%s: %s + %s -> %s (frame %s)", name_.c_str(), imu_sub_.getTopic().c_str(),
            odometry_sub_.getTopic().c_str(), twist_pub_.getTopic().c_str(),
            ros_options_.imu_frame.c_str());
@@ -97,18 +101,25 @@ void TwistCombinerRos::odometryCallback(const nav_msgs::Odometry::ConstPtr& msg)
   feedWaitingMessages();
 }
 
+void TwistCombinerRos::waitTimer(const ros::WallTimerEvent&) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  combiner_->releaseWaiting(steadyClockSeconds());
+  publishReady();
+}
+
 void TwistCombinerRos::feedWaitingMessages() {
   feedWaiting(
       &imu_waiting_, [](const sensor_msgs::Imu& m) { return m.header.frame_id; },
       [this](const sensor_msgs::Imu& m, const Eigen::Isometry3d& imu_T_frame, std::string* why) {
         return combiner_->addAngularVelocity(
-            ros_conversions::toAngularVelocitySample(m, imu_T_frame.linear()), why);
+            ros_conversions::toAngularVelocitySample(m, imu_T_frame.linear()), why,
+            steadyClockSeconds());
       });
   feedWaiting(
       &odometry_waiting_, [](const nav_msgs::Odometry& m) { return m.child_frame_id; },
       [this](const nav_msgs::Odometry& m, const Eigen::Isometry3d& imu_T_frame, std::string* why) {
         return combiner_->addLinearVelocity(ros_conversions::toLinearVelocitySample(m, imu_T_frame),
-                                            why);
+                                            why, steadyClockSeconds());
       });
   publishReady();
 }

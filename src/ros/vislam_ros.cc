@@ -43,7 +43,8 @@ VislamRos::VislamRos(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, cons
       options_,
       MeasurementSequencer::Options{ros_options_.sequencer_max_delay,
                                     static_cast<size_t>(ros_options_.sequencer_max_buffered)});
-  runner_->enablePreview(true);  // twist-rate odometry
+  runner_->enablePreview(true);        // twist-rate odometry
+  runner_->enableWallClockWait(true);  // a late stream is waited for in wall time too
   runner_->enableTimeJumpReset(ros_options_.time_jump_reset);
   if (ros_options_.calibration.has_intrinsics && ros_options_.calibration.has_extrinsic) {
     tryCalibrate();
@@ -79,10 +80,9 @@ VislamRos::VislamRos(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, cons
   right_info_sub_ =
       nh_.subscribe("stereo/right/camera_info", 10, &VislamRos::rightInfoCallback, this);
 
-  // Releases what the calibration wait held back once it is over (the sequencer itself waits in
-  // message time only).
-  calibration_timer_ =
-      nh_.createWallTimer(ros::WallDuration(0.1), &VislamRos::calibrationTimer, this);
+  // Releases what the calibration wait held back once it is over, and what waited for a stopped
+  // stream for ros/sequencer_max_delay of wall time (the sequencer waits in both clocks).
+  wait_timer_ = nh_.createWallTimer(ros::WallDuration(0.1), &VislamRos::waitTimer, this);
   if (ros_options_.landmark_marker_rate > 0.0 || ros_options_.path_rate > 0.0) {
     const double rate = std::max(ros_options_.landmark_marker_rate, ros_options_.path_rate);
     landmark_timer_ =
@@ -107,7 +107,7 @@ void VislamRos::shutdown() {
   if (shut_down_) return;
   shut_down_ = true;
   publishing_ = false;
-  calibration_timer_.stop();
+  wait_timer_.stop();
   landmark_timer_.stop();
   diagnostics_->stop();
   twist_sub_.shutdown();
@@ -482,7 +482,7 @@ void VislamRos::clearVisualization() {
   path_pub_.publish(path_);
 }
 
-void VislamRos::calibrationTimer(const ros::WallTimerEvent&) {
+void VislamRos::waitTimer(const ros::WallTimerEvent&) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (shut_down_ || runner_->buffered() == 0) return;
   process(false);

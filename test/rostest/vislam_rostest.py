@@ -26,6 +26,7 @@ import rospkg
 import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import TwistStamped
 from nav_msgs.msg import Odometry, Path
 from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
@@ -83,6 +84,40 @@ def read_tum(path):
 #: The estimator's input topics in the bags the tests play.
 ESTIMATOR_INPUTS = ('/imu/twist', '/stereo/features', '/stereo/left/camera_info',
                     '/stereo/right/camera_info')
+
+
+class DelayedRelay:
+    """Republishes `source` on `target` `delay` s of wall time after each message arrived, in
+    order (a twist stream that comes late: a slow driver, a busy network)."""
+
+    def __init__(self, source, target, delay):
+        self.delay = delay
+        self.pending = []
+        self.lock = threading.Lock()
+        self.stop = threading.Event()
+        self.publisher = rospy.Publisher(target, TwistStamped, queue_size=100000)
+        self.subscriber = rospy.Subscriber(source, TwistStamped, self.received, queue_size=100000)
+        self.thread = threading.Thread(target=self.forward)
+        self.thread.start()
+
+    def received(self, msg):
+        with self.lock:
+            self.pending.append((time.time() + self.delay, msg))
+
+    def forward(self):
+        while not self.stop.is_set() or self.pending:
+            with self.lock:
+                due = [m for t, m in self.pending if t <= time.time()]
+                self.pending = self.pending[len(due):]
+            for msg in due:
+                self.publisher.publish(msg)
+            time.sleep(0.005)
+
+    def close(self):
+        self.stop.set()
+        self.thread.join()
+        self.subscriber.unregister()
+        self.publisher.unregister()
 
 
 class Recorder:

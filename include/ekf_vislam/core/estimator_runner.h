@@ -61,6 +61,12 @@ class EstimatorRunner {
   /// Buffers one message; a twist also advances the propagated copy. Call processReady()
   /// afterwards.
   void push(Measurement measurement);
+  /// Live input: a message waiting for another stream is released only after
+  /// MeasurementSequencer::Options::max_delay in message time and in wall time (steady clock,
+  /// from its push), so a stream that is only late (a loaded machine, a fast bag) loses nothing.
+  /// Off (the default, a recorded log read at once): message time alone. Call processReady()
+  /// now and then while messages are buffered, so that wall time is acted on without new input.
+  void enableWallClockWait(bool enable) { wall_clock_wait_ = enable; }
   /// The propagated copy after the last pushed twist (kept only when enabled: it costs a copy of
   /// the filter per frame and a second prediction per twist; off by default).
   const Preview& preview() const { return preview_; }
@@ -113,8 +119,12 @@ class EstimatorRunner {
   void updatePreview(const TwistData& twist);
   void noteStamp(double stamp);
 
+  /// The steady clock in s (the sequencer's wall time), or `without_wall_clock` when it is off.
+  double wallSeconds(double without_wall_clock) const;
+
   VislamEstimator estimator_;
   MeasurementSequencer sequencer_;
+  bool wall_clock_wait_ = false;
   size_t max_waiting_twists_ = 1000;
   std::deque<TwistData> waiting_twists_;  ///< released, newer than the last frame, stamp order
   bool has_frame_ = false;

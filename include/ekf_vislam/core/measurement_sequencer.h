@@ -6,6 +6,7 @@
 
 #include <cstddef>
 #include <deque>
+#include <limits>
 #include <optional>
 #include <variant>
 #include <vector>
@@ -28,9 +29,14 @@ inline double stampOf(const Measurement& m) {
 
 /// A message is released once every stream has delivered a stamp >= its own (no later message
 /// can precede it; the accelerometer counts once it has delivered one sample: a robot without
-/// one waits for nothing), or once the newest stamp seen is more than max_delay past it (a stream
-/// stopped), or when the buffer is over max_buffered. At equal stamps the accelerometer sample
-/// goes first, then the twist, then the frame.
+/// one waits for nothing), or once it has waited more than max_delay both in message time (the
+/// newest stamp seen is that far past it) and in wall time (since its arrival): a stream
+/// stopped (lateStreamWaitIsOver), or when the buffer is over max_buffered. At equal stamps the
+/// accelerometer sample goes first, then the twist, then the frame.
+/// Wall time is the caller's clock, in s: push() takes a message's arrival, popReady() the time
+/// now. Without them (kArrivedLongAgo, kNoWallClock) message time decides alone, which is what a
+/// reader of a recorded log wants: its messages arrive at once, and at real time a live run's
+/// wall time passes with its message time.
 /// A message older than what was already released is returned anyway (the estimator rejects or
 /// absorbs it and counts it) and counted in late().
 class MeasurementSequencer {
@@ -42,9 +48,12 @@ class MeasurementSequencer {
   MeasurementSequencer() = default;
   explicit MeasurementSequencer(const Options& options) : options_(options) {}
 
-  void push(Measurement measurement);
-  /// Messages ready for the estimator, in order.
-  std::vector<Measurement> popReady();
+  static constexpr double kArrivedLongAgo = -std::numeric_limits<double>::infinity();
+  static constexpr double kNoWallClock = std::numeric_limits<double>::infinity();
+
+  void push(Measurement measurement, double arrival = kArrivedLongAgo);
+  /// Messages ready for the estimator at wall time `now`, in order.
+  std::vector<Measurement> popReady(double now = kNoWallClock);
   /// Everything still buffered, in order (end of input).
   std::vector<Measurement> flush();
   void clear();
@@ -55,8 +64,12 @@ class MeasurementSequencer {
   size_t late() const { return late_; }
 
  private:
+  struct Buffered {
+    Measurement measurement;
+    double arrival;  ///< wall time, s
+  };
   Options options_;
-  std::deque<Measurement> buffer_;  ///< sorted by (stamp, then accelerometer, twist, frame)
+  std::deque<Buffered> buffer_;  ///< sorted by (stamp, then accelerometer, twist, frame)
   double newest_twist_ = -1e300;
   double newest_frame_ = -1e300;
   std::optional<double> newest_accel_;  ///< none until the first accelerometer sample

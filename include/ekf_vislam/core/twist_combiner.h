@@ -5,11 +5,13 @@
 // One twist per `imu_samples_per_twist` gyro samples, stamped at the last of them: the mean
 // angular velocity of those samples (the twist at t_k drives [t_k-1, t_k] in the estimator) and
 // the linear velocity interpolated linearly between the two wheel samples around t_k, moved to
-// the IMU origin (v_imu = R v_base + p x w_imu for imu_T_base = (R, p)). A twist waits, in
-// message time only, until a wheel sample at or after its stamp has arrived: the output depends
-// on the stamps and the order of the inputs, never on wall time. When the gyro stream runs
-// `max_velocity_wait` s ahead of the wheel stream, the last wheel velocity is held (counted), and
-// a twist whose nearest wheel sample is more than `max_velocity_age` s away is dropped (counted).
+// the IMU origin (v_imu = R v_base + p x w_imu for imu_T_base = (R, p)). A twist waits until a
+// wheel sample at or after its stamp has arrived. When the gyro stream has run
+// `max_velocity_wait` s ahead of the wheel stream and (live, given a wall clock) the twist has
+// waited that long in wall time too (lateStreamWaitIsOver), the last wheel velocity is held
+// (counted): a wheel stream that is only late loses nothing, and the output depends on the stamps
+// and the order of the inputs, not on the machine's load. A twist whose nearest wheel sample is
+// more than `max_velocity_age` s away is dropped (counted).
 #pragma once
 
 #include "ekf_vislam/core/option_table.h"
@@ -22,6 +24,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -29,7 +32,7 @@ namespace ekf_vislam {
 
 struct TwistCombinerOptions {
   int imu_samples_per_twist = 1;   ///< gyro samples averaged into one twist
-  double max_velocity_wait = 2.0;  ///< s of gyro time a twist waits for a later wheel sample
+  double max_velocity_wait = 2.0;  ///< s (gyro and wall time) a twist waits for a wheel sample
   double max_velocity_age = 0.5;   ///< s: a wheel sample further from the twist is not used
 };
 
@@ -72,10 +75,20 @@ class TwistCombiner {
  public:
   explicit TwistCombiner(const TwistCombinerOptions& options) : options_(options) {}
 
-  /// Add one sample; false (counted, *why says why) when it is refused: not finite, or not newer
-  /// than the previous sample of its stream. Twists that become complete go to takeReady().
-  bool addAngularVelocity(const AngularVelocitySample& sample, std::string* why = nullptr);
-  bool addLinearVelocity(const LinearVelocitySample& sample, std::string* why = nullptr);
+  /// No wall clock: a twist's wait for the wheel stream counts in message time alone (a recorded
+  /// log read at once).
+  static constexpr double kNoWallClock = std::numeric_limits<double>::infinity();
+
+  /// Add one sample arrived at wall time `now` (s, any steady clock); false (counted, *why says
+  /// why) when it is refused: not finite, or not newer than the previous sample of its stream.
+  /// Twists that become complete go to takeReady().
+  bool addAngularVelocity(const AngularVelocitySample& sample, std::string* why = nullptr,
+                          double now = kNoWallClock);
+  bool addLinearVelocity(const LinearVelocitySample& sample, std::string* why = nullptr,
+                         double now = kNoWallClock);
+  /// Live: completes the twists whose wait for the wheel stream is over at wall time `now`
+  /// (call it now and then; each add does it too).
+  void releaseWaiting(double now);
 
   /// The twists completed since the last call, in stamp order. Each carries the covariance of
   /// one twist sample once both sensors' noise is known: from the messages when they carry one,
@@ -96,7 +109,8 @@ class TwistCombiner {
     double stamp = 0.0;
     double period = 0.0;  ///< s the twist covers: its samples' count x the gyro period
     Eigen::Vector3d w_imu = Eigen::Vector3d::Zero();
-    Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  ///< of the mean; zero: unknown
+    Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();       ///< of the mean; zero: unknown
+    double arrival = -std::numeric_limits<double>::infinity();  ///< wall s (-inf: no clock)
   };
   /// A wheel sample as admitted, with the stream's estimated per-sample variance (0: not ready)
   /// and period as they were then, so that a twist's covariance depends on the samples up to its
@@ -121,10 +135,10 @@ class TwistCombiner {
   /// else advances the stream (period, noise estimate from `for_noise`).
   bool admit(bool finite, const TwistData& for_noise, StreamState* stream, const char* what,
              std::string* why);
-  void closeGroupIfFull();
-  void release();
-  /// False while the group must wait for a wheel sample.
-  bool tryCombine(const AngularGroup& group, double newest_angular_stamp);
+  /// `now`: the wall time the last gyro sample arrived (kNoWallClock: none).
+  void closeGroupIfFull(double now);
+  /// False while the group must wait for a wheel sample (at wall time `now`).
+  bool tryCombine(const AngularGroup& group, double newest_angular_stamp, double now);
   TwistData combine(const AngularGroup& group, const AdmittedLinearVelocity& before,
                     const AdmittedLinearVelocity& after, double weight_after) const;
   void pruneLinear(double released_stamp);

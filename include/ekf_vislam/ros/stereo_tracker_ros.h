@@ -44,17 +44,22 @@ class StereoTrackerRos {
   using SyncPolicy =
       message_filters::sync_policies::ApproximateTime<sensor_msgs::Image, sensor_msgs::Image>;
 
-  using ImagePair = std::pair<sensor_msgs::ImageConstPtr, sensor_msgs::ImageConstPtr>;
+  struct ImagePair {
+    sensor_msgs::ImageConstPtr left, right;
+    ros::WallTime arrival;  ///< when the synchronizer delivered it
+  };
 
   void imageCallback(const sensor_msgs::ImageConstPtr& left,
                      const sensor_msgs::ImageConstPtr& right);
   /// Tracks the waiting pairs that are ready, oldest first (caller holds mutex_).
   void processReadyPairs();
-  /// A pair is tracked once both camera_infos are known and, with ros/use_twist, once the twist
-  /// stream reaches its stamp or a pair ros/max_twist_wait newer waits behind it (message time).
   /// Both camera_info messages have arrived (nothing can be tracked before).
   bool hasCameraInfo() const { return left_info_ && right_info_; }
-  bool pairReady(const ImagePair& pair) const;
+  /// A pair is tracked once both camera_infos are known and, with ros/use_twist, once the twist
+  /// stream reaches its stamp, or once it has waited ros/max_twist_wait in message time (a pair
+  /// that much newer waits behind it) and in wall time (lateStreamWaitIsOver). Before the first
+  /// twist a pair waits so only when imu/twist has a publisher.
+  bool pairReady(const ImagePair& pair, const ros::WallTime& now) const;
   void trackPair(const ImagePair& pair);
   void leftInfoCallback(const sensor_msgs::CameraInfoConstPtr& msg);
   void rightInfoCallback(const sensor_msgs::CameraInfoConstPtr& msg);
@@ -67,6 +72,10 @@ class StereoTrackerRos {
   /// True when `stamp` on `stream` (0 images, 1 twist) went back in time: then every track,
   /// waiting pair and twist is dropped, and tracking starts again with new ids.
   bool restartIfTimeJumped(int stream, const ros::Time& stamp);
+  /// False (warned, counted) for a pair that can never be tracked: stamps further apart than
+  /// ros/max_stamp_difference, an encoding other than mono8, bgr8 or rgb8, sizes that differ.
+  /// Checked at arrival, so such a pair does not wait for the twist stream.
+  bool wellFormed(const sensor_msgs::Image& left, const sensor_msgs::Image& right);
   bool toGray(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* why) const;
   bool calibrationFor(const sensor_msgs::Image& left, RectifiedStereo* stereo, std::string* why);
   std::optional<CameraMotionPrior> motionPrior(const std::string& camera_frame, double from,
@@ -74,6 +83,8 @@ class StereoTrackerRos {
   void publish(const sensor_msgs::Image& left_msg, const cv::Mat& left, const cv::Mat& right,
                const StereoFrame& frame);
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
+  /// Every 0.1 s of wall time: tracks the pairs whose wait for the twist stream is over.
+  void waitTimer(const ros::WallTimerEvent&);
 
   ros::NodeHandle nh_, pnh_;
   std::string name_;
@@ -91,6 +102,7 @@ class StereoTrackerRos {
   tf2_ros::Buffer tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::unique_ptr<PeriodicDiagnostics> diagnostics_;
+  ros::WallTimer wait_timer_;
 
   std::mutex mutex_;
   sensor_msgs::CameraInfoConstPtr left_info_, right_info_;

@@ -4,6 +4,7 @@
 // twist combiner, the estimator node and the bag reader.
 #pragma once
 
+#include "ekf_vislam/core/late_stream_wait.h"
 #include "ekf_vislam/ros/conversions.h"
 
 #include <ros/ros.h>
@@ -97,7 +98,7 @@ class TfWaitingQueue {
       if (!transforms->lookup(frame, &body_T_frame)) {
         const double message_wait = (messages_.back().msg->header.stamp - msg.header.stamp).toSec();
         const double wall_wait = std::chrono::duration<double>(now - front.arrival).count();
-        if (message_wait <= wait || wall_wait <= wait) return;  // tf may still come
+        if (!lateStreamWaitIsOver(message_wait, wall_wait, wait)) return;  // tf may still come
         ++dropped_;
         dropped(msg, frame);
       } else {

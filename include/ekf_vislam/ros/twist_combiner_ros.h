@@ -61,6 +61,8 @@ class TwistCombinerRos {
   void feedWaiting(TfWaitingQueue<Msg>* queue, const FrameOf& frame_of, const Feed& feed);
   void restartIfTimeJumped(int stream, double stamp);
   void publishReady();
+  /// Every 0.1 s of wall time: publishes the twists whose wait for the wheel stream is over.
+  void waitTimer(const ros::WallTimerEvent&);
   void warnRefused(const char* what, const std::string& why);
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
 
@@ -73,6 +75,7 @@ class TwistCombinerRos {
   tf2_ros::Buffer tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::unique_ptr<PeriodicDiagnostics> diagnostics_;
+  ros::WallTimer wait_timer_;
 
   std::mutex mutex_;
   FixedFrameTransforms imu_T_frame_;

@@ -89,7 +89,8 @@ class VislamRos {
   void publishPath();
   void publishLandmarks();
   void clearVisualization();
-  void calibrationTimer(const ros::WallTimerEvent&);
+  /// Every 0.1 s of wall time: processes what the calibration wait or the sequencer held back.
+  void waitTimer(const ros::WallTimerEvent&);
   void visualizationTimer(const ros::WallTimerEvent&);
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
   /// What the log and the status say about the inputs and the regime (empty: nothing).
@@ -172,7 +173,7 @@ class VislamRos {
   ros::Subscriber twist_sub_, features_sub_, left_info_sub_, right_info_sub_, imu_sub_;
   ros::Publisher odometry_pub_, odometry_update_pub_, path_pub_, landmarks_pub_;
   ros::ServiceServer reset_srv_, save_srv_;
-  ros::WallTimer calibration_timer_, landmark_timer_;
+  ros::WallTimer wait_timer_, landmark_timer_;
   ros::WallTime last_landmarks_publish_;
   ros::WallTime last_path_publish_;
   tf2_ros::Buffer tf_buffer_;

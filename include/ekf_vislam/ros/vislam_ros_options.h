@@ -32,7 +32,7 @@ struct VislamRosOptions {
   double diagnostic_period = 1.0;      ///< ros/diagnostic_period, s
   double input_timeout = 1.0;          ///< ros/input_timeout, wall s: diagnostics WARN after
   double calibration_wait = 2.0;       ///< ros/calibration_wait, wall s inputs are held at start
-  double sequencer_max_delay = 10.0;   ///< ros/sequencer_max_delay, s of message time
+  double sequencer_max_delay = 10.0;   ///< ros/sequencer_max_delay, s of message and wall time
   int sequencer_max_buffered = 2000;   ///< ros/sequencer_max_buffered, messages
   int queue_size = 2000;               ///< ros/queue_size of every subscriber
   double time_jump_reset = 1.0;        ///< ros/time_jump_reset, s (0 = off)

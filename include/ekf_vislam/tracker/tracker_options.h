@@ -106,7 +106,7 @@ struct StereoTrackerRosOptions {
   /// Message type on imu/twist, as the estimator's ros/twist_type: twist_stamped |
   /// twist_with_covariance | odometry (its twist, in child_frame_id).
   TwistMessageType twist_type = TwistMessageType::kTwistStamped;
-  double max_twist_wait = 0.5;     ///< s of message time a pair waits for the twist stream
+  double max_twist_wait = 0.5;     ///< s a pair waits for the twist stream (message and wall time)
   double diagnostic_period = 1.0;  ///< s
   double time_jump_reset = 1.0;    ///< s back on one input: the tracker restarts (0 = off)
 };

@@ -13,6 +13,8 @@ void LandmarkManager::clear() {
   tracks_.clear();
   tracking_.clear();
   map_.clear();
+  frame_ = 0;
+  frame_stamp_ = 0.0;
 }
 
 std::optional<size_t> LandmarkManager::find(uint32_t id) const {

@@ -105,6 +105,7 @@ void VislamEstimator::initializeState() {
   propagator_.resetTwistEstimates();
   tilt_updater_.reset();
   gravity_updater_.reset();
+  updater_.reset();
   state_.reset(prior());
   repeated_handler_.clear();
   if (has_calibration_) camera_ = scaledStereoCamera(nominal_calibration_, 0.0);

@@ -80,6 +80,8 @@ class StereoUpdater {
 
   /// The online estimate of the tracks' frame-to-frame residual correlation.
   const TrackCorrelationEstimator& trackCorrelation() const { return track_correlation_; }
+  /// Forgets what was learned from earlier updates (the track correlation).
+  void reset() { track_correlation_.reset(); }
 
  private:
   /// Residual and Jacobians (landmark, calibration, track drift rate) of observation z, of age

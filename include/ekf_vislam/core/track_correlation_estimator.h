@@ -26,6 +26,11 @@ class TrackCorrelationEstimator {
   /// (1 + rho) / (1 - rho) of correlation(): 1 for white tracks.
   double varianceFactor() const;
   long pairs() const { return pairs_; }
+  /// Forgets every pair (the estimator's reset).
+  void reset() {
+    pairs_ = 0;
+    cross_ = current_ = previous_ = 0.0;
+  }
 
  private:
   double forget_;

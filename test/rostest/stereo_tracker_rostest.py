@@ -116,6 +116,7 @@ class StereoTrackerPipelineTest(unittest.TestCase):
         _, tracker = self.latest_status('stereo_tracker')
         self.assertEqual(len(features), FRAMES, 'tracker diagnostics: %s' % sorted(
             (k, v) for k, v in tracker.items() if k.startswith(('pairs', 'images', 'frames'))))
+        self.assertEqual(tracker.get('pairs_missing'), '0')
         image_stamps = set(s.to_nsec() for s in self.images)
         ids_seen = {}
         for msg in features:
@@ -168,8 +169,10 @@ class StereoTrackerPipelineTest(unittest.TestCase):
 
         def counters():
             return self.latest_status('stereo_tracker')[1]
+        # The jump from the drive's stamps to 5000 s counts as pairs missing (a paused stream).
         ok = wait_until(lambda: all(int(counters().get(k, 0)) >= 1 for k in
-                                    ('bad_encoding', 'size_mismatch', 'unsynchronized')), 10.0)
+                                    ('bad_encoding', 'size_mismatch', 'unsynchronized',
+                                     'pairs_missing')), 10.0)
         log('tracker diagnostics: %s' % counters())
         self.assertTrue(ok)
 

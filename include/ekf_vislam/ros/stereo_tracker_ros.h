@@ -4,6 +4,7 @@
 // diagnostics. A thin layer over the ROS-free StereoTracker.
 #pragma once
 
+#include "ekf_vislam/core/stamp_gap_detector.h"
 #include "ekf_vislam/core/time_jump_detector.h"
 #include "ekf_vislam/tracker/stereo_tracker.h"
 #include "ekf_vislam/tracker/twist_motion_prior.h"
@@ -76,6 +77,8 @@ class StereoTrackerRos {
   /// ros/max_stamp_difference, an encoding other than mono8, bgr8 or rgb8, sizes that differ.
   /// Checked at arrival, so such a pair does not wait for the twist stream.
   bool wellFormed(const sensor_msgs::Image& left, const sensor_msgs::Image& right);
+  /// Counts and warns about pairs missing before this one (StampGapDetector on the left stamps).
+  void noteMissingPairs(double stamp);
   bool toGray(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* why) const;
   bool calibrationFor(const sensor_msgs::Image& left, RectifiedStereo* stereo, std::string* why);
   std::optional<CameraMotionPrior> motionPrior(const std::string& camera_frame, double from,
@@ -116,6 +119,8 @@ class StereoTrackerRos {
   uint64_t tracker_refused_ = 0, twist_used_ = 0, pairs_dropped_waiting_ = 0;
   uint64_t pairs_out_of_order_ = 0, time_jump_resets_ = 0;
   TimeJumpDetector time_jumps_{0.0, 2};  ///< images 0, twist 1 (set from ros/time_jump_reset)
+  StampGapDetector pair_gaps_;
+  uint64_t pairs_missing_ = 0;  ///< estimated from gaps in the stamps
   int last_features_ = 0;
   double last_ms_ = 0;
 };

@@ -1,0 +1,40 @@
+#include "ekf_vislam/core/stamp_gap_detector.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace ekf_vislam {
+
+double StampGapDetector::period() const {
+  if (static_cast<int>(intervals_.size()) < min_intervals_) return 0.0;
+  std::vector<double> sorted(intervals_.begin(), intervals_.end());
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  return sorted[sorted.size() / 2];
+}
+
+int StampGapDetector::add(double stamp) {
+  if (has_last_ && !(stamp > last_)) reset();  // time went back (or stood still)
+  int missing = 0;
+  if (has_last_) {
+    const double interval = stamp - last_;
+    const double expected = period();
+    if (expected > 0.0 && interval > factor_ * expected) {
+      missing = std::max(1, static_cast<int>(std::lround(interval / expected)) - 1);
+    } else {
+      // Gaps stay out of the period's estimate.
+      intervals_.push_back(interval);
+      if (static_cast<int>(intervals_.size()) > window_) intervals_.pop_front();
+    }
+  }
+  has_last_ = true;
+  last_ = stamp;
+  return missing;
+}
+
+void StampGapDetector::reset() {
+  has_last_ = false;
+  intervals_.clear();
+}
+
+}  // namespace ekf_vislam

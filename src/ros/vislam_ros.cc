@@ -232,6 +232,16 @@ void VislamRos::featuresCallback(const ekf_vislam::StereoFeatureArray::ConstPtr&
   if (shut_down_) return;
   ++frames_received_;
   last_features_ = ros::WallTime::now();
+  const int missing = frame_gaps_.add(msg->header.stamp.toSec());
+  if (missing > 0) {
+    frames_missing_ += static_cast<uint64_t>(missing);
+    ROS_WARN_THROTTLE(5.0,
+                      "%s: about %d feature frame(s) missing before %.3f (period %.3f s; %lu so "
+                      "far): the feature source dropped them, the stream paused, or this node's "
+                      "input queue (ros/queue_size) overflowed",
+                      name_.c_str(), missing, msg->header.stamp.toSec(), frame_gaps_.period(),
+                      static_cast<unsigned long>(frames_missing_));
+  }
   if (camera_frame_.empty() && !msg->header.frame_id.empty()) {
     camera_frame_ = msg->header.frame_id;
   }
@@ -604,6 +614,7 @@ void VislamRos::addDiagnosticValues(double twist_rate, double feature_rate,
                                     std::to_string(accel_bias.z()));
   if (!ros_options_.base_frame.empty()) status.add("base_frame_without_tf", base_frame_without_tf_);
   status.add("frames_received", frames_received_);
+  status.add("frames_missing", frames_missing_);
   status.add("time_jump_resets", runner_->timeJumpResets());
   status.add("update_ms_last", last_update_ms_);
   status.add("update_ms_p99", runner_->times().percentile(0.99));
@@ -650,6 +661,7 @@ void VislamRos::updateObservationRate(const EstimatorStats& stats) {
 bool VislamRos::resetService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
   std::lock_guard<std::mutex> lock(mutex_);
   runner_->reset();
+  frame_gaps_.reset();
   clearOutputsLocked();
   ROS_INFO("%s: reset: pose back at identity, map cleared", name_.c_str());
   response.success = true;

@@ -105,6 +105,8 @@ class VislamFaultsTest(unittest.TestCase):
         for name, minimum in self.expected.items():
             self.assertGreaterEqual(counters[name], minimum, '%s: %s' % (name, counters))
         log('fault counters: %s' % {k: counters[k] for k in self.expected})
+        # Faults, not gaps: no feature frame is missing from the stream's stamps.
+        self.assertEqual(self.diagnostics.get('frames_missing'), '0', self.diagnostics)
 
     def ate(self, folder):
         t, T = trajectory.read_tum(os.path.join(folder, 'trajectory.tum'))

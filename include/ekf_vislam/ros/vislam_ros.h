@@ -18,6 +18,7 @@
 #include <ekf_vislam/StereoFeature.h>
 #include <ekf_vislam/StereoFeatureArray.h>
 #include "ekf_vislam/core/estimator_runner.h"
+#include "ekf_vislam/core/stamp_gap_detector.h"
 #include "ekf_vislam/core/types.h"
 #include "ekf_vislam/ros/periodic_diagnostics.h"
 #include "ekf_vislam/ros/tf_waiting_queue.h"
@@ -153,6 +154,8 @@ class VislamRos {
   FixedFrameTransforms imu_T_frame_;    ///< imu_frame <- input frames (fixed tf, cached)
   uint64_t base_frame_without_tf_ = 0;  ///< outputs not published: no tf to base_frame
   uint64_t frames_received_ = 0;
+  StampGapDetector frame_gaps_;  ///< feature frames missing, from gaps in their stamps
+  uint64_t frames_missing_ = 0;
   uint64_t twists_at_last_diag_ = 0;
   uint64_t frames_at_last_diag_ = 0;
   ros::WallTime last_diag_;

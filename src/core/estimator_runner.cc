@@ -56,13 +56,13 @@ void EstimatorRunner::push(Measurement measurement) {
   }
   if (const TwistData* twist = std::get_if<TwistData>(&measurement)) {
     const TwistData copy = *twist;
-    sequencer_.push(std::move(measurement), wallSeconds(MeasurementSequencer::kArrivedLongAgo));
+    sequencer_.push(std::move(measurement), wallSeconds(kArrivedLongAgo));
     if (preview_enabled_) updatePreview(copy);
     return;
   }
   if (kind == MeasurementKind::kFrame)
     frame_arrivals_.emplace_back(stampOf(measurement), Clock::now());
-  sequencer_.push(std::move(measurement), wallSeconds(MeasurementSequencer::kArrivedLongAgo));
+  sequencer_.push(std::move(measurement), wallSeconds(kArrivedLongAgo));
 }
 
 double EstimatorRunner::wallSeconds(double without_wall_clock) const {
@@ -92,8 +92,7 @@ void EstimatorRunner::updatePreview(const TwistData& twist) {
 }
 
 size_t EstimatorRunner::processReady(const Observer& observer) {
-  const std::vector<Measurement> ready =
-      sequencer_.popReady(wallSeconds(MeasurementSequencer::kNoWallClock));
+  const std::vector<Measurement> ready = sequencer_.popReady(wallSeconds(kNoWallClock));
   for (const Measurement& m : ready) feed(m, observer);
   return ready.size();
 }

@@ -133,7 +133,7 @@ bool StereoTrackerRos::restartIfTimeJumped(int stream, const ros::Time& stamp) {
   return true;
 }
 
-bool StereoTrackerRos::pairReady(const ImagePair& pair, const ros::WallTime& now) const {
+bool StereoTrackerRos::pairReady(const ImagePair& pair, double now) const {
   if (!hasCameraInfo()) return false;
   if (!ros_options_.use_twist) return true;
   // No twist yet: wait for it only when imu/twist has a publisher (a stream about to start, such
@@ -142,7 +142,7 @@ bool StereoTrackerRos::pairReady(const ImagePair& pair, const ros::WallTime& now
   const ros::Time& stamp = pair.left->header.stamp;
   if (!twists_.empty() && twists_.back().stamp >= stamp.toSec()) return true;
   return lateStreamWaitIsOver((waiting_pairs_.back().left->header.stamp - stamp).toSec(),
-                              (now - pair.arrival).toSec(), ros_options_.max_twist_wait);
+                              now - pair.arrival, ros_options_.max_twist_wait);
 }
 
 void StereoTrackerRos::waitTimer(const ros::WallTimerEvent&) {
@@ -151,7 +151,7 @@ void StereoTrackerRos::waitTimer(const ros::WallTimerEvent&) {
 }
 
 void StereoTrackerRos::processReadyPairs() {
-  const ros::WallTime now = ros::WallTime::now();
+  const double now = steadyClockSeconds();
   while (!waiting_pairs_.empty() && pairReady(waiting_pairs_.front(), now)) {
     const ImagePair pair = waiting_pairs_.front();
     waiting_pairs_.pop_front();
@@ -309,7 +309,7 @@ void StereoTrackerRos::imageCallback(const sensor_msgs::ImageConstPtr& left_msg,
     return;
   }
   if (!wellFormed(*left_msg, *right_msg)) return;
-  waiting_pairs_.push_back({left_msg, right_msg, ros::WallTime::now()});
+  waiting_pairs_.push_back({left_msg, right_msg, steadyClockSeconds()});
   processReadyPairs();
 }
 

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <chrono>
+#include <limits>
 
 namespace ekf_vislam {
 
@@ -15,6 +16,11 @@ namespace ekf_vislam {
 inline bool lateStreamWaitIsOver(double message_waited, double wall_waited, double limit) {
   return message_waited > limit && wall_waited > limit;
 }
+
+/// A caller without a wall clock (a recorded log read at once) passes these: every message then
+/// counts as having waited forever in wall time, and message time decides alone.
+constexpr double kArrivedLongAgo = -std::numeric_limits<double>::infinity();  ///< an arrival
+constexpr double kNoWallClock = std::numeric_limits<double>::infinity();      ///< a "now"
 
 /// The wall time of these waits: the steady clock, in s.
 inline double steadyClockSeconds() {

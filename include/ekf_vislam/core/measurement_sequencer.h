@@ -2,11 +2,11 @@
 // estimator, so the live nodelet and the offline runner feed the core the same sequence. No ROS.
 #pragma once
 
+#include "ekf_vislam/core/late_stream_wait.h"
 #include "ekf_vislam/core/types.h"
 
 #include <cstddef>
 #include <deque>
-#include <limits>
 #include <optional>
 #include <variant>
 #include <vector>
@@ -47,9 +47,6 @@ class MeasurementSequencer {
   };
   MeasurementSequencer() = default;
   explicit MeasurementSequencer(const Options& options) : options_(options) {}
-
-  static constexpr double kArrivedLongAgo = -std::numeric_limits<double>::infinity();
-  static constexpr double kNoWallClock = std::numeric_limits<double>::infinity();
 
   void push(Measurement measurement, double arrival = kArrivedLongAgo);
   /// Messages ready for the estimator at wall time `now`, in order.

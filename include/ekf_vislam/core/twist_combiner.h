@@ -14,6 +14,7 @@
 // more than `max_velocity_age` s away is dropped (counted).
 #pragma once
 
+#include "ekf_vislam/core/late_stream_wait.h"
 #include "ekf_vislam/core/option_table.h"
 #include "ekf_vislam/core/parameter_source.h"
 #include "ekf_vislam/core/twist_noise_estimator.h"
@@ -24,7 +25,6 @@
 
 #include <cstdint>
 #include <deque>
-#include <limits>
 #include <string>
 #include <vector>
 
@@ -75,13 +75,10 @@ class TwistCombiner {
  public:
   explicit TwistCombiner(const TwistCombinerOptions& options) : options_(options) {}
 
-  /// No wall clock: a twist's wait for the wheel stream counts in message time alone (a recorded
-  /// log read at once).
-  static constexpr double kNoWallClock = std::numeric_limits<double>::infinity();
-
-  /// Add one sample arrived at wall time `now` (s, any steady clock); false (counted, *why says
-  /// why) when it is refused: not finite, or not newer than the previous sample of its stream.
-  /// Twists that become complete go to takeReady().
+  /// Add one sample arrived at wall time `now` (s, steadyClockSeconds; kNoWallClock: message time
+  /// alone, a recorded log read at once); false (counted, *why says why) when it is refused: not
+  /// finite, or not newer than the previous sample of its stream. Twists that become complete go
+  /// to takeReady().
   bool addAngularVelocity(const AngularVelocitySample& sample, std::string* why = nullptr,
                           double now = kNoWallClock);
   bool addLinearVelocity(const LinearVelocitySample& sample, std::string* why = nullptr,
@@ -109,8 +106,8 @@ class TwistCombiner {
     double stamp = 0.0;
     double period = 0.0;  ///< s the twist covers: its samples' count x the gyro period
     Eigen::Vector3d w_imu = Eigen::Vector3d::Zero();
-    Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();       ///< of the mean; zero: unknown
-    double arrival = -std::numeric_limits<double>::infinity();  ///< wall s (-inf: no clock)
+    Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  ///< of the mean; zero: unknown
+    double arrival = kArrivedLongAgo;                      ///< wall s
   };
   /// A wheel sample as admitted, with the stream's estimated per-sample variance (0: not ready)
   /// and period as they were then, so that a twist's covariance depends on the samples up to its

@@ -47,7 +47,7 @@ class StereoTrackerRos {
 
   struct ImagePair {
     sensor_msgs::ImageConstPtr left, right;
-    ros::WallTime arrival;  ///< when the synchronizer delivered it
+    double arrival;  ///< when the synchronizer delivered it (steadyClockSeconds)
   };
 
   void imageCallback(const sensor_msgs::ImageConstPtr& left,
@@ -60,7 +60,7 @@ class StereoTrackerRos {
   /// stream reaches its stamp, or once it has waited ros/max_twist_wait in message time (a pair
   /// that much newer waits behind it) and in wall time (lateStreamWaitIsOver). Before the first
   /// twist a pair waits so only when imu/twist has a publisher.
-  bool pairReady(const ImagePair& pair, const ros::WallTime& now) const;
+  bool pairReady(const ImagePair& pair, double now) const;
   void trackPair(const ImagePair& pair);
   void leftInfoCallback(const sensor_msgs::CameraInfoConstPtr& msg);
   void rightInfoCallback(const sensor_msgs::CameraInfoConstPtr& msg);

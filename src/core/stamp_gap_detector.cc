@@ -29,6 +29,7 @@ int StampGapDetector::add(double stamp) {
   }
   has_last_ = true;
   last_ = stamp;
+  missing_ += static_cast<uint64_t>(missing);
   return missing;
 }
 

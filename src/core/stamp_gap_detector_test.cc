@@ -17,6 +17,7 @@ TEST(StampGapDetector, CountsTheMessagesMissingFromAPeriodicStream) {
     }
   }
   EXPECT_EQ(missing, 4);
+  EXPECT_EQ(gaps.missing(), 4u);
   EXPECT_NEAR(gaps.period(), 0.1, 0.003);
 }
 
@@ -31,6 +32,7 @@ TEST(StampGapDetector, KnowsNothingBeforeItsPeriodAndStartsAgainWhenTimeGoesBack
   EXPECT_EQ(gaps.add(0.5), 0);  // back in time: a new estimate
   EXPECT_EQ(gaps.period(), 0.0);
   EXPECT_EQ(gaps.add(5.0), 0);
+  EXPECT_EQ(gaps.missing(), 3u);  // kept through the new estimate
 }
 
 }  // namespace

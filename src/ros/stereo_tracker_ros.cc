@@ -181,17 +181,15 @@ void StereoTrackerRos::processReadyPairs() {
 }
 
 void StereoTrackerRos::noteMissingPairs(double stamp) {
-  const double period = pair_gaps_.period();
   const int missing = pair_gaps_.add(stamp);
   if (missing == 0) return;
-  pairs_missing_ += static_cast<uint64_t>(missing);
   ROS_WARN_THROTTLE(kWarnPeriod,
                     "%s: about %d stereo pair(s) missing before %.3f (period %.3f s; %lu so far): "
                     "the camera dropped frames, the stream paused, or this node's input queue "
                     "overflowed because tracking is slower than the images (see track_ms_last in "
                     "/diagnostics)",
-                    name_.c_str(), missing, stamp, period,
-                    static_cast<unsigned long>(pairs_missing_));
+                    name_.c_str(), missing, stamp, pair_gaps_.period(),
+                    static_cast<unsigned long>(pair_gaps_.missing()));
 }
 
 bool StereoTrackerRos::wellFormed(const sensor_msgs::Image& left, const sensor_msgs::Image& right) {
@@ -389,7 +387,7 @@ void StereoTrackerRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWr
   std::lock_guard<std::mutex> lock(mutex_);
   const uint64_t bad = bad_encoding_ + size_mismatch_ + unsynchronized_ + missing_camera_info_ +
                        bad_camera_info_ + tracker_refused_ + pairs_out_of_order_ +
-                       pairs_dropped_waiting_ + pairs_missing_;
+                       pairs_dropped_waiting_ + pair_gaps_.missing();
   if (pairs_received_ == 0) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no synchronized stereo pair yet");
   } else if (!hasCameraInfo()) {
@@ -413,7 +411,7 @@ void StereoTrackerRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWr
   status.add("pairs_out_of_order", pairs_out_of_order_);
   status.add("time_jump_resets", time_jump_resets_);
   status.add("pairs_dropped_waiting", pairs_dropped_waiting_);
-  status.add("pairs_missing", pairs_missing_);
+  status.add("pairs_missing", pair_gaps_.missing());
   status.add("pairs_waiting", waiting_pairs_.size());
   status.add("twist_predictions", twist_used_);
   status.add("features_last", last_features_);

@@ -234,13 +234,12 @@ void VislamRos::featuresCallback(const ekf_vislam::StereoFeatureArray::ConstPtr&
   last_features_ = ros::WallTime::now();
   const int missing = frame_gaps_.add(msg->header.stamp.toSec());
   if (missing > 0) {
-    frames_missing_ += static_cast<uint64_t>(missing);
     ROS_WARN_THROTTLE(5.0,
                       "%s: about %d feature frame(s) missing before %.3f (period %.3f s; %lu so "
                       "far): the feature source dropped them, the stream paused, or this node's "
                       "input queue (ros/queue_size) overflowed",
                       name_.c_str(), missing, msg->header.stamp.toSec(), frame_gaps_.period(),
-                      static_cast<unsigned long>(frames_missing_));
+                      static_cast<unsigned long>(frame_gaps_.missing()));
   }
   if (camera_frame_.empty() && !msg->header.frame_id.empty()) {
     camera_frame_ = msg->header.frame_id;
@@ -614,7 +613,7 @@ void VislamRos::addDiagnosticValues(double twist_rate, double feature_rate,
                                     std::to_string(accel_bias.z()));
   if (!ros_options_.base_frame.empty()) status.add("base_frame_without_tf", base_frame_without_tf_);
   status.add("frames_received", frames_received_);
-  status.add("frames_missing", frames_missing_);
+  status.add("frames_missing", frame_gaps_.missing());
   status.add("time_jump_resets", runner_->timeJumpResets());
   status.add("update_ms_last", last_update_ms_);
   status.add("update_ms_p99", runner_->times().percentile(0.99));

@@ -3,6 +3,7 @@
 // of a full queue without telling the callback). No ROS.
 #pragma once
 
+#include <cstdint>
 #include <deque>
 
 namespace ekf_vislam {
@@ -19,6 +20,9 @@ class StampGapDetector {
   int add(double stamp);
   /// The period the gaps are measured against (0 while unknown).
   double period() const;
+  /// Every message add() has counted missing so far (reset() keeps it).
+  uint64_t missing() const { return missing_; }
+  /// Forgets the stream's period and last stamp (time went back, the node was reset).
   void reset();
 
  private:
@@ -28,6 +32,7 @@ class StampGapDetector {
   bool has_last_ = false;
   double last_ = 0.0;
   std::deque<double> intervals_;
+  uint64_t missing_ = 0;
 };
 
 }  // namespace ekf_vislam

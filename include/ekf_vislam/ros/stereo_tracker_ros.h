@@ -119,8 +119,7 @@ class StereoTrackerRos {
   uint64_t tracker_refused_ = 0, twist_used_ = 0, pairs_dropped_waiting_ = 0;
   uint64_t pairs_out_of_order_ = 0, time_jump_resets_ = 0;
   TimeJumpDetector time_jumps_{0.0, 2};  ///< images 0, twist 1 (set from ros/time_jump_reset)
-  StampGapDetector pair_gaps_;
-  uint64_t pairs_missing_ = 0;  ///< estimated from gaps in the stamps
+  StampGapDetector pair_gaps_;           ///< pairs missing, from gaps in the left stamps
   int last_features_ = 0;
   double last_ms_ = 0;
 };

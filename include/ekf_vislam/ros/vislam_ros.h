@@ -155,7 +155,6 @@ class VislamRos {
   uint64_t base_frame_without_tf_ = 0;  ///< outputs not published: no tf to base_frame
   uint64_t frames_received_ = 0;
   StampGapDetector frame_gaps_;  ///< feature frames missing, from gaps in their stamps
-  uint64_t frames_missing_ = 0;
   uint64_t twists_at_last_diag_ = 0;
   uint64_t frames_at_last_diag_ = 0;
   ros::WallTime last_diag_;

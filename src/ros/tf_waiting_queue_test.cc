@@ -12,7 +12,6 @@ namespace ekf_vislam {
 namespace {
 
 using Queue = TfWaitingQueue<sensor_msgs::Imu>;
-using std::chrono::milliseconds;
 
 /// An imu/data queue for body frame base_link, its tf buffer (empty until addStaticTransform),
 /// and the stamps of the samples used and dropped so far.
@@ -24,7 +23,7 @@ class TfWaitingQueueTest : public ::testing::Test {
     sensor_msgs::Imu::Ptr msg(new sensor_msgs::Imu);
     msg->header.stamp = ros::Time(stamp);
     msg->header.frame_id = frame;
-    queue_.push(msg, start_ + milliseconds(ms));
+    queue_.push(msg, start_ + 1e-3 * ms);
     drainAt(ms);
   }
   void drainAt(int ms) {
@@ -38,7 +37,7 @@ class TfWaitingQueueTest : public ::testing::Test {
         [&](const sensor_msgs::Imu& m, const std::string&) {
           dropped_.push_back(m.header.stamp.toSec());
         },
-        start_ + milliseconds(ms));
+        start_ + 1e-3 * ms);
   }
   void addStaticTransform() {
     geometry_msgs::TransformStamped t;
@@ -52,7 +51,7 @@ class TfWaitingQueueTest : public ::testing::Test {
   tf2::BufferCore buffer_;
   FixedFrameTransforms transforms_{&buffer_, "base_link"};
   Queue queue_{"imu/data"};
-  const Queue::Clock::time_point start_ = Queue::Clock::now();
+  const double start_ = steadyClockSeconds();
   std::vector<double> used_, dropped_;
 };
 

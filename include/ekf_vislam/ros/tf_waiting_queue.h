@@ -13,7 +13,6 @@
 
 #include <Eigen/Geometry>
 
-#include <chrono>
 #include <cstdint>
 #include <deque>
 #include <map>
@@ -72,11 +71,10 @@ class FixedFrameTransforms {
 template <typename Msg>
 class TfWaitingQueue {
  public:
-  using Clock = std::chrono::steady_clock;
-
   explicit TfWaitingQueue(const char* topic) : topic_(topic) {}
   const char* topic() const { return topic_; }
-  void push(const typename Msg::ConstPtr& msg, Clock::time_point arrival = Clock::now()) {
+  /// `arrival`: wall time, s (steadyClockSeconds).
+  void push(const typename Msg::ConstPtr& msg, double arrival = steadyClockSeconds()) {
     messages_.push_back({msg, arrival});
   }
   void clear() { messages_.clear(); }
@@ -89,7 +87,7 @@ class TfWaitingQueue {
   /// dropped: dropped(msg, frame).
   template <typename FrameOf, typename Use, typename Dropped>
   void drain(double wait, FixedFrameTransforms* transforms, const FrameOf& frame_of, const Use& use,
-             const Dropped& dropped, Clock::time_point now = Clock::now()) {
+             const Dropped& dropped, double now = steadyClockSeconds()) {
     while (!messages_.empty()) {
       const Waiting& front = messages_.front();
       const Msg& msg = *front.msg;
@@ -97,8 +95,7 @@ class TfWaitingQueue {
       Eigen::Isometry3d body_T_frame;
       if (!transforms->lookup(frame, &body_T_frame)) {
         const double message_wait = (messages_.back().msg->header.stamp - msg.header.stamp).toSec();
-        const double wall_wait = std::chrono::duration<double>(now - front.arrival).count();
-        if (!lateStreamWaitIsOver(message_wait, wall_wait, wait)) return;  // tf may still come
+        if (!lateStreamWaitIsOver(message_wait, now - front.arrival, wait)) return;  // tf may come
         ++dropped_;
         dropped(msg, frame);
       } else {
@@ -111,7 +108,7 @@ class TfWaitingQueue {
  private:
   struct Waiting {
     typename Msg::ConstPtr msg;
-    Clock::time_point arrival;
+    double arrival;  ///< wall time, s
   };
   const char* topic_;
   std::deque<Waiting> messages_;

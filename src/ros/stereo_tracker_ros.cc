@@ -228,14 +228,12 @@ bool StereoTrackerRos::toGray(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gr
                               std::string* why) const {
   namespace enc = sensor_msgs::image_encodings;
   try {
+    // wellFormed admitted mono8, bgr8 and rgb8 only.
     if (msg->encoding == enc::MONO8) {
       *gray = cv_bridge::toCvShare(msg)->image;  // no copy
-    } else if (msg->encoding == enc::BGR8 || msg->encoding == enc::RGB8) {
+    } else {
       cv::cvtColor(cv_bridge::toCvShare(msg)->image, *gray,
                    msg->encoding == enc::BGR8 ? cv::COLOR_BGR2GRAY : cv::COLOR_RGB2GRAY);
-    } else {
-      *why = "encoding '" + msg->encoding + "' (expected mono8, bgr8 or rgb8)";
-      return false;
     }
   } catch (const cv_bridge::Exception& e) {
     *why = std::string("cannot convert the image: ") + e.what();

@@ -79,6 +79,7 @@ class StereoTrackerRos {
   bool wellFormed(const sensor_msgs::Image& left, const sensor_msgs::Image& right);
   /// Counts and warns about pairs missing before this one (StampGapDetector on the left stamps).
   void noteMissingPairs(double stamp);
+  /// The gray image of a pair wellFormed admitted; false (*why) when cv_bridge refuses its data.
   bool toGray(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* why) const;
   bool calibrationFor(const sensor_msgs::Image& left, RectifiedStereo* stereo, std::string* why);
   std::optional<CameraMotionPrior> motionPrior(const std::string& camera_frame, double from,

@@ -173,6 +173,7 @@ bool loadOptions(Arguments& args, VislamOptions* options, VislamRosOptions* ros_
   }
   if (!parseVislamOptions(source, options, error)) return false;
   if (!parseVislamRosOptions(source, ros_options, error)) return false;
+  std::cerr << "vislam_offline: configuration " << config << "\n";
   const std::string unknown = unknownEstimatorKeys(source);
   if (!unknown.empty()) std::cerr << "vislam_offline: " << config << ": " << unknown << "\n";
   if (!args["--mode"].empty() && !parseMode(args["--mode"], &options->mode)) {

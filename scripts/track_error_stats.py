@@ -2,8 +2,12 @@
 """Error statistics of a dataset's feature tracks against ground-truth poses.
 
     track_error_stats.py DATA.npz --groundtruth GT.tum [--json OUT.json]
+    track_error_stats.py DATA.npz --poses RUN/trajectory.tum [--json OUT.json]
 
-GT.tum holds world_T_imu (frames matched to the dataset by time stamp). Each track gets the
+GT.tum holds world_T_imu (frames matched to the dataset by time stamp). Without ground truth,
+--poses takes the estimator's own trajectory (vislam_offline's trajectory.tum of a SLAM run): the
+correlation and the random-walk rate read nearly as against ground truth (the estimate's own
+error adds to the white part and the std). Each track gets the
 landmark that best fits all its stereo observations from the ground-truth poses; its residuals
 are its pixel errors. Prints their std, their correlation from one frame to the next (the
 value of noise/pixel_correlation that describes them), their random-walk rate (the value of
@@ -83,7 +87,9 @@ def main(argv):
     parser = argparse.ArgumentParser(prog='track_error_stats.py', description=__doc__.split(
         '\n')[0])
     parser.add_argument('dataset')
-    parser.add_argument('--groundtruth', required=True, metavar='GT.tum')
+    parser.add_argument('--groundtruth', '--poses', dest='groundtruth', required=True,
+                        metavar='GT.tum', help='world_T_imu poses: the ground truth, or the '
+                        'estimator\'s own trajectory.tum')
     parser.add_argument('--json', metavar='OUT.json', help='also write the figures as JSON')
     args = parser.parse_args(argv)
     try:

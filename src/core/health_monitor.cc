@@ -5,7 +5,7 @@
 
 namespace ekf_vislam {
 
-std::string disagreementHint(uint64_t gated, uint64_t updated) {
+std::string disagreementHint(EstimatorMode mode, uint64_t gated, uint64_t updated) {
   const uint64_t total = gated + updated;
   if (total < kDisagreementMinObservations) return "";
   const double fraction = static_cast<double>(gated) / static_cast<double>(total);
@@ -13,10 +13,17 @@ std::string disagreementHint(uint64_t gated, uint64_t updated) {
   std::ostringstream text;
   text.precision(3);
   text << 100.0 * fraction << " % of the re-observed landmarks (" << gated << " of " << total
-       << ") disagreed with the filter and were gated, where real data gives a few %: check that "
-          "the twist and the camera tf use the same axes (a twist in x forward, y left, z up "
-          "against a tf to x forward, y right, z down turns every yaw rate the wrong way), the "
-          "camera calibration and the time stamps";
+       << ") disagreed with the filter and were gated";
+  if (mode == EstimatorMode::kMapping) {
+    text << ": in mapping mode the poses are the twist's alone and drift, and landmarks placed "
+            "from them disagree with later observations (slam mode corrects the pose). If slam "
+            "mode gates as many";
+  } else {
+    text << ", where real data gives a few %";
+  }
+  text << ": check that the twist and the camera tf use the same axes (a twist in x forward, y "
+          "left, z up against a tf to x forward, y right, z down turns every yaw rate the wrong "
+          "way), the camera calibration and the time stamps";
   return text.str();
 }
 

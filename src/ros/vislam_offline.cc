@@ -321,7 +321,8 @@ void printSummary(const EstimatorRunner& runner, const std::string& out_dir) {
   const VislamEstimator& estimator = runner.estimator();
   const VislamOptions& options = estimator.options();
   const std::string hints[] = {
-      disagreementHint(stats.get(Counter::kObsGated), stats.get(Counter::kObservationUpdate)),
+      disagreementHint(options.mode, stats.get(Counter::kObsGated),
+                       stats.get(Counter::kObservationUpdate)),
       travelDirectionHint(estimator.travelDirection(), options.vehicle),
       sparseObservationsHint(options.mode, stats.get(Counter::kObservationUpdate),
                              stats.get(Counter::kFrameUsed)),

@@ -539,7 +539,7 @@ VislamRos::DiagnosticHints VislamRos::collectHints(const EstimatorStats& stats, 
   const uint64_t gated = stats.get(Counter::kObsGated);
   const uint64_t updated = stats.get(Counter::kObservationUpdate);
   hints.disagreement =
-      disagreementHint(gated - gated_at_last_diag_, updated - updated_at_last_diag_);
+      disagreementHint(options_.mode, gated - gated_at_last_diag_, updated - updated_at_last_diag_);
   gated_at_last_diag_ = gated;
   updated_at_last_diag_ = updated;
   if (!hints.disagreement.empty()) {

@@ -15,10 +15,12 @@ namespace ekf_vislam {
 /// kDisagreementFraction of them gated (out of at least kDisagreementMinObservations), where real
 /// data gives a few percent. Such disagreement usually means the inputs contradict each other (a
 /// twist in other axes than the camera tf's, a wrong calibration, shifted time stamps) rather than
-/// a divergence. Empty when the fraction is ordinary.
+/// a divergence. In mapping mode the poses are the twist's alone and drift, so the landmarks
+/// placed from them disagree more and more with later observations: the hint says so first.
+/// Empty when the fraction is ordinary.
 constexpr double kDisagreementFraction = 0.2;
 constexpr uint64_t kDisagreementMinObservations = 50;
-std::string disagreementHint(uint64_t gated, uint64_t updated);
+std::string disagreementHint(EstimatorMode mode, uint64_t gated, uint64_t updated);
 
 /// A hint when the vehicle prior is on and the twist travels more than kTravelHintAngle off its
 /// x axis (yaw for the lateral prior, pitch for the vertical one), over at least

@@ -93,7 +93,7 @@ check_launch() {
   setsid "${INSTALLED[@]}" roslaunch ekf_vislam ${launch_args} > "${log}" 2>&1 &
   local pid=$!
   local nodes=""
-  for _ in $(seq 1 40); do
+  for _ in $(seq 1 120); do  # up to 60 s: the test may run beside others
     sleep 0.5
     nodes=$(installed rosnode list 2>/dev/null | tr '\n' ' ')
     local missing=0

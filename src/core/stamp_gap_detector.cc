@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <vector>
 
 namespace ekf_vislam {
@@ -31,6 +32,14 @@ int StampGapDetector::add(double stamp) {
   last_ = stamp;
   missing_ += static_cast<uint64_t>(missing);
   return missing;
+}
+
+std::string StampGapDetector::describeMissing(int missing, double stamp, const char* what) const {
+  char text[160];
+  std::snprintf(text, sizeof(text),
+                "about %d %s(s) missing before %.3f (period %.3f s; %lu so far)", missing, what,
+                stamp, period(), static_cast<unsigned long>(missing_));
+  return text;
 }
 
 void StampGapDetector::reset() {

@@ -29,6 +29,8 @@ TEST(StampGapDetector, KnowsNothingBeforeItsPeriodAndStartsAgainWhenTimeGoesBack
   for (int k = 2; k <= 7; ++k) EXPECT_EQ(gaps.add(1.0 + 0.1 * (k - 1)), 0);
   EXPECT_NEAR(gaps.period(), 0.1, 1e-9);
   EXPECT_EQ(gaps.add(2.0), 3);  // 1.6 -> 2.0: three missing
+  EXPECT_EQ(gaps.describeMissing(3, 2.0, "frame"),
+            "about 3 frame(s) missing before 2.000 (period 0.100 s; 3 so far)");
   EXPECT_EQ(gaps.add(0.5), 0);  // back in time: a new estimate
   EXPECT_EQ(gaps.period(), 0.0);
   EXPECT_EQ(gaps.add(5.0), 0);

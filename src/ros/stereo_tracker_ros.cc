@@ -184,12 +184,11 @@ void StereoTrackerRos::noteMissingPairs(double stamp) {
   const int missing = pair_gaps_.add(stamp);
   if (missing == 0) return;
   ROS_WARN_THROTTLE(kWarnPeriod,
-                    "%s: about %d stereo pair(s) missing before %.3f (period %.3f s; %lu so far): "
-                    "the camera dropped frames, the stream paused, or this node's input queue "
-                    "overflowed because tracking is slower than the images (see track_ms_last in "
-                    "/diagnostics)",
-                    name_.c_str(), missing, stamp, pair_gaps_.period(),
-                    static_cast<unsigned long>(pair_gaps_.missing()));
+                    "%s: %s: the camera dropped frames, the stream paused, or this node's input "
+                    "queue overflowed because tracking is slower than the images (see "
+                    "track_ms_last in /diagnostics)",
+                    name_.c_str(),
+                    pair_gaps_.describeMissing(missing, stamp, "stereo pair").c_str());
 }
 
 bool StereoTrackerRos::wellFormed(const sensor_msgs::Image& left, const sensor_msgs::Image& right) {

@@ -232,14 +232,14 @@ void VislamRos::featuresCallback(const ekf_vislam::StereoFeatureArray::ConstPtr&
   if (shut_down_) return;
   ++frames_received_;
   last_features_ = ros::WallTime::now();
-  const int missing = frame_gaps_.add(msg->header.stamp.toSec());
+  const double stamp = msg->header.stamp.toSec();
+  const int missing = frame_gaps_.add(stamp);
   if (missing > 0) {
     ROS_WARN_THROTTLE(5.0,
-                      "%s: about %d feature frame(s) missing before %.3f (period %.3f s; %lu so "
-                      "far): the feature source dropped them, the stream paused, or this node's "
+                      "%s: %s: the feature source dropped them, the stream paused, or this node's "
                       "input queue (ros/queue_size) overflowed",
-                      name_.c_str(), missing, msg->header.stamp.toSec(), frame_gaps_.period(),
-                      static_cast<unsigned long>(frame_gaps_.missing()));
+                      name_.c_str(),
+                      frame_gaps_.describeMissing(missing, stamp, "feature frame").c_str());
   }
   if (camera_frame_.empty() && !msg->header.frame_id.empty()) {
     camera_frame_ = msg->header.frame_id;

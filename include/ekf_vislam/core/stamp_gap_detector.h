@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <string>
 
 namespace ekf_vislam {
 
@@ -22,6 +23,9 @@ class StampGapDetector {
   double period() const;
   /// Every message add() has counted missing so far (reset() keeps it).
   uint64_t missing() const { return missing_; }
+  /// The warning's common part after add(stamp) returned `missing` > 0: "about N <what>(s)
+  /// missing before <stamp> (period P s; M so far)".
+  std::string describeMissing(int missing, double stamp, const char* what) const;
   /// Forgets the stream's period and last stamp (time went back, the node was reset).
   void reset();
 

@@ -1,6 +1,6 @@
 """Paths and small helpers shared by the Python tests: repository root, scripts, the data
 directory (env EKF_VISLAM_DATA, else <repo>/../shared/data), temporary directories, npz files
-and running a script of the package as a subprocess with Debian's python3."""
+and running a script of the package as a subprocess with Debian's python3, or vislam_offline."""
 import os
 import shutil
 import subprocess
@@ -71,3 +71,11 @@ def run_script(name, *args, timeout=300, env=None):
     return subprocess.run([PYTHON, os.path.join(SCRIPTS_DIR, name)] + [str(a) for a in args],
                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True,
                           timeout=timeout, env=env or script_env())
+
+
+def run_vislam_offline(bag, out_dir, *args, timeout=600):
+    """rosrun ekf_vislam vislam_offline --bag BAG --out OUT_DIR ARGS -> CompletedProcess (text
+    stdout/stderr); the caller checks the return code."""
+    return subprocess.run(['rosrun', 'ekf_vislam', 'vislam_offline', '--bag', str(bag), '--out',
+                           str(out_dir)] + [str(a) for a in args], stdout=subprocess.PIPE,
+                          stderr=subprocess.PIPE, universal_newlines=True, timeout=timeout)

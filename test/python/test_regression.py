@@ -29,7 +29,10 @@ def run(cmd):
 
 
 def offline(bag, mode, out_dir):
-    run(['rosrun', 'ekf_vislam', 'vislam_offline', '--bag', bag, '--mode', mode, '--out', out_dir])
+    proc = paths.run_vislam_offline(bag, out_dir, '--mode', mode)
+    if proc.returncode != 0:
+        raise AssertionError('vislam_offline --bag %s --mode %s failed (%d):\n%s%s' % (
+            bag, mode, proc.returncode, proc.stdout, proc.stderr))
     with open(os.path.join(out_dir, 'stats.json')) as f:
         stats = json.load(f)
     return trajectory.read_tum(os.path.join(out_dir, 'trajectory.tum')), stats
@@ -110,10 +113,9 @@ class SyntheticDriveTest(unittest.TestCase):
         with open(config, 'w') as f:
             f.write('ros:\n  calibration:\n    cam_T_imu: "2 0 0 0  0 2 0 0  0 0 2 0  0 0 0 1"\n')
         for mode in ('slam', 'deadreckoning'):
-            proc = subprocess.run(['rosrun', 'ekf_vislam', 'vislam_offline', '--bag',
-                                   os.path.join(self.tmp, 'sim11.bag'), '--mode', mode, '--config',
-                                   config, '--out', os.path.join(self.tmp, 'bad_' + mode)],
-                                  capture_output=True, text=True)
+            proc = paths.run_vislam_offline(
+                os.path.join(self.tmp, 'sim11.bag'), os.path.join(self.tmp, 'bad_' + mode),
+                '--mode', mode, '--config', config)
             self.assertNotEqual(proc.returncode, 0, mode)
             self.assertIn('invalid calibration', proc.stderr, mode)
             self.assertIn('not a rotation', proc.stderr, mode)

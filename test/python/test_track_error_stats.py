@@ -2,7 +2,6 @@
 their frame-to-frame correlation and their random-walk rate (white and drifting tracks)."""
 import json
 import os
-import subprocess
 import sys
 import unittest
 
@@ -30,10 +29,7 @@ class TrackErrorStatsTest(unittest.TestCase):
             proc = ekf_test_paths.run_script('dataset_to_bag.py', prefix + '.npz',
                                              prefix + '.bag')
             self.assertEqual(proc.returncode, 0, proc.stderr)
-            run = subprocess.run(['rosrun', 'ekf_vislam', 'vislam_offline', '--bag',
-                                  prefix + '.bag', '--out', prefix + '_run'],
-                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                 universal_newlines=True, timeout=300)
+            run = ekf_test_paths.run_vislam_offline(prefix + '.bag', prefix + '_run')
             self.assertEqual(run.returncode, 0, run.stderr)
             poses = os.path.join(prefix + '_run', 'trajectory.tum')
         out = prefix + '_stats.json'

@@ -2,43 +2,97 @@
 
 #include <Eigen/Cholesky>
 
+#include <map>
+#include <utility>
 #include <vector>
 
 namespace ekf_vislam {
 namespace state_helper {
 namespace {
 
-/// Calls visit(first residual row, rows, block) for every block of every stacked observation.
-template <typename Visit>
-void forEachBlock(const std::vector<SparseJacobian>& jacobians, Visit visit) {
+/// The stacked Jacobian arranged for the two products of an update. A variable several
+/// observations touch (the pose, the calibration, ...) gets one m x k matrix with the blocks
+/// of all of them (zero rows elsewhere): one matrix product. A block of a variable only one
+/// observation touches (its landmark) stays on its own: k column operations.
+struct ArrangedJacobian {
+  struct Shared {
+    int first_row;
+    Eigen::MatrixXd H;  // m x k
+  };
+  struct Single {
+    int row;        // first residual row
+    int first_row;  // first state column
+    const Eigen::MatrixXd* H;
+  };
+  int m = 0;
+  std::vector<Shared> shared;
+  std::vector<Single> single;
+};
+
+ArrangedJacobian arrange(const std::vector<SparseJacobian>& jacobians) {
+  ArrangedJacobian arranged;
+  std::map<std::pair<int, int>, int> uses;  // (first column, columns) -> observations
+  for (const SparseJacobian& jacobian : jacobians) {
+    arranged.m += static_cast<int>(jacobian.front().H.rows());
+    for (const JacobianBlock& block : jacobian) {
+      ++uses[{block.first_row, static_cast<int>(block.H.cols())}];
+    }
+  }
+  std::map<std::pair<int, int>, int> shared_index;
+  for (const auto& [key, count] : uses) {
+    if (count < 2) continue;
+    shared_index[key] = static_cast<int>(arranged.shared.size());
+    arranged.shared.push_back({key.first, Eigen::MatrixXd::Zero(arranged.m, key.second)});
+  }
   int row = 0;
   for (const SparseJacobian& jacobian : jacobians) {
-    const int rows = static_cast<int>(jacobian.front().H.rows());
-    for (const JacobianBlock& block : jacobian) visit(row, rows, block);
-    row += rows;
+    for (const JacobianBlock& block : jacobian) {
+      const auto it = shared_index.find({block.first_row, static_cast<int>(block.H.cols())});
+      if (it == shared_index.end()) {
+        arranged.single.push_back({row, block.first_row, &block.H});
+      } else {
+        arranged.shared[it->second].H.middleRows(row, block.H.rows()) += block.H;
+      }
+    }
+    row += static_cast<int>(jacobian.front().H.rows());
+  }
+  return arranged;
+}
+
+/// out.middleCols(out_col, H.rows()) += in.middleCols(in_col, H.cols()) * H^T, one column
+/// operation per entry of H (contiguous columns: vectorized).
+template <typename Out, typename In>
+void addTimesTransposed(const Eigen::MatrixXd& H, const In& in, int in_col, int out_col, Out* out) {
+  for (int j = 0; j < H.rows(); ++j) {
+    for (int i = 0; i < H.cols(); ++i) out->col(out_col + j) += H(j, i) * in.col(in_col + i);
   }
 }
 
-/// P H^T (dim x m) of a covariance, from the touched columns only, then H P H^T + R (m x m),
-/// block by block in the order the blocks are listed (adding to zero first is exact).
-Eigen::MatrixXd covarianceTimesHt(const std::vector<SparseJacobian>& jacobians,
-                                  const Eigen::Block<Eigen::MatrixXd>& S, int m) {
-  Eigen::MatrixXd PHt = Eigen::MatrixXd::Zero(S.rows(), m);
-  forEachBlock(jacobians, [&](int row, int rows, const JacobianBlock& block) {
-    PHt.middleCols(row, rows).noalias() +=
-        S.middleCols(block.first_row, block.H.cols()) * block.H.transpose();
-  });
+/// P H^T (dim x m) of a covariance, from the touched columns only.
+Eigen::MatrixXd covarianceTimesHt(const ArrangedJacobian& jacobian,
+                                  const Eigen::Block<Eigen::MatrixXd>& P) {
+  Eigen::MatrixXd PHt = Eigen::MatrixXd::Zero(P.rows(), jacobian.m);
+  for (const auto& shared : jacobian.shared) {
+    PHt.noalias() += P.middleCols(shared.first_row, shared.H.cols()) * shared.H.transpose();
+  }
+  for (const auto& single : jacobian.single) {
+    addTimesTransposed(*single.H, P, single.first_row, single.row, &PHt);
+  }
   return PHt;
 }
 
-Eigen::MatrixXd innovationCovariance(const std::vector<SparseJacobian>& jacobians,
-                                     const Eigen::MatrixXd& PHt, double noise_var) {
-  const auto m = PHt.cols();
-  Eigen::MatrixXd innovation_cov = Eigen::MatrixXd::Zero(m, m);
-  forEachBlock(jacobians, [&](int row, int rows, const JacobianBlock& block) {
-    innovation_cov.middleRows(row, rows).noalias() +=
-        block.H * PHt.middleRows(block.first_row, block.H.cols());
-  });
+/// H P H^T + R (m x m) from P H^T, as (P H^T)^T H^T (the same matrix: symmetric).
+Eigen::MatrixXd innovationCovariance(const ArrangedJacobian& jacobian, const Eigen::MatrixXd& PHt,
+                                     double noise_var) {
+  const Eigen::MatrixXd HP = PHt.transpose();  // the rows of P H^T as contiguous columns
+  Eigen::MatrixXd innovation_cov = Eigen::MatrixXd::Zero(jacobian.m, jacobian.m);
+  for (const auto& shared : jacobian.shared) {
+    innovation_cov.noalias() +=
+        HP.middleCols(shared.first_row, shared.H.cols()) * shared.H.transpose();
+  }
+  for (const auto& single : jacobian.single) {
+    addTimesTransposed(*single.H, HP, single.first_row, single.row, &innovation_cov);
+  }
   innovation_cov.diagonal().array() += noise_var;
   return innovation_cov;
 }
@@ -53,10 +107,10 @@ void mirrorLowerTriangle(Eigen::Block<Eigen::MatrixXd> P) {
 /// The reported covariance after an update with the gain K of the other one (Joseph form):
 /// P <- (I - K H) P (I - K H)^T + K R K^T = P + K C^T + C K^T with C = K S / 2 - P H^T and
 /// S = H P H^T + R: the covariance of that gain's error when the noise is R = noise_var I.
-void updateReported(const std::vector<SparseJacobian>& jacobians, const Eigen::MatrixXd& K,
-                    double noise_var, Eigen::Block<Eigen::MatrixXd> P) {
-  const Eigen::MatrixXd PHt = covarianceTimesHt(jacobians, P, static_cast<int>(K.cols()));
-  const Eigen::MatrixXd C = 0.5 * K * innovationCovariance(jacobians, PHt, noise_var) - PHt;
+void updateReported(const ArrangedJacobian& jacobian, const Eigen::MatrixXd& K, double noise_var,
+                    Eigen::Block<Eigen::MatrixXd> P) {
+  const Eigen::MatrixXd PHt = covarianceTimesHt(jacobian, P);
+  const Eigen::MatrixXd C = 0.5 * K * innovationCovariance(jacobian, PHt, noise_var) - PHt;
   // K C^T + C K^T as one product and its transpose: exactly symmetric, and a general product
   // runs faster than the two symmetric rank-m updates of the same flop count.
   Eigen::MatrixXd KCt(P.rows(), P.cols());
@@ -95,8 +149,9 @@ UpdateOutcome update(FilterState* state, const std::vector<SparseJacobian>& jaco
                      double reported_noise_var) {
   UpdateOutcome outcome;
   auto S = state->covariance();
-  const Eigen::MatrixXd PHt = covarianceTimesHt(jacobians, S, static_cast<int>(residual.size()));
-  Eigen::LLT<Eigen::MatrixXd> llt(innovationCovariance(jacobians, PHt, noise_var));
+  const ArrangedJacobian arranged = arrange(jacobians);
+  const Eigen::MatrixXd PHt = covarianceTimesHt(arranged, S);
+  Eigen::LLT<Eigen::MatrixXd> llt(innovationCovariance(arranged, PHt, noise_var));
   if (llt.info() != Eigen::Success) {
     outcome.status = UpdateStatus::kNotPositiveDefinite;
     return outcome;
@@ -112,7 +167,7 @@ UpdateOutcome update(FilterState* state, const std::vector<SparseJacobian>& jaco
   if (state->covarianceCount() > 1) {
     // K^T = S^-1 (P H^T)^T = L^-T B.
     const Eigen::MatrixXd K = llt.matrixU().solve(B).transpose();
-    updateReported(jacobians, K, reported_noise_var < 0.0 ? noise_var : reported_noise_var,
+    updateReported(arranged, K, reported_noise_var < 0.0 ? noise_var : reported_noise_var,
                    state->covariance(1));
   }
   S.selfadjointView<Eigen::Lower>().rankUpdate(B.transpose(), -1.0);

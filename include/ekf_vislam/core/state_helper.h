@@ -18,7 +18,7 @@ struct JacobianBlock {
   Eigen::MatrixXd H;
 };
 /// An observation's Jacobian: only the blocks it touches (every block has the same rows). The
-/// block order fixes the floating-point summation order.
+/// blocks' order and sizes fix the floating-point summation order.
 using SparseJacobian = std::vector<JacobianBlock>;
 
 enum class UpdateStatus { kApplied, kNotPositiveDefinite, kNonFinite };

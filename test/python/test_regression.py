@@ -123,8 +123,8 @@ class SyntheticDriveTest(unittest.TestCase):
 
 @unittest.skipUnless(paths.data_dir(), 'course datasets not found (../shared/data or EKF_VISLAM_DATA)')
 class KittiRegressionTest(unittest.TestCase):
-    # Measured with config/default.yaml (scripts/benchmark.sh): 0027 2.23 m / 1.29 %, mean
-    # position NEES 2.17; 0034 5.72 m / 2.45 %, NEES 4.09 (README). The run is deterministic; the
+    # Measured with config/default.yaml (scripts/benchmark.sh): 0027 2.029 m / 1.27 %, mean
+    # position NEES 2.03; 0034 5.528 m / 2.35 %, NEES 3.62 (README). The run is deterministic; the
     # bounds are the consistency targets (ATE 2.5 and 6.0 m, RPE 2 and 3 %). The NEES must lie in
     # the consistency band 1.5-6 (3 is exact).
     BOUNDS = {'0027': (2.5, 2.0), '0034': (6.0, 3.0)}  # (ATE m, RPE %)
@@ -178,17 +178,17 @@ class KittiRegressionTest(unittest.TestCase):
         self.assertLess(nees, KittiRegressionTest.NEES_BAND[1])
 
     def test_accurate_twist_0027_does_no_harm(self):
-        # Measured: SLAM 1.234 m against dead reckoning 3.965 m (0.31x), position NEES 2.46.
+        # Measured: SLAM 1.220 m against dead reckoning 3.965 m (0.31x), position NEES 2.38.
         self.check_accurate_twist_does_no_harm('0027')
 
     def test_accurate_twist_0034_does_no_harm(self):
-        # Measured: SLAM 3.992 m against dead reckoning 4.661 m (0.86x), position NEES 3.67.
+        # Measured: SLAM 3.961 m against dead reckoning 4.661 m (0.85x), position NEES 3.59.
         self.check_accurate_twist_does_no_harm('0034')
 
     def test_faults_and_outliers_cost_at_most_15_percent(self):
         # 0027 with every fault class, 5 % of the observations moved to random image positions and
-        # an empty message every 113th frame (seed 1): 2.002 m against 2.232 m clean (0.90x;
-        # seeds 2-4: 0.93x-1.08x). The bound is 1.15x.
+        # an empty message every 113th frame (seed 1): 2.006 m against 2.029 m clean (0.99x;
+        # seeds 2-4: 0.947x-1.129x, README). The bound is 1.15x.
         data = paths.data_dir()
         tmp = paths.make_temp_dir(self)
         gt = os.path.join(data, 'groundtruth', '0027_imu_gt.tum')

@@ -20,19 +20,20 @@ SCRIPTS = os.path.join(paths.REPO_ROOT, 'scripts')
 PY = '/usr/bin/python3'
 
 
-def run(cmd):
-    proc = subprocess.run(cmd, capture_output=True, text=True)
+def check(proc):
+    """A finished subprocess that must have succeeded: its command and output if it did not."""
     if proc.returncode != 0:
-        raise AssertionError('%s failed (%d):\n%s%s' % (' '.join(cmd), proc.returncode, proc.stdout,
-                                                        proc.stderr))
+        raise AssertionError('%s failed (%d):\n%s%s' % (' '.join(map(str, proc.args)),
+                                                        proc.returncode, proc.stdout, proc.stderr))
     return proc
 
 
+def run(cmd):
+    return check(subprocess.run(cmd, capture_output=True, text=True))
+
+
 def offline(bag, mode, out_dir):
-    proc = paths.run_vislam_offline(bag, out_dir, '--mode', mode)
-    if proc.returncode != 0:
-        raise AssertionError('vislam_offline --bag %s --mode %s failed (%d):\n%s%s' % (
-            bag, mode, proc.returncode, proc.stdout, proc.stderr))
+    check(paths.run_vislam_offline(bag, out_dir, '--mode', mode))
     with open(os.path.join(out_dir, 'stats.json')) as f:
         stats = json.load(f)
     return trajectory.read_tum(os.path.join(out_dir, 'trajectory.tum')), stats

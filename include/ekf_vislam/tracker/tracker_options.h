@@ -39,10 +39,10 @@ struct TrackerOptions {
                            ///< many frames (0: from its first frame)
 
   // klt/
-  int window_size = 21;              ///< KLT window (px, odd)
+  int window_size = 15;              ///< KLT window (px, odd)
   int pyramid_levels = 3;            ///< pyramid levels above the full image (temporal)
-  int max_iterations = 30;           ///< KLT iterations per level
-  double epsilon = 0.01;             ///< KLT convergence threshold (px)
+  int max_iterations = 10;           ///< KLT iterations per level
+  double epsilon = 0.03;             ///< KLT convergence threshold (px)
   double forward_backward_px = 0.5;  ///< max distance of the backward-tracked point to the start
   bool predict_with_last_motion = true;  ///< KLT initial guess from the last frame's estimated
                                          ///< motion (for points with a stereo depth)
@@ -63,7 +63,7 @@ struct TrackerOptions {
                                    ///< (affine in u, rows kept) after the left-right KLT
 
   // stereo/
-  int stereo_window_size = 21;        ///< KLT window of the left-right match
+  int stereo_window_size = 15;        ///< KLT window of the left-right match
   int stereo_pyramid_levels = 4;      ///< pyramid levels of the left-right match
   double row_tolerance_px = 1.0;      ///< max |v_right - v_left| (rectified images)
   double min_disparity_px = 0.5;      ///< smaller disparity: no stereo match

@@ -137,7 +137,8 @@ bool StereoTracker::process(const cv::Mat& left, const cv::Mat& right, double st
 
   TrackerFrameStats stats;
   stats.tracks_in = static_cast<int>(tracks_.size());
-  const int levels = std::max(options_.pyramid_levels, options_.stereo_pyramid_levels);
+  // The temporal KLT takes one level more without a prediction (trackTemporal).
+  const int levels = std::max(options_.pyramid_levels + 1, options_.stereo_pyramid_levels);
   const cv::Size window(std::max(options_.window_size, options_.stereo_window_size),
                         std::max(options_.window_size, options_.stereo_window_size));
   std::vector<cv::Mat> left_pyramid, right_pyramid;
@@ -178,8 +179,12 @@ std::vector<float> StereoTracker::trackTemporal(const std::vector<cv::Mat>& left
   for (size_t i = 0; i < tracks_.size(); ++i) prev[i] = tracks_[i].left;
   std::vector<cv::Point2f> cur = predictLeft(prior, dt, &prediction);
 
+  // Without a prediction (a second pair without a twist), the tracks start where they were:
+  // search one pyramid level more.
+  const bool predicted =
+      prior != nullptr || (options_.predict_with_last_motion && has_last_motion_);
   const KltSettings klt{cv::Size(options_.window_size, options_.window_size),
-                        options_.pyramid_levels,
+                        options_.pyramid_levels + (predicted ? 0 : 1),
                         cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
                                          options_.max_iterations, options_.epsilon)};
   std::vector<uint8_t> status;

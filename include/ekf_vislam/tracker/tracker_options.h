@@ -40,7 +40,8 @@ struct TrackerOptions {
 
   // klt/
   int window_size = 15;              ///< KLT window (px, odd)
-  int pyramid_levels = 3;            ///< pyramid levels above the full image (temporal)
+  int pyramid_levels = 3;            ///< pyramid levels above the full image (temporal;
+                                     ///< one more for a pair without a motion prediction)
   int max_iterations = 10;           ///< KLT iterations per level
   double epsilon = 0.03;             ///< KLT convergence threshold (px)
   double forward_backward_px = 0.5;  ///< max distance of the backward-tracked point to the start

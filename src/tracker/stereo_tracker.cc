@@ -74,10 +74,11 @@ cv::Point3f StereoTracker::pointOf(const Track& track) const {
                      static_cast<float>(p_cam->z()));
 }
 
-std::vector<cv::Point2f> StereoTracker::predictLeft(const CameraMotionPrior* prior, double dt,
-                                                    CameraMotionPrior* used) const {
+bool StereoTracker::predictLeft(const CameraMotionPrior* prior, double dt, CameraMotionPrior* used,
+                                std::vector<cv::Point2f>* predicted) const {
   const double ratio = last_dt_ > 0 ? std::clamp(dt / last_dt_, 0.0, 3.0) : 1.0;
   *used = CameraMotionPrior();
+  bool has_prediction = true;
   if (prior != nullptr) {
     *used = *prior;
     if (!prior->has_translation && has_last_motion_) {
@@ -86,9 +87,11 @@ std::vector<cv::Point2f> StereoTracker::predictLeft(const CameraMotionPrior* pri
     }
   } else if (options_.predict_with_last_motion && has_last_motion_) {
     *used = scaleMotion(last_motion_, ratio);
+  } else {
+    has_prediction = false;
   }
   const Eigen::Matrix3d& R = used->cur_R_prev;
-  std::vector<cv::Point2f> predicted(tracks_.size());
+  predicted->resize(tracks_.size());
   for (size_t i = 0; i < tracks_.size(); ++i) {
     const Track& track = tracks_[i];
     const cv::Point3f p = pointOf(track);
@@ -99,13 +102,13 @@ std::vector<cv::Point2f> StereoTracker::predictLeft(const CameraMotionPrior* pri
       q = R * normalized(calibration_, track.left);
     }
     if (q.z() < 0.1) {
-      predicted[i] = track.left;
+      (*predicted)[i] = track.left;
       continue;
     }
     const Eigen::Vector2d pixel = project(calibration_, q);
-    predicted[i] = cv::Point2f(static_cast<float>(pixel.x()), static_cast<float>(pixel.y()));
+    (*predicted)[i] = cv::Point2f(static_cast<float>(pixel.x()), static_cast<float>(pixel.y()));
   }
-  return predicted;
+  return has_prediction;
 }
 
 bool StereoTracker::process(const cv::Mat& left, const cv::Mat& right, double stamp,
@@ -177,12 +180,10 @@ std::vector<float> StereoTracker::trackTemporal(const std::vector<cv::Mat>& left
   CameraMotionPrior prediction;
   std::vector<cv::Point2f> prev(tracks_.size());
   for (size_t i = 0; i < tracks_.size(); ++i) prev[i] = tracks_[i].left;
-  std::vector<cv::Point2f> cur = predictLeft(prior, dt, &prediction);
-
+  std::vector<cv::Point2f> cur;
   // Without a prediction (a second pair without a twist), the tracks start where they were:
   // search one pyramid level more.
-  const bool predicted =
-      prior != nullptr || (options_.predict_with_last_motion && has_last_motion_);
+  const bool predicted = predictLeft(prior, dt, &prediction, &cur);
   const KltSettings klt{cv::Size(options_.window_size, options_.window_size),
                         options_.pyramid_levels + (predicted ? 0 : 1),
                         cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,

@@ -44,8 +44,10 @@ class StereoTracker {
     AffineWarp warp;           ///< the reference's warp into the last left image
   };
 
-  std::vector<cv::Point2f> predictLeft(const CameraMotionPrior* prior, double dt,
-                                       CameraMotionPrior* used) const;
+  // Each track's predicted left position, from the prior or the last motion (`used`); false when
+  // there is neither (positions unchanged).
+  bool predictLeft(const CameraMotionPrior* prior, double dt, CameraMotionPrior* used,
+                   std::vector<cv::Point2f>* predicted) const;
   // KLT of the tracks into the new left image, forward-backward check and RANSAC; drops the
   // lost tracks and returns each survivor's predicted disparity (the left-right KLT seed).
   std::vector<float> trackTemporal(const std::vector<cv::Mat>& left_pyramid,

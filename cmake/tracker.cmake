@@ -12,6 +12,7 @@ add_library(ekf_vislam_tracker
   src/tracker/tracker_options.cc
   src/tracker/feature_detector.cc
   src/tracker/klt_back_check.cc
+  src/tracker/exposure_compensation.cc
   src/tracker/stereo_matcher.cc
   src/tracker/patch_refiner.cc
   src/tracker/rectified_stereo.cc
@@ -43,6 +44,7 @@ if(CATKIN_ENABLE_TESTING)
     src/tracker/pose_twist_test.cc
     src/tracker/twist_motion_prior_test.cc
     src/tracker/klt_back_check_test.cc
+    src/tracker/exposure_compensation_test.cc
     src/tracker/stereo_tracker_test.cc
     src/tracker/patch_refiner_test.cc
     src/tracker/rectified_stereo_test.cc

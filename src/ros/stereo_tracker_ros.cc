@@ -353,6 +353,8 @@ void StereoTrackerRos::trackPair(const ImagePair& pair) {
   ++pairs_tracked_;
   last_features_ = frame.stats.published;
   last_ms_ = frame.stats.ms_total;
+  last_exposure_gain_temporal_ = frame.stats.exposure_gain_temporal;
+  last_exposure_gain_stereo_ = frame.stats.exposure_gain_stereo;
   publish(*left_msg, left, right, frame);
 }
 
@@ -413,6 +415,8 @@ void StereoTrackerRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWr
   status.add("twist_predictions", twist_used_);
   status.add("features_last", last_features_);
   status.add("track_ms_last", last_ms_);
+  status.add("exposure_gain_last", last_exposure_gain_temporal_);
+  status.add("stereo_exposure_gain_last", last_exposure_gain_stereo_);
 }
 
 }  // namespace ekf_vislam

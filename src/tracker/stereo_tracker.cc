@@ -1,5 +1,6 @@
 #include "ekf_vislam/tracker/stereo_tracker.h"
 
+#include "ekf_vislam/tracker/exposure_compensation.h"
 #include "ekf_vislam/tracker/klt_back_check.h"
 #include "ekf_vislam/tracker/motion_check.h"
 #include "ekf_vislam/tracker/rectified_stereo.h"
@@ -18,6 +19,8 @@ namespace ekf_vislam {
 namespace {
 
 constexpr size_t kTrailLength = 10;
+// Fewest tracks an exposure map is fitted on (klt/exposure_compensation).
+constexpr int kMinExposurePoints = 20;
 
 using Clock = std::chrono::steady_clock;
 
@@ -33,6 +36,12 @@ CameraMotionPrior scaleMotion(const CameraMotionPrior& motion, double ratio) {
   scaled.has_translation = motion.has_translation;
   scaled.cur_t_prev = motion.cur_t_prev * ratio;
   return scaled;
+}
+
+// The window the pyramids are built for (both KLT steps use them).
+cv::Size pyramidWindow(const TrackerOptions& options) {
+  const int side = std::max(options.window_size, options.stereo_window_size);
+  return cv::Size(side, side);
 }
 
 bool insideImage(const cv::Point2f& p, const cv::Size& size, int border) {
@@ -142,12 +151,10 @@ bool StereoTracker::process(const cv::Mat& left, const cv::Mat& right, double st
   stats.tracks_in = static_cast<int>(tracks_.size());
   // The temporal KLT takes one level more without a prediction (trackTemporal).
   const int levels = std::max(options_.pyramid_levels + 1, options_.stereo_pyramid_levels);
-  const cv::Size window(std::max(options_.window_size, options_.stereo_window_size),
-                        std::max(options_.window_size, options_.stereo_window_size));
+  const cv::Size window = pyramidWindow(options_);
   std::vector<cv::Mat> left_pyramid, right_pyramid;
   auto t = Clock::now();
   cv::buildOpticalFlowPyramid(left, left_pyramid, window, levels, true);
-  cv::buildOpticalFlowPyramid(right, right_pyramid, window, levels, true);
   stats.ms_pyramids = msSince(t);
 
   std::vector<float> predicted_disparity;
@@ -157,6 +164,16 @@ bool StereoTracker::process(const cv::Mat& left, const cv::Mat& right, double st
     tracks_.clear();
     has_last_motion_ = false;
   }
+  t = Clock::now();
+  if (options_.exposure_compensation) {
+    updateStereoExposure(left, right, predicted_disparity);
+    stats.exposure_gain_stereo = stereo_exposure_.gain;
+    cv::buildOpticalFlowPyramid(applyIntensityMap(right, stereo_exposure_), right_pyramid, window,
+                                levels, true);
+  } else {
+    cv::buildOpticalFlowPyramid(right, right_pyramid, window, levels, true);
+  }
+  stats.ms_pyramids += msSince(t);
   t = Clock::now();
   matchTracksInRight(left_pyramid, right_pyramid, predicted_disparity, &stats);
   stats.ms_stereo = msSince(t);
@@ -184,13 +201,28 @@ std::vector<float> StereoTracker::trackTemporal(const std::vector<cv::Mat>& left
   // Without a prediction (a second pair without a twist), the tracks start where they were:
   // search one pyramid level more.
   const bool predicted = predictLeft(prior, dt, &prediction, &cur);
+  // The previous image brought to this one's exposure (the pyramid rebuilt from it).
+  std::vector<cv::Mat> exposed_prev_pyramid;
+  if (options_.exposure_compensation) {
+    const auto t_exposure = Clock::now();
+    const cv::Mat& prev_image = prev_left_pyramid_[0];
+    const IntensityMap map = fitIntensityMap(prev_image, prev, left_pyramid[0], cur,
+                                             options_.window_size, kMinExposurePoints);
+    stats->exposure_gain_temporal = map.gain;
+    cv::buildOpticalFlowPyramid(applyIntensityMap(prev_image, map), exposed_prev_pyramid,
+                                pyramidWindow(options_),
+                                static_cast<int>(prev_left_pyramid_.size() / 2) - 1, true);
+    stats->ms_pyramids += msSince(t_exposure);
+  }
+  const std::vector<cv::Mat>& prev_pyramid =
+      options_.exposure_compensation ? exposed_prev_pyramid : prev_left_pyramid_;
   const KltSettings klt{cv::Size(options_.window_size, options_.window_size),
                         options_.pyramid_levels + (predicted ? 0 : 1),
                         cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
                                          options_.max_iterations, options_.epsilon)};
   std::vector<uint8_t> status;
   std::vector<float> error;
-  cv::calcOpticalFlowPyrLK(prev_left_pyramid_, left_pyramid, prev, cur, status, error, klt.window,
+  cv::calcOpticalFlowPyrLK(prev_pyramid, left_pyramid, prev, cur, status, error, klt.window,
                            klt.levels, klt.criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
   const cv::Size size = left_pyramid[0].size();
   std::vector<size_t> candidates;
@@ -202,8 +234,8 @@ std::vector<float> StereoTracker::trackTemporal(const std::vector<cv::Mat>& left
       candidates.push_back(i);
     }
   }
-  std::vector<uint8_t> keep = backCheck(left_pyramid, prev_left_pyramid_, cur, prev, candidates,
-                                        klt, options_.forward_backward_px);
+  std::vector<uint8_t> keep = backCheck(left_pyramid, prev_pyramid, cur, prev, candidates, klt,
+                                        options_.forward_backward_px);
   stats->forward_backward_rejected += static_cast<int>(candidates.size()) -
                                       static_cast<int>(std::count(keep.begin(), keep.end(), 1));
   keepSelected(keep, &tracks_);
@@ -256,6 +288,19 @@ std::vector<float> StereoTracker::trackTemporal(const std::vector<cv::Mat>& left
   keepSelected(check.inlier, &predicted_disparity);
   stats->ms_ransac = msSince(t);
   return predicted_disparity;
+}
+
+void StereoTracker::updateStereoExposure(const cv::Mat& left, const cv::Mat& right,
+                                         const std::vector<float>& predicted_disparity) {
+  std::vector<cv::Point2f> left_points(tracks_.size()), right_points(tracks_.size());
+  for (size_t i = 0; i < tracks_.size(); ++i) {
+    left_points[i] = tracks_[i].left;
+    right_points[i] = tracks_[i].left - cv::Point2f(predicted_disparity[i], 0.f);
+  }
+  // Without enough tracks the last map stands (a rig's two cameras differ slowly, if at all).
+  if (static_cast<int>(tracks_.size()) < kMinExposurePoints) return;
+  stereo_exposure_ = fitIntensityMap(right, right_points, left, left_points,
+                                     options_.stereo_window_size, kMinExposurePoints);
 }
 
 void StereoTracker::setReference(const cv::Mat& left, Track* track) const {

@@ -234,7 +234,8 @@ bool writeStats(const std::string& path, const std::vector<StereoFrame>& frames,
   std::ofstream out(path);
   out << "frame,stamp,tracks_in,klt_lost,forward_backward_rejected,ransac_rejected,stereo_lost,"
          "disparity_rejected,detected,new_tracks,published,motion_estimated,ms_pyramids,"
-         "ms_temporal,ms_ransac,ms_stereo,ms_detect,ms_total,refined,refine_failed,ms_refine\n";
+         "ms_temporal,ms_ransac,ms_stereo,ms_detect,ms_total,refined,refine_failed,ms_refine,"
+         "exposure_gain_temporal,exposure_gain_stereo\n";
   out.precision(10);
   for (size_t k = 0; k < frames.size(); ++k) {
     const TrackerFrameStats& s = frames[k].stats;
@@ -243,7 +244,8 @@ bool writeStats(const std::string& path, const std::vector<StereoFrame>& frames,
         << s.disparity_rejected << "," << s.detected << "," << s.new_tracks << "," << s.published
         << "," << s.motion_estimated << "," << s.ms_pyramids << "," << s.ms_temporal << ","
         << s.ms_ransac << "," << s.ms_stereo << "," << s.ms_detect << "," << s.ms_total << ","
-        << s.refined << "," << s.refine_failed << "," << s.ms_refine << "\n";
+        << s.refined << "," << s.refine_failed << "," << s.ms_refine << ","
+        << s.exposure_gain_temporal << "," << s.exposure_gain_stereo << "\n";
   }
   if (!out) *error = path + ": cannot write";
   return static_cast<bool>(out);

@@ -32,6 +32,7 @@ void visitTrackerOptions(Options& o, Visitor& v) {
   v.number("klt/epsilon", o.epsilon, Bound::kPositive);
   v.number("klt/forward_backward_px", o.forward_backward_px, Bound::kPositive);
   v.flag("klt/predict_with_last_motion", o.predict_with_last_motion);
+  v.flag("klt/exposure_compensation", o.exposure_compensation);
   v.flag("refine/enabled", o.refine);
   v.integer("refine/patch_size", o.refine_patch_size, Bound::kAtLeastOne);
   v.integer("refine/max_iterations", o.refine_max_iterations, Bound::kAtLeastOne);

@@ -123,6 +123,7 @@ class StereoTrackerRos {
   StampGapDetector pair_gaps_;           ///< pairs missing, from gaps in the left stamps
   int last_features_ = 0;
   double last_ms_ = 0;
+  double last_exposure_gain_temporal_ = 1, last_exposure_gain_stereo_ = 1;
 };
 
 }  // namespace ekf_vislam

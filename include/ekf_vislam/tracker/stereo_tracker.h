@@ -3,6 +3,7 @@
 // same row, persistent ids (never reused). The heart of the stereo front end; no ROS.
 #pragma once
 
+#include "ekf_vislam/tracker/exposure_compensation.h"
 #include "ekf_vislam/tracker/feature_detector.h"
 #include "ekf_vislam/tracker/patch_refiner.h"
 #include "ekf_vislam/tracker/tracker_options.h"
@@ -60,6 +61,9 @@ class StereoTracker {
   std::vector<uint8_t> refineLeft(const cv::Mat& left, std::vector<cv::Point2f>* cur,
                                   TrackerFrameStats* stats);
   void setReference(const cv::Mat& left, Track* track) const;
+  // Fits stereo_exposure_ (right image to left) on the tracks and their predicted right points.
+  void updateStereoExposure(const cv::Mat& left, const cv::Mat& right,
+                            const std::vector<float>& predicted_disparity);
   void matchTracksInRight(const std::vector<cv::Mat>& left_pyramid,
                           const std::vector<cv::Mat>& right_pyramid,
                           const std::vector<float>& predicted_disparity, TrackerFrameStats* stats);
@@ -81,6 +85,8 @@ class StereoTracker {
   bool has_last_motion_ = false;
   CameraMotionPrior last_motion_;
   double last_dt_ = 0;
+  // klt/exposure_compensation: the map from the right image's intensities to the left's.
+  IntensityMap stereo_exposure_;
 };
 
 }  // namespace ekf_vislam

@@ -47,6 +47,8 @@ struct TrackerOptions {
   double forward_backward_px = 0.5;  ///< max distance of the backward-tracked point to the start
   bool predict_with_last_motion = true;  ///< KLT initial guess from the last frame's estimated
                                          ///< motion (for points with a stereo depth)
+  bool exposure_compensation = true;     ///< both KLT steps compare images brought to the same gain
+                                         ///< and offset (fitted on the tracks)
 
   // refine/
   bool refine = true;                ///< align each track's first left patch (affine warp, gain and

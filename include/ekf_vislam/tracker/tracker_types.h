@@ -40,15 +40,17 @@ struct TrackerFrameStats {
   int tracks_in = 0;  ///< tracks of the previous frame
   int klt_lost = 0;   ///< KLT failed or left the image
   int forward_backward_rejected = 0;
-  int ransac_rejected = 0;        ///< temporal outliers
-  int stereo_lost = 0;            ///< tracked, but no left-right match in this frame
-  int disparity_rejected = 0;     ///< left-right match disagrees with the predicted disparity
-  int detected = 0;               ///< new corners found
-  int new_tracks = 0;             ///< of them, matched in the right image (new ids)
-  int published = 0;              ///< features of the frame
-  int refined = 0;                ///< tracks aligned to their reference patch (refine/enabled)
-  int refine_failed = 0;          ///< alignments refused (the KLT position stands)
-  bool motion_estimated = false;  ///< PnP gave the camera motion of this frame
+  int ransac_rejected = 0;            ///< temporal outliers
+  int stereo_lost = 0;                ///< tracked, but no left-right match in this frame
+  int disparity_rejected = 0;         ///< left-right match disagrees with the predicted disparity
+  int detected = 0;                   ///< new corners found
+  int new_tracks = 0;                 ///< of them, matched in the right image (new ids)
+  int published = 0;                  ///< features of the frame
+  int refined = 0;                    ///< tracks aligned to their reference patch (refine/enabled)
+  int refine_failed = 0;              ///< alignments refused (the KLT position stands)
+  bool motion_estimated = false;      ///< PnP gave the camera motion of this frame
+  double exposure_gain_temporal = 1;  ///< klt/exposure_compensation: previous to this left image
+  double exposure_gain_stereo = 1;    ///< and right image to left
   double ms_pyramids = 0, ms_temporal = 0, ms_ransac = 0, ms_stereo = 0, ms_detect = 0,
          ms_refine = 0;
   double ms_total = 0;

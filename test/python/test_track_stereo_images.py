@@ -137,6 +137,33 @@ class TrackStereoImagesTest(unittest.TestCase):
         np.testing.assert_array_equal(d.v, reference.v)
         self.assertFalse(np.array_equal(d.features, reference.features))
 
+    def test_exposure_changes(self):
+        """exposure_variant.py brightens and darkens every frame (both cameras by up to 15 %, the
+        right one by up to 10 % more): with the exposure compensation the tracks hold as on the
+        unchanged drive; without it fewer tracks last (measured on this 30-frame drive: 339.07
+        against 202.03 observations per frame, and 339.10 unchanged)."""
+        varied = os.path.join(self.tmp, 'exposure')
+        result = paths.run_script('exposure_variant.py', self.folder, varied, '--right-jitter',
+                                  '0.1', '--seed', '1')
+        self.assertEqual(result.returncode, 0, result.stderr)
+        off = os.path.join(self.tmp, 'off.yaml')
+        with open(off, 'w') as f:
+            f.write('klt:\n  exposure_compensation: false\n')
+        means = []
+        for config in ([], ['--config', off]):
+            report = subprocess.run(
+                [tool('track_stereo_images'), '--left', varied + '/image_left', '--right',
+                 varied + '/image_right', '--calib', varied + '/calib.txt', '--times',
+                 varied + '/times.txt', '--poses', varied + '/poses.txt', '--out',
+                 os.path.join(self.tmp, 'exposure.npz')] + config,
+                check=True, stdout=subprocess.PIPE, universal_newlines=True).stdout
+            mean = re.search(r'observations per frame: mean ([0-9.]+)', report)
+            means.append(float(mean.group(1)))
+        unchanged = float(re.search(r'observations per frame: mean ([0-9.]+)',
+                                    self.report).group(1))
+        self.assertGreater(means[0], 0.95 * unchanged, means)
+        self.assertLess(means[1], 0.8 * unchanged, means)
+
     def test_first_frame(self):
         """--first-frame N starts at frame N: images, times and the poses' twist from there."""
         f, out = self.folder, os.path.join(self.tmp, 'from5.npz')

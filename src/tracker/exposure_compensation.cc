@@ -36,9 +36,11 @@ bool boxStatistics(const cv::Mat& image, const cv::Point2f& p, int box, double* 
 
 }  // namespace
 
-IntensityMap fitIntensityMap(const cv::Mat& from, const std::vector<cv::Point2f>& from_points,
-                             const cv::Mat& to, const std::vector<cv::Point2f>& to_points, int box,
-                             int min_points) {
+std::optional<IntensityMap> fitIntensityMap(const cv::Mat& from,
+                                            const std::vector<cv::Point2f>& from_points,
+                                            const cv::Mat& to,
+                                            const std::vector<cv::Point2f>& to_points, int box,
+                                            int min_points) {
   // Each point's window gives a gain (the ratio of the windows' contrasts, which a shift of a
   // pixel or two barely changes); the map takes the median gain, then the median offset.
   std::vector<double> from_means, to_means, gains;
@@ -52,8 +54,8 @@ IntensityMap fitIntensityMap(const cv::Mat& from, const std::vector<cv::Point2f>
       gains.push_back(to_deviation / from_deviation);
     }
   }
+  if (static_cast<int>(gains.size()) < std::max(min_points, 1)) return std::nullopt;
   IntensityMap map;
-  if (static_cast<int>(gains.size()) < std::max(min_points, 1)) return map;
   map.gain = std::clamp(median(&gains), kMinGain, kMaxGain);
   std::vector<double> offsets(from_means.size());
   for (size_t i = 0; i < offsets.size(); ++i) offsets[i] = to_means[i] - map.gain * from_means[i];

@@ -201,21 +201,26 @@ std::vector<float> StereoTracker::trackTemporal(const std::vector<cv::Mat>& left
   // Without a prediction (a second pair without a twist), the tracks start where they were:
   // search one pyramid level more.
   const bool predicted = predictLeft(prior, dt, &prediction, &cur);
-  // The previous image brought to this one's exposure (the pyramid rebuilt from it).
+  // The previous image brought to this one's exposure (the pyramid rebuilt from it); without a
+  // map, the previous pyramid as it is.
   std::vector<cv::Mat> exposed_prev_pyramid;
+  double ms_exposure = 0;
   if (options_.exposure_compensation) {
     const auto t_exposure = Clock::now();
     const cv::Mat& prev_image = prev_left_pyramid_[0];
-    const IntensityMap map = fitIntensityMap(prev_image, prev, left_pyramid[0], cur,
-                                             options_.window_size, kMinExposurePoints);
-    stats->exposure_gain_temporal = map.gain;
-    cv::buildOpticalFlowPyramid(applyIntensityMap(prev_image, map), exposed_prev_pyramid,
-                                pyramidWindow(options_),
-                                static_cast<int>(prev_left_pyramid_.size() / 2) - 1, true);
-    stats->ms_pyramids += msSince(t_exposure);
+    const std::optional<IntensityMap> map = fitIntensityMap(
+        prev_image, prev, left_pyramid[0], cur, options_.window_size, kMinExposurePoints);
+    if (map) {
+      stats->exposure_gain_temporal = map->gain;
+      cv::buildOpticalFlowPyramid(applyIntensityMap(prev_image, *map), exposed_prev_pyramid,
+                                  pyramidWindow(options_),
+                                  static_cast<int>(prev_left_pyramid_.size() / 2) - 1, true);
+    }
+    ms_exposure = msSince(t_exposure);
+    stats->ms_pyramids += ms_exposure;
   }
   const std::vector<cv::Mat>& prev_pyramid =
-      options_.exposure_compensation ? exposed_prev_pyramid : prev_left_pyramid_;
+      exposed_prev_pyramid.empty() ? prev_left_pyramid_ : exposed_prev_pyramid;
   const KltSettings klt{cv::Size(options_.window_size, options_.window_size),
                         options_.pyramid_levels + (predicted ? 0 : 1),
                         cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
@@ -241,7 +246,7 @@ std::vector<float> StereoTracker::trackTemporal(const std::vector<cv::Mat>& left
   keepSelected(keep, &tracks_);
   keepSelected(keep, &prev);
   keepSelected(keep, &cur);
-  stats->ms_temporal = msSince(t);
+  stats->ms_temporal = msSince(t) - ms_exposure;  // that time is the pyramids'
   if (options_.refine) {
     t = Clock::now();
     const std::vector<uint8_t> aligned = refineLeft(left_pyramid[0], &cur, stats);
@@ -298,9 +303,11 @@ void StereoTracker::updateStereoExposure(const cv::Mat& left, const cv::Mat& rig
     right_points[i] = tracks_[i].left - cv::Point2f(predicted_disparity[i], 0.f);
   }
   // Without enough tracks the last map stands (a rig's two cameras differ slowly, if at all).
-  if (static_cast<int>(tracks_.size()) < kMinExposurePoints) return;
-  stereo_exposure_ = fitIntensityMap(right, right_points, left, left_points,
-                                     options_.stereo_window_size, kMinExposurePoints);
+  if (const std::optional<IntensityMap> map =
+          fitIntensityMap(right, right_points, left, left_points, options_.stereo_window_size,
+                          kMinExposurePoints)) {
+    stereo_exposure_ = *map;
+  }
 }
 
 void StereoTracker::setReference(const cv::Mat& left, Track* track) const {

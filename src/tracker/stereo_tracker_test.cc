@@ -199,8 +199,9 @@ TEST(StereoTracker, IdsAreNeverReusedAndLostTracksEnd) {
   }
 }
 
-// The fraction of a frame's features still published in the next (mean over 5 steps) when every left image is brighter or
-// darker than the last (automatic exposure) and the right camera has a lower gain.
+// The fraction of a frame's features still published in the next (mean over 5 steps) when every
+// left image is brighter or darker than the last (automatic exposure) and the right camera has a
+// lower gain.
 double keptUnderExposureChanges(bool compensate) {
   SlantedPlaneScene scene;
   TrackerOptions options;

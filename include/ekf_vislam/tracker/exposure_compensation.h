@@ -6,6 +6,7 @@
 
 #include <opencv2/core.hpp>
 
+#include <optional>
 #include <vector>
 
 namespace ekf_vislam {
@@ -21,10 +22,12 @@ struct IntensityMap {
 /// about them (so a point known to a pixel or two serves): the gain is the median ratio of the
 /// windows' standard deviations, the offset the median difference of their means after the gain
 /// (robust to a few wrong points). Windows outside either image, or flat (or saturated) ones, do
-/// not count. The identity when fewer than `min_points` count; the gain is held to [1/4, 4].
-IntensityMap fitIntensityMap(const cv::Mat& from, const std::vector<cv::Point2f>& from_points,
-                             const cv::Mat& to, const std::vector<cv::Point2f>& to_points, int box,
-                             int min_points);
+/// not count. No map when fewer than `min_points` count; the gain is held to [1/4, 4].
+std::optional<IntensityMap> fitIntensityMap(const cv::Mat& from,
+                                            const std::vector<cv::Point2f>& from_points,
+                                            const cv::Mat& to,
+                                            const std::vector<cv::Point2f>& to_points, int box,
+                                            int min_points);
 
 /// `image` (8-bit, one channel) mapped by `map`, saturated to 0-255.
 cv::Mat applyIntensityMap(const cv::Mat& image, const IntensityMap& map);

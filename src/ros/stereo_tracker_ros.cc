@@ -351,10 +351,7 @@ void StereoTrackerRos::trackPair(const ImagePair& pair) {
   }
   prev_stamp_ = stamp;
   ++pairs_tracked_;
-  last_features_ = frame.stats.published;
-  last_ms_ = frame.stats.ms_total;
-  last_exposure_gain_temporal_ = frame.stats.exposure_gain_temporal;
-  last_exposure_gain_stereo_ = frame.stats.exposure_gain_stereo;
+  last_stats_ = frame.stats;
   publish(*left_msg, left, right, frame);
 }
 
@@ -413,10 +410,10 @@ void StereoTrackerRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWr
   status.add("pairs_missing", pair_gaps_.missing());
   status.add("pairs_waiting", waiting_pairs_.size());
   status.add("twist_predictions", twist_used_);
-  status.add("features_last", last_features_);
-  status.add("track_ms_last", last_ms_);
-  status.add("exposure_gain_last", last_exposure_gain_temporal_);
-  status.add("stereo_exposure_gain_last", last_exposure_gain_stereo_);
+  status.add("features_last", last_stats_.published);
+  status.add("track_ms_last", last_stats_.ms_total);
+  status.add("exposure_gain_last", last_stats_.exposure_gain_temporal);
+  status.add("stereo_exposure_gain_last", last_stats_.exposure_gain_stereo);
 }
 
 }  // namespace ekf_vislam

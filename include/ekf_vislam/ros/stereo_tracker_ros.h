@@ -121,9 +121,7 @@ class StereoTrackerRos {
   uint64_t pairs_out_of_order_ = 0, time_jump_resets_ = 0;
   TimeJumpDetector time_jumps_{0.0, 2};  ///< images 0, twist 1 (set from ros/time_jump_reset)
   StampGapDetector pair_gaps_;           ///< pairs missing, from gaps in the left stamps
-  int last_features_ = 0;
-  double last_ms_ = 0;
-  double last_exposure_gain_temporal_ = 1, last_exposure_gain_stereo_ = 1;
+  TrackerFrameStats last_stats_;         ///< of the last pair tracked (diagnostics)
 };
 
 }  // namespace ekf_vislam

@@ -26,6 +26,18 @@ def tool(name):
     raise unittest.SkipTest('%s not built' % name)
 
 
+def track_args(folder, out):
+    """track_stereo_images over an image folder (KITTI layout) into `out`, without --poses."""
+    return [tool('track_stereo_images'), '--left', folder + '/image_left', '--right',
+            folder + '/image_right', '--calib', folder + '/calib.txt', '--times',
+            folder + '/times.txt', '--out', out]
+
+
+def mean_observations(report):
+    """The mean observations per frame that track_stereo_images printed."""
+    return float(re.search(r'observations per frame: mean ([0-9.]+)', report).group(1))
+
+
 class TrackStereoImagesTest(unittest.TestCase):
 
     @classmethod
@@ -37,10 +49,8 @@ class TrackStereoImagesTest(unittest.TestCase):
         cls.npz = os.path.join(cls.tmp, 'tracks.npz')
         f = cls.folder
         cls.report = subprocess.run(
-            [tool('track_stereo_images'), '--left', f + '/image_left', '--right',
-             f + '/image_right', '--calib', f + '/calib.txt', '--times', f + '/times.txt',
-             '--poses', f + '/poses.txt', '--out', cls.npz, '--twist-noise', '0', '0',
-             '--gyro-offset', '0', '--time-offset', '100'],
+            track_args(f, cls.npz) + ['--poses', f + '/poses.txt', '--twist-noise', '0', '0',
+                                      '--gyro-offset', '0', '--time-offset', '100'],
             check=True, stdout=subprocess.PIPE, universal_newlines=True).stdout
 
     @classmethod
@@ -123,10 +133,8 @@ class TrackStereoImagesTest(unittest.TestCase):
         """The exact twist's prediction starts the KLT nearer its result: the same drive, tracked
         as well (features in every frame, the same twist in the npz), and it needs --poses."""
         f, out = self.folder, os.path.join(self.tmp, 'predicted.npz')
-        args = [tool('track_stereo_images'), '--left', f + '/image_left', '--right',
-                f + '/image_right', '--calib', f + '/calib.txt', '--times', f + '/times.txt',
-                '--out', out, '--twist-noise', '0', '0', '--gyro-offset', '0', '--time-offset',
-                '100', '--predict-with-twist']
+        args = track_args(f, out) + ['--twist-noise', '0', '0', '--gyro-offset', '0',
+                                     '--time-offset', '100', '--predict-with-twist']
         refused = subprocess.run(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                  universal_newlines=True)
         self.assertEqual(refused.returncode, 2)
@@ -152,25 +160,19 @@ class TrackStereoImagesTest(unittest.TestCase):
         means = []
         for config in ([], ['--config', off]):
             report = subprocess.run(
-                [tool('track_stereo_images'), '--left', varied + '/image_left', '--right',
-                 varied + '/image_right', '--calib', varied + '/calib.txt', '--times',
-                 varied + '/times.txt', '--poses', varied + '/poses.txt', '--out',
-                 os.path.join(self.tmp, 'exposure.npz')] + config,
+                track_args(varied, os.path.join(self.tmp, 'exposure.npz')) +
+                ['--poses', varied + '/poses.txt'] + config,
                 check=True, stdout=subprocess.PIPE, universal_newlines=True).stdout
-            mean = re.search(r'observations per frame: mean ([0-9.]+)', report)
-            means.append(float(mean.group(1)))
-        unchanged = float(re.search(r'observations per frame: mean ([0-9.]+)',
-                                    self.report).group(1))
+            means.append(mean_observations(report))
+        unchanged = mean_observations(self.report)
         self.assertGreater(means[0], 0.95 * unchanged, means)
         self.assertLess(means[1], 0.8 * unchanged, means)
 
     def test_first_frame(self):
         """--first-frame N starts at frame N: images, times and the poses' twist from there."""
         f, out = self.folder, os.path.join(self.tmp, 'from5.npz')
-        args = [tool('track_stereo_images'), '--left', f + '/image_left', '--right',
-                f + '/image_right', '--calib', f + '/calib.txt', '--times', f + '/times.txt',
-                '--poses', f + '/poses.txt', '--twist-noise', '0', '0', '--gyro-offset', '0',
-                '--time-offset', '100', '--out', out]
+        args = track_args(f, out) + ['--poses', f + '/poses.txt', '--twist-noise', '0', '0',
+                                     '--gyro-offset', '0', '--time-offset', '100']
         subprocess.run(args + ['--first-frame', '5'], check=True, stdout=subprocess.PIPE)
         d, full = dataset.load_dataset(out), dataset.load_dataset(self.npz)
         self.assertEqual(d.num_frames, FRAMES - 5)

@@ -11,6 +11,7 @@ find_package(message_filters REQUIRED)
 add_library(ekf_vislam_tracker
   src/tracker/tracker_options.cc
   src/tracker/feature_detector.cc
+  src/tracker/image_mask.cc
   src/tracker/klt_back_check.cc
   src/tracker/exposure_compensation.cc
   src/tracker/stereo_matcher.cc
@@ -40,6 +41,7 @@ if(CATKIN_ENABLE_TESTING)
     src/core/gtest_main.cc
     src/tracker/tracker_options_test.cc
     src/tracker/feature_detector_test.cc
+    src/tracker/image_mask_test.cc
     src/tracker/npz_writer_test.cc
     src/tracker/pose_twist_test.cc
     src/tracker/twist_motion_prior_test.cc

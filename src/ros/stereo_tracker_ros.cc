@@ -31,6 +31,7 @@ StereoTrackerRos::StereoTrackerRos(const ros::NodeHandle& nh, const ros::NodeHan
   RosParameterSource source(pnh_);
   std::string error;
   if (!parseTrackerOptions(source, &options_, &error) || !(error = options_.validate()).empty() ||
+      !loadStereoMasks(options_, &masks_, &error) ||
       !parseTrackerRosOptions(source, &ros_options_, &error)) {
     ROS_FATAL("%s: invalid parameters: %s", name_.c_str(), error.c_str());
     throw std::runtime_error("invalid parameters: " + error);
@@ -335,7 +336,7 @@ void StereoTrackerRos::trackPair(const ImagePair& pair) {
   }
   if (!tracker_ || stereo.fx != stereo_.fx || stereo.baseline != stereo_.baseline ||
       stereo.cx != stereo_.cx || stereo.cy != stereo_.cy) {
-    tracker_ = std::make_unique<StereoTracker>(options_, stereo);  // (new) calibration
+    tracker_ = std::make_unique<StereoTracker>(options_, stereo, masks_);  // (new) calibration
     stereo_ = stereo;
     prev_stamp_ = -1;
   }

@@ -36,8 +36,9 @@ std::vector<cv::KeyPoint> GridFeatureDetector::candidates(const cv::Mat& image,
   return keypoints;
 }
 
-std::vector<cv::Point2f> GridFeatureDetector::detect(
-    const cv::Mat& image, const std::vector<cv::Point2f>& existing) const {
+std::vector<cv::Point2f> GridFeatureDetector::detect(const cv::Mat& image,
+                                                     const std::vector<cv::Point2f>& existing,
+                                                     const cv::Mat& usable) const {
   const cv::Size size = image.size();
   const int num_cells = options_.grid_cols * options_.grid_rows;
   std::vector<int> cell_count(num_cells, 0);
@@ -47,6 +48,7 @@ std::vector<cv::Point2f> GridFeatureDetector::detect(
   const int border = options_.border_px;
   if (size.width <= 2 * border || size.height <= 2 * border) return {};
   free_mask(cv::Rect(border, border, size.width - 2 * border, size.height - 2 * border)).setTo(255);
+  if (!usable.empty()) free_mask.setTo(0, usable == 0);
   const int radius = static_cast<int>(std::ceil(options_.min_feature_distance));
   for (const cv::Point2f& p : existing) {
     const int cell = cellOf(p, size);

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cmath>
 
 namespace ekf_vislam {
@@ -56,6 +57,21 @@ TEST_P(Detectors, FillsCellsUpToTheCountAndKeepsTheDistance) {
 INSTANTIATE_TEST_SUITE_P(FastAndShiTomasi, Detectors,
                          ::testing::Values(FeatureDetectorType::kFast,
                                            FeatureDetectorType::kShiTomasi));
+
+TEST(GridFeatureDetector, NoCornerOnAMaskedPixel) {
+  TrackerOptions options;
+  const cv::Mat image = rectangles(cv::Size(400, 200));
+  cv::Mat usable(image.size(), CV_8UC1, cv::Scalar(255));
+  usable(cv::Rect(0, 120, 400, 80)).setTo(0);  // the bottom rows: a vehicle's hood
+  GridFeatureDetector detector(options);
+  const std::vector<cv::Point2f> everywhere = detector.detect(image, {});
+  const std::vector<cv::Point2f> masked = detector.detect(image, {}, usable);
+  ASSERT_GT(std::count_if(everywhere.begin(), everywhere.end(),
+                          [](const cv::Point2f& p) { return p.y >= 120; }),
+            20);
+  ASSERT_GT(masked.size(), 20u);
+  for (const cv::Point2f& p : masked) EXPECT_LT(cvRound(p.y), 120) << p;
+}
 
 TEST(GridFeatureDetector, FlatImageGivesNothing) {
   GridFeatureDetector detector{TrackerOptions()};

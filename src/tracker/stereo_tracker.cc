@@ -63,8 +63,9 @@ void keepSelected(const std::vector<uint8_t>& keep, std::vector<T>* items) {
 
 }  // namespace
 
-StereoTracker::StereoTracker(const TrackerOptions& options, const RectifiedStereo& calibration)
-    : options_(options), calibration_(calibration), detector_(options) {}
+StereoTracker::StereoTracker(const TrackerOptions& options, const RectifiedStereo& calibration,
+                             StereoMasks masks)
+    : options_(options), calibration_(calibration), masks_(std::move(masks)), detector_(options) {}
 
 void StereoTracker::reset() {
   tracks_.clear();
@@ -139,6 +140,10 @@ bool StereoTracker::process(const cv::Mat& left, const cv::Mat& right, double st
   }
   if (left.cols < min_size || left.rows < min_size) {
     *why = "image smaller than twice the border plus the KLT window";
+    return false;
+  }
+  if (const std::string mask_problem = checkMaskSizes(masks_, left.size()); !mask_problem.empty()) {
+    *why = mask_problem;
     return false;
   }
   if (!std::isfinite(stamp) || (has_prev_ && stamp <= prev_stamp_)) {
@@ -239,21 +244,28 @@ std::vector<float> StereoTracker::trackTemporal(const std::vector<cv::Mat>& left
       candidates.push_back(i);
     }
   }
-  std::vector<uint8_t> keep = backCheck(left_pyramid, prev_pyramid, cur, prev, candidates, klt,
-                                        options_.forward_backward_px);
+  // Each step below ends some tracks: their previous and current points go with them.
+  const auto keepTracks = [&](const std::vector<uint8_t>& keep) {
+    keepSelected(keep, &tracks_);
+    keepSelected(keep, &prev);
+    keepSelected(keep, &cur);
+  };
+  const std::vector<uint8_t> passed = backCheck(left_pyramid, prev_pyramid, cur, prev, candidates,
+                                                klt, options_.forward_backward_px);
   stats->forward_backward_rejected += static_cast<int>(candidates.size()) -
-                                      static_cast<int>(std::count(keep.begin(), keep.end(), 1));
-  keepSelected(keep, &tracks_);
-  keepSelected(keep, &prev);
-  keepSelected(keep, &cur);
+                                      static_cast<int>(std::count(passed.begin(), passed.end(), 1));
+  keepTracks(passed);
   stats->ms_temporal = msSince(t) - ms_exposure;  // that time is the pyramids'
   if (options_.refine) {
     t = Clock::now();
-    const std::vector<uint8_t> aligned = refineLeft(left_pyramid[0], &cur, stats);
-    keepSelected(aligned, &tracks_);
-    keepSelected(aligned, &prev);
-    keepSelected(aligned, &cur);
+    keepTracks(refineLeft(left_pyramid[0], &cur, stats));
     stats->ms_refine = msSince(t);
+  }
+  // A track now on a masked pixel ends (mask/left; after the refinement, which may move it).
+  if (!masks_.left.empty()) {
+    std::vector<uint8_t> unmasked(tracks_.size(), 1);
+    stats->klt_lost += refuseMaskedPoints(masks_.left, cur, &unmasked);
+    keepTracks(unmasked);
   }
 
   // RANSAC over the surviving matches, with each track's previous stereo point.
@@ -378,6 +390,7 @@ void StereoTracker::matchTracksInRight(const std::vector<cv::Mat>& left_pyramid,
   StereoMatchCounts counts;
   const std::vector<cv::Point2f> right = matchStereo(
       left_pyramid, right_pyramid, left, predicted_disparity, options_, true, &ok, &counts);
+  refuseMaskedPoints(masks_.right, right, &ok);
   const bool check_disparity = has_last_motion_ && (options_.disparity_check_px > 0 ||
                                                     options_.disparity_check_relative > 0);
   for (size_t i = 0; i < tracks_.size(); ++i) {
@@ -405,7 +418,7 @@ void StereoTracker::addNewTracks(const cv::Mat& left, const std::vector<cv::Mat>
   auto t = Clock::now();
   std::vector<cv::Point2f> existing(tracks_.size());
   for (size_t i = 0; i < tracks_.size(); ++i) existing[i] = tracks_[i].left;
-  const std::vector<cv::Point2f> corners = detector_.detect(left, existing);
+  const std::vector<cv::Point2f> corners = detector_.detect(left, existing, masks_.left);
   stats->detected = static_cast<int>(corners.size());
   stats->ms_detect = msSince(t);
 
@@ -419,6 +432,7 @@ void StereoTracker::addNewTracks(const cv::Mat& left, const std::vector<cv::Mat>
   const bool refine = tracks_in_frame == 0 || options_.confirm_frames == 0;
   const std::vector<cv::Point2f> right =
       matchStereo(left_pyramid, right_pyramid, corners, seed, options_, refine, &ok, &counts);
+  refuseMaskedPoints(masks_.right, right, &ok);
   for (size_t i = 0; i < corners.size(); ++i) {
     if (!ok[i]) continue;
     Track track;

@@ -232,6 +232,66 @@ TEST(StereoTracker, ExposureCompensationKeepsTracksThroughBrightnessChanges) {
   EXPECT_LT(without, 0.8);  // the case is a hard one for the KLT alone
 }
 
+// Published features over 6 frames of the slanted plane, whose image flows away from the focus
+// of expansion (u = 427): left of it, towards the left border.
+std::vector<TrackedFeature> publishedOverSixFrames(const StereoMasks& masks) {
+  SlantedPlaneScene scene;
+  StereoTracker tracker(TrackerOptions(), scene.calibration(), masks);
+  std::vector<TrackedFeature> published;
+  std::string why;
+  for (int k = 0; k < 6; ++k) {
+    const cv::Vec3d c = positionAt(k);
+    StereoFrame frame;
+    EXPECT_TRUE(tracker.process(scene.render(c, 0), scene.render(c, 0.5), k, nullptr, &frame, &why))
+        << why;
+    published.insert(published.end(), frame.features.begin(), frame.features.end());
+  }
+  return published;
+}
+
+TEST(StereoTracker, MasksKeepFeaturesOffMaskedPixels) {
+  // Columns below 200 masked: in the left image they hold no corner and the tracks that flow
+  // into them end; in the right image no stereo match lands there. One image masked at a time.
+  cv::Mat mask(240, 640, CV_8UC1, cv::Scalar(255));
+  mask(cv::Rect(0, 0, 200, 240)).setTo(0);
+  const auto masked_left = [](const TrackedFeature& f) { return cvRound(f.left.x) < 200; };
+  const auto masked_right = [](const TrackedFeature& f) { return cvRound(f.right.x) < 200; };
+  const auto count = [](const std::vector<TrackedFeature>& features, const auto& predicate) {
+    return std::count_if(features.begin(), features.end(), predicate);
+  };
+  const std::vector<TrackedFeature> free = publishedOverSixFrames(StereoMasks());
+  ASSERT_GT(count(free, masked_left), 100);
+  ASSERT_GT(
+      count(free, [&](const TrackedFeature& f) { return !masked_left(f) && masked_right(f); }), 10);
+  // Tracks that begin right of the mask and flow into it over the frames.
+  std::map<uint32_t, int> entering;
+  for (const TrackedFeature& f : free) {
+    if (!masked_left(f)) entering.emplace(f.id, 0);
+  }
+  ASSERT_GT(count(free,
+                  [&](const TrackedFeature& f) {
+                    return masked_left(f) && entering.count(f.id) && f.age > 0;
+                  }),
+            10);
+
+  const std::vector<TrackedFeature> left_masked = publishedOverSixFrames({mask, cv::Mat()});
+  EXPECT_GT(left_masked.size(), 0.5 * free.size());
+  EXPECT_EQ(count(left_masked, masked_left), 0);
+  const std::vector<TrackedFeature> right_masked = publishedOverSixFrames({cv::Mat(), mask});
+  EXPECT_GT(right_masked.size(), 0.5 * free.size());
+  EXPECT_EQ(count(right_masked, masked_right), 0);
+
+  // A mask of another size than the images: every pair is refused, naming the key.
+  SlantedPlaneScene scene;
+  StereoTracker tracker(TrackerOptions(), scene.calibration(),
+                        {cv::Mat(376, 1241, CV_8UC1, cv::Scalar(255)), mask});
+  StereoFrame frame;
+  std::string why;
+  EXPECT_FALSE(tracker.process(scene.render(positionAt(0), 0), scene.render(positionAt(0), 0.5),
+                               0.0, nullptr, &frame, &why));
+  EXPECT_EQ(why, "the 'mask/left' image is 1241x376, the camera images 640x240");
+}
+
 TEST(MotionCheck, RejectsAnInjectedWrongMatch) {
   RectifiedStereo c;
   c.fx = c.fy = 400;

@@ -4,6 +4,7 @@
 #include "ekf_vislam/core/se3.h"
 #include "ekf_vislam/core/yaml_parameter_source.h"
 #include "ekf_vislam/tracker/debug_drawing.h"
+#include "ekf_vislam/tracker/image_mask.h"
 #include "ekf_vislam/tracker/kitti_sequence.h"
 #include "ekf_vislam/tracker/npz_writer.h"
 #include "ekf_vislam/tracker/pose_twist.h"
@@ -269,9 +270,11 @@ PoseTwist poseTwist(const Arguments& args, const KittiSequence& sequence,
 int run(int argc, char** argv) {
   Arguments args;
   TrackerOptions options;
+  StereoMasks masks;
   KittiSequence sequence;
   std::string error;
   if (!parseArguments(argc, argv, &args, &error) || !loadOptions(args.config, &options, &error) ||
+      !loadStereoMasks(options, &masks, &error) ||
       !loadKittiSequence(args.left, args.right, args.calib, args.times, args.poses, &sequence,
                          &error)) {
     std::cerr << "track_stereo_images: " << error << "\n";
@@ -295,7 +298,7 @@ int run(int argc, char** argv) {
     }
   }
   const Eigen::Matrix4d& cam_T_imu = pose_twist.cam_T_imu;
-  StereoTracker tracker(options, sequence.calibration);
+  StereoTracker tracker(options, sequence.calibration, masks);
   std::vector<StereoFrame> frames;
   ProcessingTimes ms;
   cv::Size image_size;

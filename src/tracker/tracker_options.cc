@@ -56,6 +56,8 @@ void visitTrackerOptions(Options& o, Visitor& v) {
   v.integer("ransac/iterations", o.ransac_iterations, Bound::kAtLeastOne);
   v.integer("ransac/min_points", o.min_ransac_points, Bound::kAtLeastOne);
   v.number("ransac/max_pnp_depth_m", o.max_pnp_depth_m, Bound::kPositive);
+  v.text("mask/left", o.mask_left);
+  v.text("mask/right", o.mask_right);
 }
 
 /// The key table of the nodelet's ros/ options. `Options` is StereoTrackerRosOptions or const.

@@ -36,6 +36,8 @@ PLAY_RATE = 2.0
 MIN_FEATURES = 100
 MIN_MEAN_TRACK_LENGTH = 4.0
 FINAL_ERROR_TOLERANCE_M = 0.5
+# The masked tracker's mask (stereo_tracker.test): rows from this one on are masked.
+MASKED_FROM_ROW = 144
 # Wall seconds the twist stream is held back in the replay: 6 s of message time at PLAY_RATE,
 # beyond the tracker's ros/max_twist_wait (5 s in stereo_tracker.test), which a pair waits for it
 # in message time, and within the 5 s it waits in wall time too (2 s to spare for a loaded
@@ -58,8 +60,11 @@ class StereoTrackerPipelineTest(unittest.TestCase):
              folder, '--bag', cls.bag])
         cls.lock = threading.Lock()
         cls.features, cls.odometry, cls.groundtruth, cls.images, cls.diagnostics = [], [], [], [], []
+        cls.masked_features = []
         rospy.Subscriber('/stereo/features', StereoFeatureArray, cls.keep(cls.features),
                          queue_size=1000)
+        rospy.Subscriber('/masked/stereo/features', StereoFeatureArray,
+                         cls.keep(cls.masked_features), queue_size=1000)
         rospy.Subscriber('/vislam/odometry', Odometry, cls.keep(cls.odometry), queue_size=1000)
         rospy.Subscriber('/groundtruth/odometry', Odometry, cls.keep(cls.groundtruth),
                          queue_size=1000)
@@ -69,10 +74,12 @@ class StereoTrackerPipelineTest(unittest.TestCase):
                          queue_size=100)
         # Played once the tracker and the estimator (one manager) and this test are connected.
         manager = ('/stereo_vislam_manager',)
-        required = {topic: manager for topic in ('/stereo/right/image_rect', '/imu/twist',
-                                                 '/stereo/left/camera_info',
-                                                 '/stereo/right/camera_info')}
-        required['/stereo/left/image_rect'] = manager + (rospy.get_name(),)
+        both = manager + ('/masked/tracker_with_mask',)
+        required = {topic: both for topic in ('/stereo/right/image_rect',
+                                              '/stereo/left/camera_info',
+                                              '/stereo/right/camera_info')}
+        required['/imu/twist'] = manager
+        required['/stereo/left/image_rect'] = both + (rospy.get_name(),)
         cls.required = required
         play_bag(cls.bag, '/stereo_tracker_rostest_player', PLAY_RATE, required)
         cls.wait_for_last_image()
@@ -132,6 +139,21 @@ class StereoTrackerPipelineTest(unittest.TestCase):
         log('%d ids, mean track length %.2f' % (len(lengths), lengths.mean()))
         self.assertGreater(lengths.mean(), MIN_MEAN_TRACK_LENGTH)
         self.assertGreater(np.sum(lengths >= 10), 50)
+
+    def test_01b_mask_keeps_features_off_masked_rows(self):
+        # The masked tracker takes the same pairs; it may still be at work on the last ones.
+        wait_until(lambda: len(self.masked_features) >= FRAMES, 60.0)
+        masked = list(self.masked_features)[:FRAMES]
+        unmasked = [f for msg in list(self.features) for f in msg.features]
+        rows = np.array([f.v_left for msg in masked for f in msg.features])
+        log('masked tracker: %d feature messages, %d features (%d in the masked rows); the '
+            'unmasked one: %d of %d there' % (
+                len(masked), len(rows), np.sum(np.round(rows) >= MASKED_FROM_ROW),
+                sum(round(f.v_left) >= MASKED_FROM_ROW for f in unmasked), len(unmasked)))
+        self.assertEqual(len(masked), FRAMES)
+        self.assertGreater(sum(round(f.v_left) >= MASKED_FROM_ROW for f in unmasked), 1000)
+        self.assertGreater(len(rows), 0.4 * len(unmasked))
+        self.assertEqual(int(np.sum(np.round(rows) >= MASKED_FROM_ROW)), 0)
 
     def test_02_odometry(self):
         self.assertGreaterEqual(len(self.odometry), FRAMES - 2)

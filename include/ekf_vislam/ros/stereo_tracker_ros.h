@@ -93,6 +93,7 @@ class StereoTrackerRos {
   ros::NodeHandle nh_, pnh_;
   std::string name_;
   TrackerOptions options_;
+  StereoMasks masks_;  ///< read once at start (mask/left, mask/right)
   StereoTrackerRosOptions ros_options_;
   std::unique_ptr<StereoTracker> tracker_;
   RectifiedStereo stereo_;

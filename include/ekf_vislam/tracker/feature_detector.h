@@ -16,9 +16,10 @@ class GridFeatureDetector {
 
   /// New corners of the 8-bit image in cells holding fewer than max_features_per_cell of
   /// `existing`, strongest first within a cell, at least min_feature_distance from `existing`
-  /// and from each other, none within border_px of the image border.
-  std::vector<cv::Point2f> detect(const cv::Mat& image,
-                                  const std::vector<cv::Point2f>& existing) const;
+  /// and from each other, none within border_px of the image border nor on a zero pixel of
+  /// `usable` (8-bit, the image's size; empty: everywhere usable).
+  std::vector<cv::Point2f> detect(const cv::Mat& image, const std::vector<cv::Point2f>& existing,
+                                  const cv::Mat& usable = cv::Mat()) const;
 
   /// Grid cell index of a point (row-major), -1 outside the image.
   int cellOf(const cv::Point2f& point, const cv::Size& size) const;

@@ -5,6 +5,7 @@
 
 #include "ekf_vislam/tracker/exposure_compensation.h"
 #include "ekf_vislam/tracker/feature_detector.h"
+#include "ekf_vislam/tracker/image_mask.h"
 #include "ekf_vislam/tracker/patch_refiner.h"
 #include "ekf_vislam/tracker/tracker_options.h"
 #include "ekf_vislam/tracker/tracker_types.h"
@@ -18,13 +19,15 @@ namespace ekf_vislam {
 
 class StereoTracker {
  public:
-  /// `options` must pass validate() and `calibration` must be valid() (checked by the callers).
-  StereoTracker(const TrackerOptions& options, const RectifiedStereo& calibration);
+  /// `options` must pass validate() and `calibration` must be valid() (checked by the callers);
+  /// `masks` (loadStereoMasks) keep features off parts of the images.
+  StereoTracker(const TrackerOptions& options, const RectifiedStereo& calibration,
+                StereoMasks masks = StereoMasks());
 
-  /// Processes one rectified pair (8-bit single channel, same size) taken at `stamp` (s).
-  /// `prior` (optional) predicts the KLT start points. On bad input returns false, sets *why and
-  /// leaves the tracks as they were. An image size different from the previous pair's ends all
-  /// tracks (the pair is processed as a first frame).
+  /// Processes one rectified pair (8-bit single channel, same size, that of the masks) taken at
+  /// `stamp` (s). `prior` (optional) predicts the KLT start points. On bad input returns false,
+  /// sets *why and leaves the tracks as they were. An image size different from the previous pair's
+  /// ends all tracks (the pair is processed as a first frame).
   bool process(const cv::Mat& left, const cv::Mat& right, double stamp,
                const CameraMotionPrior* prior, StereoFrame* frame, std::string* why);
 
@@ -74,6 +77,7 @@ class StereoTracker {
 
   TrackerOptions options_;
   RectifiedStereo calibration_;
+  StereoMasks masks_;
   GridFeatureDetector detector_;
   std::vector<Track> tracks_;
   std::vector<cv::Mat> prev_left_pyramid_;

@@ -84,6 +84,10 @@ struct TrackerOptions {
   int min_ransac_points = 12;     ///< fewer matches: no outlier check this frame
   double max_pnp_depth_m = 60.0;  ///< farther previous stereo points are not used by PnP
 
+  // mask/ (image_mask.h)
+  std::string mask_left;   ///< image file: zero pixels of the left image hold no feature ("": none)
+  std::string mask_right;  ///< the same for the right image's stereo matches
+
   /// Empty when every value is usable, else what is wrong (the first problem, naming its key).
   std::string validate() const;
 };

@@ -38,10 +38,11 @@ struct TrackedFeature {
 /// Why features left or did not join, and where the time went, in one frame.
 struct TrackerFrameStats {
   int tracks_in = 0;  ///< tracks of the previous frame
-  int klt_lost = 0;   ///< KLT failed or left the image
+  int klt_lost = 0;   ///< KLT failed, or left the image or its mask
   int forward_backward_rejected = 0;
   int ransac_rejected = 0;            ///< temporal outliers
-  int stereo_lost = 0;                ///< tracked, but no left-right match in this frame
+  int stereo_lost = 0;                ///< tracked, but no left-right match in this frame (none
+                                      ///< found, or on the right mask)
   int disparity_rejected = 0;         ///< left-right match disagrees with the predicted disparity
   int detected = 0;                   ///< new corners found
   int new_tracks = 0;                 ///< of them, matched in the right image (new ids)

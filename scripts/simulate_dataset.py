@@ -86,6 +86,11 @@ def parse_args(argv):
                        help='landmarks per metre of road (default %(default)s)')
     scene.add_argument('--max-depth', type=float, default=d['max_depth'],
                        help='farthest observable depth (default %(default)s m)')
+    scene.add_argument('--stop', type=float, nargs=2, action='append', default=[],
+                       metavar=('START', 'DURATION'), dest='stops',
+                       help='the vehicle comes to rest at START s after the drive starts (slowing '
+                            'over the 3 s before) and waits DURATION s; at rest the linear '
+                            'velocity reads exactly 0, as a wheel odometry does (repeatable)')
     args = parser.parse_args(argv)
     if args.gyro_bias is not None and len(args.gyro_bias) not in (1, 3):
         parser.error('--gyro-bias takes one value or three')
@@ -106,6 +111,7 @@ def main(argv=None):
         'velocity_noise', 'gyro_noise', 'gyro_bias', 'rate_hz', 'start_time', 'speed_min',
         'speed_max', 'max_yaw_rate', 'roll_amplitude', 'pitch_amplitude', 'target_obs',
         'track_loss', 'landmark_density', 'max_depth', 'accel_noise', 'accel_bias')}
+    options['stops'] = tuple(tuple(stop) for stop in args.stops)
     try:
         result = simulator.simulate(args.seed, **options)
     except ValueError as exc:

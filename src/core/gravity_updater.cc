@@ -83,7 +83,7 @@ bool GravityUpdater::addSample(const AccelerometerData& sample, EstimatorStats* 
 }
 
 double GravityUpdater::sampleSigma(double period) const {
-  if (options_->noise.estimate_twist_noise && noise_estimator_.ready()) {
+  if (options_->noise.estimate_twist_noise && noise_estimator_.linearReady()) {
     return noise_estimator_.linearSigma();
   }
   return options_->gravity.accel_noise_density / std::sqrt(std::max(period, 1e-4));

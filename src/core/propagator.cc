@@ -38,18 +38,18 @@ Vector6d Propagator::velocityPriorGain(const FilterState& state, const TwistData
   return gain;
 }
 
-bool Propagator::usesEstimatedNoise() const {
-  return options_->noise.estimate_twist_noise && noise_estimator_.ready();
-}
-
 // Per-sample std sigma of a sample covering `period`: density = sigma sqrt(period).
 double Propagator::linearNoiseDensity() const {
-  if (!usesEstimatedNoise()) return options_->noise.linear_velocity_noise;
+  if (!options_->noise.estimate_twist_noise || !noise_estimator_.linearReady()) {
+    return options_->noise.linear_velocity_noise;
+  }
   return noise_estimator_.linearSigma() * std::sqrt(period());
 }
 
 double Propagator::angularNoiseDensity() const {
-  if (!usesEstimatedNoise()) return options_->noise.angular_velocity_noise;
+  if (!options_->noise.estimate_twist_noise || !noise_estimator_.angularReady()) {
+    return options_->noise.angular_velocity_noise;
+  }
   return noise_estimator_.angularSigma() * std::sqrt(period());
 }
 

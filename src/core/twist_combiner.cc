@@ -83,7 +83,8 @@ bool TwistCombiner::addLinearVelocity(const LinearVelocitySample& sample, std::s
                       sample.imu_T_base.matrix().allFinite();
   if (!admit(finite, for_noise, &wheel_, "linear velocity", why)) return false;
   AdmittedLinearVelocity admitted{sample};
-  if (wheel_.noise.ready()) admitted.estimated_variance = std::pow(wheel_.noise.linearSigma(), 2);
+  if (wheel_.noise.linearReady())
+    admitted.estimated_variance = std::pow(wheel_.noise.linearSigma(), 2);
   admitted.period = wheel_.period;
   linear_.push_back(admitted);
   releaseWaiting(now);
@@ -122,7 +123,7 @@ void TwistCombiner::closeGroupIfFull(double now) {
   // The mean of n samples of independent noise: covariance / n.
   if (all_have_covariance) {
     group.covariance /= n * n;
-  } else if (gyro_.noise.ready()) {
+  } else if (gyro_.noise.angularReady()) {
     const double sigma = gyro_.noise.angularSigma();
     group.covariance = Eigen::Matrix3d::Identity() * (sigma * sigma / n);
   } else {

@@ -18,10 +18,10 @@ void TwistNoiseEstimator::add(const TwistData& twist) {
     const double period = twist.stamp - previous_->stamp;
     const double previous_period = previous_->stamp - before_previous_->stamp;
     if (period > 0.0 && std::abs(period - previous_period) <= 0.5 * previous_period) {
-      push(&linear_, twist.v_imu - 2.0 * previous_->v_imu + before_previous_->v_imu);
-      push(&angular_, twist.w_imu - 2.0 * previous_->w_imu + before_previous_->w_imu);
-      linear_sigma_ = sigmaOf(linear_);
-      angular_sigma_ = sigmaOf(angular_);
+      push(before_previous_->v_imu, previous_->v_imu, twist.v_imu, &linear_);
+      push(before_previous_->w_imu, previous_->w_imu, twist.w_imu, &angular_);
+      if (!linear_.empty()) linear_sigma_ = sigmaOf(linear_);
+      if (!angular_.empty()) angular_sigma_ = sigmaOf(angular_);
     } else {
       previous_.reset();
     }
@@ -30,9 +30,13 @@ void TwistNoiseEstimator::add(const TwistData& twist) {
   previous_ = twist;
 }
 
-void TwistNoiseEstimator::push(std::deque<double>* squares,
-                               const Eigen::Vector3d& second_difference) {
-  for (int i = 0; i < 3; ++i) squares->push_back(second_difference(i) * second_difference(i));
+void TwistNoiseEstimator::push(const Eigen::Vector3d& before, const Eigen::Vector3d& previous,
+                               const Eigen::Vector3d& now, std::deque<double>* squares) {
+  for (int i = 0; i < 3; ++i) {
+    if (before(i) == previous(i) && previous(i) == now(i)) continue;  // a held value
+    const double second_difference = now(i) - 2.0 * previous(i) + before(i);
+    squares->push_back(second_difference * second_difference);
+  }
   while (squares->size() > 3 * static_cast<size_t>(window_)) squares->pop_front();
 }
 

@@ -29,7 +29,7 @@ TEST(TwistNoiseEstimator, RecoversTheWhiteNoiseOfAManoeuvringDrive) {
     std::mt19937 rng(3);
     TwistNoiseEstimator estimator(300, 20);
     for (int k = 0; k < 600; ++k) estimator.add(noisySample(k, sigma_v, sigma_w, &rng));
-    ASSERT_TRUE(estimator.ready());
+    ASSERT_TRUE(estimator.linearReady() && estimator.angularReady());
     EXPECT_NEAR(estimator.linearSigma(), sigma_v, 0.1 * sigma_v) << sigma_v;
     EXPECT_NEAR(estimator.angularSigma(), sigma_w, 0.1 * sigma_w) << sigma_w;
   }
@@ -39,16 +39,47 @@ TEST(TwistNoiseEstimator, ReadyAfterMinSamplesAndRobustToOutliers) {
   std::mt19937 rng(5);
   TwistNoiseEstimator estimator(300, 20);
   for (int k = 0; k < 22; ++k) {
-    EXPECT_FALSE(estimator.ready()) << k;  // 20 second differences need 22 samples
+    EXPECT_FALSE(estimator.linearReady()) << k;  // 20 second differences need 22 samples
+    EXPECT_FALSE(estimator.angularReady()) << k;
     estimator.add(noisySample(k, 0.1, 0.01, &rng));
   }
-  EXPECT_TRUE(estimator.ready());
+  EXPECT_TRUE(estimator.linearReady() && estimator.angularReady());
   for (int k = 22; k < 400; ++k) {
     TwistData twist = noisySample(k, 0.1, 0.01, &rng);
     if (k % 20 == 0) twist.v_imu.x() += 30.0;  // 5 % gross outliers
     estimator.add(twist);
   }
   EXPECT_NEAR(estimator.linearSigma(), 0.1, 0.015);
+}
+
+// A wheel odometry at rest reads exactly 0 while the gyro keeps its noise: 40 s of rest (more
+// than the window) leave the linear estimate at the drive's, and a gyro-only stream gets an
+// angular estimate without a linear one.
+TEST(TwistNoiseEstimator, HeldValuesAtRestAreLeftOut) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  TwistNoiseEstimator estimator(300, 20);
+  int k = 0;
+  for (; k < 600; ++k) estimator.add(noisySample(k, 0.5, 0.05, &rng));
+  for (; k < 1000; ++k) {
+    TwistData at_rest;
+    at_rest.stamp = 0.1 * k;
+    at_rest.v_imu.setZero();
+    for (int i = 0; i < 3; ++i) at_rest.w_imu(i) = 0.05 * normal(rng);
+    estimator.add(at_rest);
+  }
+  EXPECT_NEAR(estimator.linearSigma(), 0.5, 0.05);
+  EXPECT_NEAR(estimator.angularSigma(), 0.05, 0.005);
+
+  TwistNoiseEstimator gyro_only(300, 20);
+  for (k = 0; k < 100; ++k) {
+    TwistData sample = noisySample(k, 0.0, 0.05, &rng);
+    sample.v_imu.setZero();
+    gyro_only.add(sample);
+  }
+  EXPECT_TRUE(gyro_only.angularReady());
+  EXPECT_FALSE(gyro_only.linearReady());
+  EXPECT_NEAR(gyro_only.angularSigma(), 0.05, 0.01);
 }
 
 TEST(TwistNoiseEstimator, AGapRestartsTheDifferences) {

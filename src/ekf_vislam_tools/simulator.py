@@ -56,6 +56,10 @@ DEFAULT_OPTIONS = {
     'max_yaw_rate': 0.3,       # peak yaw rate of the sharpest turns, rad/s
     'roll_amplitude': 1.0,     # peak roll of the vehicle against the level, deg (smooth, 8-30 s)
     'pitch_amplitude': 1.5,    # peak pitch, deg (smooth, periods 10-40 s): hills and dips
+    'stops': (),               # (start s, duration s) pairs: the vehicle slows to a halt over
+                               # STOP_RAMP_S before start and waits `duration` (traffic lights);
+                               # at rest the measured linear velocity is exactly 0 (a wheel
+                               # odometry), the gyro keeps its noise and offset
     # Scene and tracking
     'landmark_density': 5.0,   # landmarks per metre of road (both sides together)
     'target_obs': 70,          # observations per frame the tracker aims at (varies +-25 %)
@@ -89,6 +93,9 @@ DEFAULT_OPTIONS = {
 #: Standard gravity, m/s^2.
 GRAVITY = 9.80665
 
+#: Seconds a stop takes to slow down to rest, and to speed up again after it.
+STOP_RAMP_S = 3.0
+
 # New streams go at the end: the children of a SeedSequence do not depend on how many are
 # spawned, so the existing streams (and every existing drive) stay the same.
 _STREAMS = ('trajectory', 'landmarks', 'tracking', 'noise', 'gyro_bias', 'twist_noise', 'accel')
@@ -116,7 +123,7 @@ def simulate(seed, **options):
     rngs = {name: np.random.default_rng(child) for name, child in
             zip(_STREAMS, np.random.SeedSequence(seed).spawn(len(_STREAMS)))}
 
-    t, v_true, w_true, world_T_imu, up_world = _drive(rngs['trajectory'], opts)
+    t, v_true, w_true, world_T_imu, up_world, at_rest = _drive(rngs['trajectory'], opts)
     path_length = float(travelled_distance(world_T_imu)[-1])
     points = _landmark_points(rngs['landmarks'], world_T_imu, opts)
     obs_frame, obs_point, obs_id, z_true = _track(rngs['tracking'], points, world_T_imu, opts)
@@ -135,6 +142,7 @@ def simulate(seed, **options):
     gyro_bias = _gyro_bias(rngs['gyro_bias'], opts['gyro_bias'])
     noise = rngs['twist_noise']
     linear_velocity = v_true + noise.normal(0.0, opts['velocity_noise'], v_true.shape)
+    linear_velocity[:, at_rest] = 0.0
     rotational_velocity = (w_true + noise.normal(0.0, opts['gyro_noise'], w_true.shape)
                            + gyro_bias[:, None])
 
@@ -177,6 +185,10 @@ def _check_options(opts):
         raise ValueError('roll and pitch amplitudes must stay within 30 deg')
     if opts['speed_max'] - opts['speed_min'] < 1.0:
         raise ValueError('speed_max must exceed speed_min by at least 1 m/s')
+    for stop in opts['stops']:
+        if len(stop) != 2 or not (stop[0] >= STOP_RAMP_S and stop[1] > 0):
+            raise ValueError('a stop is (start s >= %g, duration s > 0), got %r'
+                             % (STOP_RAMP_S, stop))
     if opts['max_depth'] <= opts['min_depth']:
         raise ValueError('max_depth must exceed min_depth')
     if opts['time_jitter'] >= 0.25 / opts['rate_hz']:
@@ -246,8 +258,9 @@ def _frame_times(rng, num, opts):
 
 
 def _drive(rng, opts):
-    """Frame times, true body twists (3,T), world_T_imu (T,4,4) of a car-like drive, and up_world
-    (3,): the unit "up" (against gravity) in the world frame (the first pose).
+    """Frame times, true body twists (3,T), world_T_imu (T,4,4) of a car-like drive, up_world
+    (3,): the unit "up" (against gravity) in the world frame (the first pose), and at_rest (T,):
+    the twist samples of a stop (`stops`) at which the vehicle stands still.
 
     Roll and pitch are against the level (ZYX Euler angles with the yaw): the first pose, the
     world frame, is level_R_imu0 = Ry(pitch0) Rx(roll0) (yaw 0) at tau = 0, so up_world =
@@ -276,14 +289,17 @@ def _drive(rng, opts):
     # Twist k+1 drives [t_k, t_k+1]: evaluate the profiles at the interval midpoints.
     tau = 0.5 * (t[:-1] + t[1:]) - t[0]
     phi, theta = roll_amp * roll(tau), pitch_amp * pitch(tau)
-    dphi, dtheta, dpsi = roll_amp * roll_rate(tau), pitch_amp * pitch_rate(tau), yaw_rate(tau)
+    moving = _moving_fraction(tau, opts['stops'])  # 1 on the road, 0 at rest
+    dphi, dtheta, dpsi = (moving * roll_amp * roll_rate(tau), moving * pitch_amp * pitch_rate(tau),
+                          moving * yaw_rate(tau))
     # Body angular velocity from ZYX Euler angle rates (keeps roll and pitch bounded).
     w = np.stack([dphi - dpsi * np.sin(theta),
                   dtheta * np.cos(phi) + dpsi * np.cos(theta) * np.sin(phi),
                   dpsi * np.cos(theta) * np.cos(phi) - dtheta * np.sin(phi)])
-    v = np.stack([speed(tau), 0.05 * lateral(tau), 0.03 * vertical(tau)])
+    v = moving * np.stack([speed(tau), 0.05 * lateral(tau), 0.03 * vertical(tau)])
     v_true = np.concatenate([v[:, :1], v], axis=1)
     w_true = np.concatenate([w[:, :1], w], axis=1)
+    at_rest = np.concatenate([moving[:1], moving]) == 0.0
     roll0, pitch0 = roll_amp * roll(np.zeros(1))[0], pitch_amp * pitch(np.zeros(1))[0]
     up_world = level_up_in_body(roll0, pitch0)
 
@@ -297,8 +313,20 @@ def _drive(rng, opts):
         num = int(np.searchsorted(travelled_distance(world_T_imu), opts['length_m'])) + 1
         num = max(2, min(num, len(t)))
         t, v_true, w_true = t[:num], v_true[:, :num], w_true[:, :num]
-        world_T_imu = world_T_imu[:num]
-    return t, v_true, w_true, world_T_imu, up_world
+        world_T_imu, at_rest = world_T_imu[:num], at_rest[:num]
+    return t, v_true, w_true, world_T_imu, up_world, at_rest
+
+
+def _moving_fraction(tau, stops):
+    """(N,) factor of the drive's speed and rates at times tau (s from the start): 1 on the road,
+    0 at rest during each (start, duration) stop, a half cosine over STOP_RAMP_S on either side."""
+    fraction = np.ones_like(tau)
+    for start, duration in stops:
+        ramp_in = np.clip((start - tau) / STOP_RAMP_S, 0.0, 1.0)
+        ramp_out = np.clip((tau - start - duration) / STOP_RAMP_S, 0.0, 1.0)
+        level = np.maximum(ramp_in, ramp_out)  # 0 inside the stop, 1 beyond the ramps
+        fraction *= 0.5 - 0.5 * np.cos(np.pi * level)
+    return fraction
 
 
 def level_up_in_body(roll, pitch):

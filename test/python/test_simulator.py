@@ -231,6 +231,28 @@ class DeterminismTest(unittest.TestCase):
         np.testing.assert_allclose(integrate(hilly['t'], hilly['v_true'], hilly['w_true']),
                                    hilly['world_T_imu'], atol=1e-9)
 
+    def test_stops(self):
+        # A 20-s stop from 15 s: the vehicle slows over 3 s, stands still (no motion, no turn),
+        # its wheel odometry reads exactly 0 while the gyro keeps its noise, and drives on; the
+        # drive before the stop is the one without it.
+        r = simulator.simulate(7, frames=500, stops=((15.0, 20.0),))
+        plain = simulator.simulate(7, frames=500)
+        tau = r['t'] - r['t'][0]
+        rest = (tau > 15.1) & (tau < 34.9)
+        speed = np.linalg.norm(r['v_true'], axis=0)
+        self.assertTrue(np.all(speed[rest] == 0.0))
+        self.assertTrue(np.all(r['w_true'][:, rest] == 0.0))
+        self.assertTrue(np.all(r['linear_velocity'][:, rest] == 0.0))
+        self.assertGreater(np.std(r['rotational_velocity'][:, rest]), 0.03)
+        self.assertGreater(speed[tau > 40.0].min(), 1.0)
+        early = tau < 11.9
+        np.testing.assert_array_equal(r['v_true'][:, early], plain['v_true'][:, early])
+        np.testing.assert_allclose(integrate(r['t'], r['v_true'], r['w_true']), r['world_T_imu'],
+                                   atol=1e-9)
+        for bad in (((1.0, 5.0),), ((10.0, 0.0),), ((10.0,),)):
+            with self.assertRaises(ValueError):
+                simulator.simulate(1, frames=200, stops=bad)
+
     def test_bad_options(self):
         with self.assertRaises(ValueError):
             simulator.simulate(1, pitch_amplitude=-1.0)

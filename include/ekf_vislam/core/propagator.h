@@ -75,8 +75,6 @@ class Propagator {
   Eigen::VectorXd randomWalkVariances(double dt, const StateLayout& layout) const;
   double period() const { return std::max(1e-3, sample_period_); }
 
-  bool usesEstimatedNoise() const;
-
   const VislamOptions* options_;  ///< not owned (the estimator keeps it alive)
   TwistNoiseEstimator noise_estimator_;
   TravelDirectionEstimator travel_direction_;

@@ -2,7 +2,9 @@
 // second difference u(k+1) - 2 u(k) + u(k-1) of evenly spaced samples carries 6 sigma^2 of white
 // noise and only dt^2 times the jerk of the true motion, so the median of its square over a
 // window, divided by 6 x 0.4549 (the median of chi-square with 1 dof), is the per-sample noise
-// variance, robust to manoeuvres and outliers. Linear and angular axes are pooled. No ROS.
+// variance, robust to manoeuvres and outliers. Linear and angular axes are pooled. A component that
+// holds one value over the three samples (a wheel odometry at rest reads exactly 0) says nothing
+// of the noise and is left out, so a stop does not talk the estimate down to zero. No ROS.
 #pragma once
 
 #include "ekf_vislam/core/types.h"
@@ -22,20 +24,27 @@ class TwistNoiseEstimator {
   /// than half restarts the differences (a gap or a change of rate).
   void add(const TwistData& twist);
 
-  bool ready() const { return linear_.size() >= 3 * static_cast<size_t>(min_samples_); }
+  /// Whether enough second differences of the linear (angular) components have come to use
+  /// linearSigma() (angularSigma()); each part on its own, as a stream may carry one only.
+  bool linearReady() const { return linear_.size() >= minSquares(); }
+  bool angularReady() const { return angular_.size() >= minSquares(); }
   /// Per-sample standard deviation of each linear (m/s) and angular (rad/s) component.
   double linearSigma() const { return linear_sigma_; }
   double angularSigma() const { return angular_sigma_; }
 
  private:
-  void push(std::deque<double>* squares, const Eigen::Vector3d& second_difference);
+  size_t minSquares() const { return 3 * static_cast<size_t>(min_samples_); }
+  // Appends the squared second differences of the components that changed over the three
+  // samples (before, previous, now) and drops those beyond the window.
+  void push(const Eigen::Vector3d& before, const Eigen::Vector3d& previous,
+            const Eigen::Vector3d& now, std::deque<double>* squares);
   static double sigmaOf(const std::deque<double>& squares);
 
   int window_;
   int min_samples_;
   std::optional<TwistData> previous_;
   std::optional<TwistData> before_previous_;
-  std::deque<double> linear_;  ///< squared second differences, 3 per sample
+  std::deque<double> linear_;  ///< squared second differences, up to 3 per sample
   std::deque<double> angular_;
   double linear_sigma_ = 0.0;
   double angular_sigma_ = 0.0;

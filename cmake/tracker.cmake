@@ -42,6 +42,7 @@ if(CATKIN_ENABLE_TESTING)
     src/tracker/tracker_options_test.cc
     src/tracker/feature_detector_test.cc
     src/tracker/image_mask_test.cc
+    src/tracker/debug_drawing_test.cc
     src/tracker/npz_writer_test.cc
     src/tracker/pose_twist_test.cc
     src/tracker/twist_motion_prior_test.cc

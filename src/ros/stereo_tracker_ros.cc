@@ -375,7 +375,7 @@ void StereoTrackerRos::publish(const sensor_msgs::Image& left_msg, const cv::Mat
   features_pub_.publish(msg);  // shared pointer: no copy inside a nodelet manager
   if (debug_pub_.getNumSubscribers() > 0) {
     cv_bridge::CvImage debug(left_msg.header, sensor_msgs::image_encodings::BGR8,
-                             drawStereoTracks(left, right, frame));
+                             drawStereoTracks(left, right, frame, masks_));
     debug_pub_.publish(debug.toImageMsg());
   }
 }

@@ -9,12 +9,18 @@ namespace ekf_vislam {
 
 namespace {
 
-cv::Mat toBgr(const cv::Mat& image) {
+// The image in BGR, its masked pixels (zero in `mask`, when of its size) at a third.
+cv::Mat toBgr(const cv::Mat& image, const cv::Mat& mask) {
   cv::Mat bgr;
   if (image.channels() == 1) {
     cv::cvtColor(image, bgr, cv::COLOR_GRAY2BGR);
   } else {
     bgr = image.clone();
+  }
+  if (!mask.empty() && mask.size() == image.size()) {
+    cv::Mat dimmed;
+    bgr.convertTo(dimmed, -1, 1.0 / 3.0);
+    dimmed.copyTo(bgr, mask == 0);
   }
   return bgr;
 }
@@ -29,9 +35,10 @@ cv::Scalar ageColor(int age) {
 
 }  // namespace
 
-cv::Mat drawStereoTracks(const cv::Mat& left, const cv::Mat& right, const StereoFrame& frame) {
+cv::Mat drawStereoTracks(const cv::Mat& left, const cv::Mat& right, const StereoFrame& frame,
+                         const StereoMasks& masks) {
   cv::Mat canvas;
-  cv::vconcat(toBgr(left), toBgr(right), canvas);
+  cv::vconcat(toBgr(left, masks.left), toBgr(right, masks.right), canvas);
   const cv::Point2f down(0.f, static_cast<float>(left.rows));
   for (const TrackedFeature& f : frame.features) {
     const cv::Scalar color = ageColor(f.age);

@@ -322,7 +322,7 @@ int run(int argc, char** argv) {
     if (!args.debug_dir.empty()) {
       char name[32];
       std::snprintf(name, sizeof(name), "/%06zu.png", k);
-      cv::imwrite(args.debug_dir + name, drawStereoTracks(left, right, frame));
+      cv::imwrite(args.debug_dir + name, drawStereoTracks(left, right, frame, masks));
     }
     frames.push_back(std::move(frame));
   }

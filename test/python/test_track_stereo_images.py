@@ -6,6 +6,7 @@ import re
 import subprocess
 import unittest
 
+import cv2
 import numpy as np
 
 import ekf_test_paths as paths
@@ -167,6 +168,38 @@ class TrackStereoImagesTest(unittest.TestCase):
         unchanged = mean_observations(self.report)
         self.assertGreater(means[0], 0.95 * unchanged, means)
         self.assertLess(means[1], 0.8 * unchanged, means)
+
+    def test_masks(self):
+        """mask/left and mask/right (image files, zero = no feature): no left point on the masked
+        bottom rows, no right point on the masked left columns; an unreadable file stops the tool
+        naming key and file."""
+        left_mask = np.full((192, 640), 255, np.uint8)
+        left_mask[144:, :] = 0
+        right_mask = np.full((192, 640), 255, np.uint8)
+        right_mask[:, :100] = 0
+        files = {}
+        for name, mask in (('left', left_mask), ('right', right_mask)):
+            files[name] = os.path.join(self.tmp, 'mask_%s.png' % name)
+            self.assertTrue(cv2.imwrite(files[name], mask))
+        config = os.path.join(self.tmp, 'masks.yaml')
+        with open(config, 'w') as f:
+            f.write('mask:\n  left: "%s"\n  right: "%s"\n' % (files['left'], files['right']))
+        out = os.path.join(self.tmp, 'masked.npz')
+        subprocess.run(track_args(self.folder, out) + ['--config', config], check=True,
+                       stdout=subprocess.PIPE)
+        F, G = np.load(out)['features'], np.load(self.npz)['features']
+        seen, seen_free = F[0] >= 0, G[0] >= 0
+        self.assertEqual(int(np.sum(np.round(F[1][seen]) >= 144)), 0)
+        self.assertEqual(int(np.sum(np.round(F[2][seen]) < 100)), 0)
+        self.assertGreater(int(np.sum(np.round(G[1][seen_free]) >= 144)), 100)
+        self.assertGreater(seen.sum(), 0.5 * seen_free.sum())
+        with open(config, 'w') as f:
+            f.write('mask:\n  left: "%s"\n' % os.path.join(self.tmp, 'no_such_mask.png'))
+        refused = subprocess.run(track_args(self.folder, out) + ['--config', config],
+                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                 universal_newlines=True)
+        self.assertEqual(refused.returncode, 2)
+        self.assertIn("'mask/left': cannot open", refused.stderr)
 
     def test_first_frame(self):
         """--first-frame N starts at frame N: images, times and the poses' twist from there."""

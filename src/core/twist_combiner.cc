@@ -83,8 +83,9 @@ bool TwistCombiner::addLinearVelocity(const LinearVelocitySample& sample, std::s
                       sample.imu_T_base.matrix().allFinite();
   if (!admit(finite, for_noise, &wheel_, "linear velocity", why)) return false;
   AdmittedLinearVelocity admitted{sample};
-  if (wheel_.noise.linearReady())
+  if (wheel_.noise.linearReady()) {
     admitted.estimated_variance = std::pow(wheel_.noise.linearSigma(), 2);
+  }
   admitted.period = wheel_.period;
   linear_.push_back(admitted);
   releaseWaiting(now);

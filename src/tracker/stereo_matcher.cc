@@ -1,5 +1,6 @@
 #include "ekf_vislam/tracker/stereo_matcher.h"
 
+#include "ekf_vislam/tracker/image_mask.h"
 #include "ekf_vislam/tracker/klt_back_check.h"
 #include "ekf_vislam/tracker/patch_refiner.h"
 
@@ -10,12 +11,54 @@
 
 namespace ekf_vislam {
 
+namespace {
+
+// The current left patch aligned to the right image from each KLT match in `matched` (indices
+// into left and *right), each on its own (on OpenCV's threads, like its KLT); a refused alignment
+// leaves the KLT match. Returns how many were aligned.
+int refineMatches(const cv::Mat& left_image, const cv::Mat& right_image,
+                  const std::vector<cv::Point2f>& left, const std::vector<size_t>& matched,
+                  const TrackerOptions& options, std::vector<cv::Point2f>* right_points) {
+  std::vector<cv::Point2f>& right = *right_points;
+  PatchRefinerOptions refiner;
+  refiner.max_iterations = options.refine_max_iterations;
+  refiner.epsilon = options.refine_epsilon;
+  std::vector<uint8_t> refined_ok(matched.size(), 0);
+  cv::parallel_for_(cv::Range(0, static_cast<int>(matched.size())), [&](const cv::Range& range) {
+    for (int j = range.start; j < range.end; ++j) {
+      const size_t i = matched[j];
+      const cv::Point2f r = right[i];
+      ReferencePatch patch;
+      if (!patch.create(left_image, left[i], options.refine_patch_size, WarpModel::kStereo)) {
+        continue;
+      }
+      AffineWarp warp;
+      warp.t = Eigen::Vector2f(r.x, r.y);
+      const RefineResult result = patch.align(right_image, refiner, &warp);
+      const cv::Point2f refined(warp.t.x(), warp.t.y());
+      const double refined_disparity = left[i].x - refined.x;
+      if (result.inside && result.converged && result.zncc >= options.refine_min_zncc &&
+          cv::norm(refined - r) <= options.refine_max_shift_px &&
+          std::abs(refined.y - left[i].y) <= options.row_tolerance_px &&
+          refined_disparity >= options.min_disparity_px &&
+          refined_disparity <= options.max_disparity_px) {
+        right[i] = refined;
+        refined_ok[j] = 1;
+      }
+    }
+  });
+  return static_cast<int>(std::count(refined_ok.begin(), refined_ok.end(), 1));
+}
+
+}  // namespace
+
 std::vector<cv::Point2f> matchStereo(const std::vector<cv::Mat>& left_pyramid,
                                      const std::vector<cv::Mat>& right_pyramid,
                                      const std::vector<cv::Point2f>& left,
                                      const std::vector<float>& seed_disparity,
                                      const TrackerOptions& options, bool refine,
-                                     std::vector<uint8_t>* ok, StereoMatchCounts* counts) {
+                                     const cv::Mat& right_mask, std::vector<uint8_t>* ok,
+                                     StereoMatchCounts* counts) {
   const size_t n = left.size();
   ok->assign(n, 0);
   std::vector<cv::Point2f> right(n);
@@ -62,38 +105,11 @@ std::vector<cv::Point2f> matchStereo(const std::vector<cv::Mat>& left_pyramid,
     matched.push_back(i);
   }
   counts->matched += static_cast<int>(matched.size());
-  if (!refine || !options.refine || !options.refine_stereo) return right;
-
-  // The current left patch aligned to the right image from the KLT match, each match on its own
-  // (on OpenCV's threads, like its KLT).
-  PatchRefinerOptions refiner;
-  refiner.max_iterations = options.refine_max_iterations;
-  refiner.epsilon = options.refine_epsilon;
-  std::vector<uint8_t> refined_ok(matched.size(), 0);
-  cv::parallel_for_(cv::Range(0, static_cast<int>(matched.size())), [&](const cv::Range& range) {
-    for (int j = range.start; j < range.end; ++j) {
-      const size_t i = matched[j];
-      const cv::Point2f r = right[i];
-      ReferencePatch patch;
-      if (!patch.create(left_pyramid[0], left[i], options.refine_patch_size, WarpModel::kStereo)) {
-        continue;
-      }
-      AffineWarp warp;
-      warp.t = Eigen::Vector2f(r.x, r.y);
-      const RefineResult result = patch.align(right_pyramid[0], refiner, &warp);
-      const cv::Point2f refined(warp.t.x(), warp.t.y());
-      const double refined_disparity = left[i].x - refined.x;
-      if (result.inside && result.converged && result.zncc >= options.refine_min_zncc &&
-          cv::norm(refined - r) <= options.refine_max_shift_px &&
-          std::abs(refined.y - left[i].y) <= options.row_tolerance_px &&
-          refined_disparity >= options.min_disparity_px &&
-          refined_disparity <= options.max_disparity_px) {
-        right[i] = refined;
-        refined_ok[j] = 1;
-      }
-    }
-  });
-  counts->refined += static_cast<int>(std::count(refined_ok.begin(), refined_ok.end(), 1));
+  if (refine && options.refine && options.refine_stereo) {
+    counts->refined +=
+        refineMatches(left_pyramid[0], right_pyramid[0], left, matched, options, &right);
+  }
+  counts->masked += refuseMaskedPoints(right_mask, right, ok);
   return right;
 }
 

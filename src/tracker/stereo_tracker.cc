@@ -388,9 +388,9 @@ void StereoTracker::matchTracksInRight(const std::vector<cv::Mat>& left_pyramid,
   for (size_t i = 0; i < tracks_.size(); ++i) left[i] = tracks_[i].left;
   std::vector<uint8_t> ok;
   StereoMatchCounts counts;
-  const std::vector<cv::Point2f> right = matchStereo(
-      left_pyramid, right_pyramid, left, predicted_disparity, options_, true, &ok, &counts);
-  refuseMaskedPoints(masks_.right, right, &ok);
+  const std::vector<cv::Point2f> right =
+      matchStereo(left_pyramid, right_pyramid, left, predicted_disparity, options_, true,
+                  masks_.right, &ok, &counts);
   const bool check_disparity = has_last_motion_ && (options_.disparity_check_px > 0 ||
                                                     options_.disparity_check_relative > 0);
   for (size_t i = 0; i < tracks_.size(); ++i) {
@@ -430,9 +430,8 @@ void StereoTracker::addNewTracks(const cv::Mat& left, const std::vector<cv::Mat>
   // New features wait confirm_frames before they are published, and are matched anew then: their
   // stereo match is refined only when they are published at once.
   const bool refine = tracks_in_frame == 0 || options_.confirm_frames == 0;
-  const std::vector<cv::Point2f> right =
-      matchStereo(left_pyramid, right_pyramid, corners, seed, options_, refine, &ok, &counts);
-  refuseMaskedPoints(masks_.right, right, &ok);
+  const std::vector<cv::Point2f> right = matchStereo(left_pyramid, right_pyramid, corners, seed,
+                                                     options_, refine, masks_.right, &ok, &counts);
   for (size_t i = 0; i < corners.size(); ++i) {
     if (!ok[i]) continue;
     Track track;

@@ -18,18 +18,21 @@ struct StereoMatchCounts {
   int disparity_failed = 0;
   int matched = 0;
   int refined = 0;  ///< of the matched, aligned by refine/stereo
+  int masked = 0;   ///< of the matched, refused on the right mask
 };
 
 /// Pyramids from cv::buildOpticalFlowPyramid (with derivatives) of the rectified left and right
 /// images; `seed_disparity[i]` is the initial guess of u_left - u_right for left[i] (0 without
 /// one). Returns the right points; ok[i] says whether left[i] was matched. With `refine`,
 /// refine/enabled and refine/stereo, each match is then aligned: the left patch to the right image
-/// (patch_refiner.h, WarpModel::kStereo); a refused alignment leaves the KLT match.
+/// (patch_refiner.h, WarpModel::kStereo); a refused alignment leaves the KLT match. Last, a match
+/// on a zero pixel of `right_mask` (image_mask.h; empty: none) is refused.
 std::vector<cv::Point2f> matchStereo(const std::vector<cv::Mat>& left_pyramid,
                                      const std::vector<cv::Mat>& right_pyramid,
                                      const std::vector<cv::Point2f>& left,
                                      const std::vector<float>& seed_disparity,
                                      const TrackerOptions& options, bool refine,
-                                     std::vector<uint8_t>* ok, StereoMatchCounts* counts);
+                                     const cv::Mat& right_mask, std::vector<uint8_t>* ok,
+                                     StereoMatchCounts* counts);
 
 }  // namespace ekf_vislam

@@ -15,6 +15,7 @@ add_library(ekf_vislam_tracker
   src/tracker/klt_back_check.cc
   src/tracker/exposure_compensation.cc
   src/tracker/stereo_matcher.cc
+  src/tracker/stereo_rig_check.cc
   src/tracker/patch_refiner.cc
   src/tracker/rectified_stereo.cc
   src/tracker/motion_check.cc
@@ -49,6 +50,7 @@ if(CATKIN_ENABLE_TESTING)
     src/tracker/klt_back_check_test.cc
     src/tracker/exposure_compensation_test.cc
     src/tracker/stereo_tracker_test.cc
+    src/tracker/stereo_rig_check_test.cc
     src/tracker/patch_refiner_test.cc
     src/tracker/rectified_stereo_test.cc
     src/tracker/kitti_clips_test.cc)

@@ -43,6 +43,7 @@ StereoTrackerRos::StereoTrackerRos(const ros::NodeHandle& nh, const ros::NodeHan
   ROS_INFO("%s: tracker options (from %s):\n%s", name_.c_str(), source.describe().c_str(),
            describeOptions(options_).c_str());
   time_jumps_ = TimeJumpDetector(ros_options_.time_jump_reset, 2);
+  rig_check_ = StereoRigCheck(options_.row_tolerance_px);
 
   features_pub_ = nh_.advertise<ekf_vislam::StereoFeatureArray>("stereo/features", 10);
   debug_pub_ = image_transport_.advertise("stereo/debug_image", 1);
@@ -127,6 +128,7 @@ bool StereoTrackerRos::restartIfTimeJumped(int stream, const ros::Time& stamp) {
       name_.c_str(), stream == 0 ? "the images" : "imu/twist", time_jumps_.lastJump(),
       stamp.toSec(), static_cast<unsigned long>(time_jump_resets_));
   if (tracker_) tracker_->reset();
+  rig_check_.reset();
   pair_gaps_.reset();
   waiting_pairs_.clear();
   twists_.clear();
@@ -337,6 +339,7 @@ void StereoTrackerRos::trackPair(const ImagePair& pair) {
   if (!tracker_ || stereo.fx != stereo_.fx || stereo.baseline != stereo_.baseline ||
       stereo.cx != stereo_.cx || stereo.cy != stereo_.cy) {
     tracker_ = std::make_unique<StereoTracker>(options_, stereo, masks_);  // (new) calibration
+    rig_check_.reset();
     stereo_ = stereo;
     prev_stamp_ = -1;
   }
@@ -353,6 +356,10 @@ void StereoTrackerRos::trackPair(const ImagePair& pair) {
   prev_stamp_ = stamp;
   ++pairs_tracked_;
   last_stats_ = frame.stats;
+  rig_check_.add(frame.stats);
+  if (const std::string hint = rig_check_.hint(); !hint.empty()) {
+    ROS_WARN_THROTTLE(kWarnPeriod, "%s: %s", name_.c_str(), hint.c_str());
+  }
   publish(*left_msg, left, right, frame);
 }
 
@@ -392,6 +399,8 @@ void StereoTrackerRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWr
                    std::string(kNoCameraInfo) + ": pairs wait");
   } else if (pairs_tracked_ == 0) {
     status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "no pair tracked (see counters)");
+  } else if (const std::string hint = rig_check_.hint(); !hint.empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, hint);
   } else if (bad > 0) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "running; some pairs skipped");
   } else {
@@ -415,6 +424,9 @@ void StereoTrackerRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWr
   status.add("track_ms_last", last_stats_.ms_total);
   status.add("exposure_gain_last", last_stats_.exposure_gain_temporal);
   status.add("stereo_exposure_gain_last", last_stats_.exposure_gain_stereo);
+  status.add("stereo_row_offset_px", rig_check_.medianRowOffsetPx());
+  status.add("stereo_row_failed_fraction", rig_check_.rowFailedFraction());
+  status.add("stereo_negative_disparity_fraction", rig_check_.negativeDisparityFraction());
 }
 
 }  // namespace ekf_vislam

@@ -83,10 +83,14 @@ std::vector<cv::Point2f> matchStereo(const std::vector<cv::Mat>& left_pyramid,
     const double disparity = left[i].x - r.x;
     if (!status[i] || r.x < 0 || r.y < 0 || r.x > size.width - 1 || r.y > size.height - 1) {
       ++counts->klt_failed;
-    } else if (std::abs(r.y - left[i].y) > options.row_tolerance_px) {
+      continue;
+    }
+    counts->row_offsets.push_back(r.y - left[i].y);
+    if (std::abs(r.y - left[i].y) > options.row_tolerance_px) {
       ++counts->row_failed;
     } else if (disparity < options.min_disparity_px || disparity > options.max_disparity_px) {
       ++counts->disparity_failed;
+      if (disparity < 0) ++counts->negative_disparity;
     } else {
       candidates.push_back(i);
     }

@@ -13,6 +13,7 @@
 #include <chrono>
 #include <cmath>
 #include <optional>
+#include <utility>
 
 namespace ekf_vislam {
 
@@ -59,6 +60,18 @@ void keepSelected(const std::vector<uint8_t>& keep, std::vector<T>* items) {
     ++out;
   }
   items->resize(out);
+}
+
+// The frame's left-right matches in the figures the rig check reads (stereo_rig_check.h).
+void summarizeStereoMatches(StereoMatchCounts counts, TrackerFrameStats* stats) {
+  stats->stereo_converged = counts.converged();
+  stats->stereo_row_failed = counts.row_failed;
+  stats->stereo_negative_disparity = counts.negative_disparity;
+  std::vector<float>& offsets = counts.row_offsets;
+  if (offsets.empty()) return;
+  const auto middle = offsets.begin() + static_cast<std::ptrdiff_t>(offsets.size() / 2);
+  std::nth_element(offsets.begin(), middle, offsets.end());
+  stats->stereo_row_offset_px = *middle;
 }
 
 }  // namespace
@@ -180,9 +193,11 @@ bool StereoTracker::process(const cv::Mat& left, const cv::Mat& right, double st
   }
   stats.ms_pyramids += msSince(t);
   t = Clock::now();
-  matchTracksInRight(left_pyramid, right_pyramid, predicted_disparity, &stats);
+  StereoMatchCounts stereo_counts;
+  matchTracksInRight(left_pyramid, right_pyramid, predicted_disparity, &stereo_counts, &stats);
   stats.ms_stereo = msSince(t);
-  addNewTracks(left, left_pyramid, right_pyramid, &stats);
+  addNewTracks(left, left_pyramid, right_pyramid, &stereo_counts, &stats);
+  summarizeStereoMatches(std::move(stereo_counts), &stats);
 
   prev_left_pyramid_ = std::move(left_pyramid);
   image_size_ = left.size();
@@ -382,15 +397,14 @@ std::vector<uint8_t> StereoTracker::refineLeft(const cv::Mat& left, std::vector<
 void StereoTracker::matchTracksInRight(const std::vector<cv::Mat>& left_pyramid,
                                        const std::vector<cv::Mat>& right_pyramid,
                                        const std::vector<float>& predicted_disparity,
-                                       TrackerFrameStats* stats) {
+                                       StereoMatchCounts* counts, TrackerFrameStats* stats) {
   if (tracks_.empty()) return;
   std::vector<cv::Point2f> left(tracks_.size());
   for (size_t i = 0; i < tracks_.size(); ++i) left[i] = tracks_[i].left;
   std::vector<uint8_t> ok;
-  StereoMatchCounts counts;
   const std::vector<cv::Point2f> right =
       matchStereo(left_pyramid, right_pyramid, left, predicted_disparity, options_, true,
-                  masks_.right, &ok, &counts);
+                  masks_.right, &ok, counts);
   const bool check_disparity = has_last_motion_ && (options_.disparity_check_px > 0 ||
                                                     options_.disparity_check_relative > 0);
   for (size_t i = 0; i < tracks_.size(); ++i) {
@@ -414,7 +428,7 @@ void StereoTracker::matchTracksInRight(const std::vector<cv::Mat>& left_pyramid,
 
 void StereoTracker::addNewTracks(const cv::Mat& left, const std::vector<cv::Mat>& left_pyramid,
                                  const std::vector<cv::Mat>& right_pyramid,
-                                 TrackerFrameStats* stats) {
+                                 StereoMatchCounts* counts, TrackerFrameStats* stats) {
   auto t = Clock::now();
   std::vector<cv::Point2f> existing(tracks_.size());
   for (size_t i = 0; i < tracks_.size(); ++i) existing[i] = tracks_[i].left;
@@ -425,13 +439,12 @@ void StereoTracker::addNewTracks(const cv::Mat& left, const std::vector<cv::Mat>
   t = Clock::now();
   const std::vector<float> seed(corners.size(), 0.f);
   std::vector<uint8_t> ok;
-  StereoMatchCounts counts;
   const size_t tracks_in_frame = tracks_.size();
   // New features wait confirm_frames before they are published, and are matched anew then: their
   // stereo match is refined only when they are published at once.
   const bool refine = tracks_in_frame == 0 || options_.confirm_frames == 0;
   const std::vector<cv::Point2f> right = matchStereo(left_pyramid, right_pyramid, corners, seed,
-                                                     options_, refine, masks_.right, &ok, &counts);
+                                                     options_, refine, masks_.right, &ok, counts);
   for (size_t i = 0; i < corners.size(); ++i) {
     if (!ok[i]) continue;
     Track track;

@@ -8,6 +8,7 @@
 #include "ekf_vislam/tracker/kitti_sequence.h"
 #include "ekf_vislam/tracker/npz_writer.h"
 #include "ekf_vislam/tracker/pose_twist.h"
+#include "ekf_vislam/tracker/stereo_rig_check.h"
 #include "ekf_vislam/tracker/stereo_tracker.h"
 #include "ekf_vislam/tracker/track_quality.h"
 #include "ekf_vislam/tracker/twist_motion_prior.h"
@@ -236,7 +237,8 @@ bool writeStats(const std::string& path, const std::vector<StereoFrame>& frames,
   out << "frame,stamp,tracks_in,klt_lost,forward_backward_rejected,ransac_rejected,stereo_lost,"
          "disparity_rejected,detected,new_tracks,published,motion_estimated,ms_pyramids,"
          "ms_temporal,ms_ransac,ms_stereo,ms_detect,ms_total,refined,refine_failed,ms_refine,"
-         "exposure_gain_temporal,exposure_gain_stereo\n";
+         "exposure_gain_temporal,exposure_gain_stereo,stereo_converged,stereo_row_failed,"
+         "stereo_negative_disparity,stereo_row_offset_px\n";
   out.precision(10);
   for (size_t k = 0; k < frames.size(); ++k) {
     const TrackerFrameStats& s = frames[k].stats;
@@ -246,7 +248,9 @@ bool writeStats(const std::string& path, const std::vector<StereoFrame>& frames,
         << "," << s.motion_estimated << "," << s.ms_pyramids << "," << s.ms_temporal << ","
         << s.ms_ransac << "," << s.ms_stereo << "," << s.ms_detect << "," << s.ms_total << ","
         << s.refined << "," << s.refine_failed << "," << s.ms_refine << ","
-        << s.exposure_gain_temporal << "," << s.exposure_gain_stereo << "\n";
+        << s.exposure_gain_temporal << "," << s.exposure_gain_stereo << "," << s.stereo_converged
+        << "," << s.stereo_row_failed << "," << s.stereo_negative_disparity << ","
+        << s.stereo_row_offset_px << "\n";
   }
   if (!out) *error = path + ": cannot write";
   return static_cast<bool>(out);
@@ -265,6 +269,18 @@ PoseTwist poseTwist(const Arguments& args, const KittiSequence& sequence,
   }
   twistFromPoses(result.world_T_imu, stamps, args.noise, &result.v, &result.w);
   return result;
+}
+
+// The stereo rig check (stereo_rig_check.h) over the run: its first hint, on stderr.
+void warnAboutTheRig(const std::vector<StereoFrame>& frames, const TrackerOptions& options) {
+  StereoRigCheck check(options.row_tolerance_px);
+  for (size_t k = 0; k < frames.size(); ++k) {
+    check.add(frames[k].stats);
+    const std::string hint = check.hint();
+    if (hint.empty()) continue;
+    std::cerr << "track_stereo_images: warning from frame " << k << ": " << hint << "\n";
+    return;
+  }
 }
 
 int run(int argc, char** argv) {
@@ -326,6 +342,7 @@ int run(int argc, char** argv) {
     }
     frames.push_back(std::move(frame));
   }
+  warnAboutTheRig(frames, options);
   if (!writeDataset(args, sequence, frames, pose_twist, image_size, &error) ||
       (!args.stats.empty() && !writeStats(args.stats, frames, &error))) {
     std::cerr << "track_stereo_images: " << error << "\n";

@@ -6,6 +6,7 @@
 
 #include "ekf_vislam/core/stamp_gap_detector.h"
 #include "ekf_vislam/core/time_jump_detector.h"
+#include "ekf_vislam/tracker/stereo_rig_check.h"
 #include "ekf_vislam/tracker/stereo_tracker.h"
 #include "ekf_vislam/tracker/twist_motion_prior.h"
 
@@ -123,6 +124,7 @@ class StereoTrackerRos {
   TimeJumpDetector time_jumps_{0.0, 2};  ///< images 0, twist 1 (set from ros/time_jump_reset)
   StampGapDetector pair_gaps_;           ///< pairs missing, from gaps in the left stamps
   TrackerFrameStats last_stats_;         ///< of the last pair tracked (diagnostics)
+  StereoRigCheck rig_check_{0.0};        ///< over the last pairs tracked (diagnostics, warning)
 };
 
 }  // namespace ekf_vislam

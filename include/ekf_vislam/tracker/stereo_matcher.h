@@ -10,15 +10,21 @@
 
 namespace ekf_vislam {
 
-/// Why left points found no right match (counts over one call).
+/// Why left points found no right match (counts, added to over calls).
 struct StereoMatchCounts {
-  int klt_failed = 0;
-  int back_check_failed = 0;
-  int row_failed = 0;
+  int klt_failed = 0;  ///< no convergence, or outside the right image
+  int row_failed = 0;  ///< of the rest, rows further apart than stereo/row_tolerance_px
   int disparity_failed = 0;
+  int negative_disparity = 0;  ///< of disparity_failed, the right point right of the left one
+  int back_check_failed = 0;
   int matched = 0;
   int refined = 0;  ///< of the matched, aligned by refine/stereo
   int masked = 0;   ///< of the matched, refused on the right mask
+  /// v_right - v_left of every KLT match inside the right image (before the checks), px.
+  std::vector<float> row_offsets;
+
+  /// Matches the KLT ended inside the right image: those the row test was applied to.
+  int converged() const { return row_failed + disparity_failed + back_check_failed + matched; }
 };
 
 /// Pyramids from cv::buildOpticalFlowPyramid (with derivatives) of the rectified left and right

@@ -7,6 +7,7 @@
 #include "ekf_vislam/tracker/feature_detector.h"
 #include "ekf_vislam/tracker/image_mask.h"
 #include "ekf_vislam/tracker/patch_refiner.h"
+#include "ekf_vislam/tracker/stereo_matcher.h"
 #include "ekf_vislam/tracker/tracker_options.h"
 #include "ekf_vislam/tracker/tracker_types.h"
 
@@ -69,9 +70,11 @@ class StereoTracker {
                             const std::vector<float>& predicted_disparity);
   void matchTracksInRight(const std::vector<cv::Mat>& left_pyramid,
                           const std::vector<cv::Mat>& right_pyramid,
-                          const std::vector<float>& predicted_disparity, TrackerFrameStats* stats);
+                          const std::vector<float>& predicted_disparity, StereoMatchCounts* counts,
+                          TrackerFrameStats* stats);
   void addNewTracks(const cv::Mat& left, const std::vector<cv::Mat>& left_pyramid,
-                    const std::vector<cv::Mat>& right_pyramid, TrackerFrameStats* stats);
+                    const std::vector<cv::Mat>& right_pyramid, StereoMatchCounts* counts,
+                    TrackerFrameStats* stats);
   cv::Point3f pointOf(const Track& track) const;
   void fillFrame(double stamp, StereoFrame* frame);
 

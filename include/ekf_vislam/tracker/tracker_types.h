@@ -6,6 +6,7 @@
 #include <opencv2/core.hpp>
 
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 namespace ekf_vislam {
@@ -40,11 +41,16 @@ struct TrackerFrameStats {
   int tracks_in = 0;  ///< tracks of the previous frame
   int klt_lost = 0;   ///< KLT failed, or left the image or its mask
   int forward_backward_rejected = 0;
-  int ransac_rejected = 0;            ///< temporal outliers
-  int stereo_lost = 0;                ///< tracked, but no left-right match in this frame (none
-                                      ///< found, or on the right mask)
-  int disparity_rejected = 0;         ///< left-right match disagrees with the predicted disparity
-  int detected = 0;                   ///< new corners found
+  int ransac_rejected = 0;     ///< temporal outliers
+  int stereo_lost = 0;         ///< tracked, but no left-right match in this frame (none
+                               ///< found, or on the right mask)
+  int disparity_rejected = 0;  ///< left-right match disagrees with the predicted disparity
+  // The left-right KLT of the tracks and the new corners (stereo_matcher.h), for the rig check.
+  int stereo_converged = 0;           ///< matches the KLT ended inside the right image
+  int stereo_row_failed = 0;          ///< of them, rows further apart than stereo/row_tolerance_px
+  int stereo_negative_disparity = 0;  ///< of them, the right point right of the left one
+  float stereo_row_offset_px = std::numeric_limits<float>::quiet_NaN();  ///< median v_R - v_L
+  int detected = 0;                                                      ///< new corners found
   int new_tracks = 0;                 ///< of them, matched in the right image (new ids)
   int published = 0;                  ///< features of the frame
   int refined = 0;                    ///< tracks aligned to their reference patch (refine/enabled)

@@ -1,0 +1,72 @@
+#include "ekf_vislam/tracker/stereo_rig_check.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+namespace ekf_vislam {
+
+StereoRigCheck::StereoRigCheck(double row_tolerance_px) : row_tolerance_px_(row_tolerance_px) {}
+
+void StereoRigCheck::add(const TrackerFrameStats& stats) {
+  pairs_.push_back({stats.stereo_converged, stats.stereo_row_failed,
+                    stats.stereo_negative_disparity, stats.stereo_row_offset_px});
+  if (pairs_.size() > static_cast<size_t>(kWindowPairs)) pairs_.pop_front();
+}
+
+int StereoRigCheck::matchesHeld() const {
+  int converged = 0;
+  for (const Pair& pair : pairs_) converged += pair.converged;
+  return converged;
+}
+
+double StereoRigCheck::rowFailedFraction() const {
+  int row_failed = 0;
+  for (const Pair& pair : pairs_) row_failed += pair.row_failed;
+  const int converged = matchesHeld();
+  return converged > 0 ? static_cast<double>(row_failed) / converged : 0.0;
+}
+
+double StereoRigCheck::negativeDisparityFraction() const {
+  int on_row = 0, negative = 0;
+  for (const Pair& pair : pairs_) {
+    on_row += pair.converged - pair.row_failed;
+    negative += pair.negative_disparity;
+  }
+  return on_row > 0 ? static_cast<double>(negative) / on_row : 0.0;
+}
+
+double StereoRigCheck::medianRowOffsetPx() const {
+  std::vector<float> offsets;
+  for (const Pair& pair : pairs_) {
+    if (std::isfinite(pair.row_offset_px)) offsets.push_back(pair.row_offset_px);
+  }
+  if (offsets.empty()) return 0.0;
+  const auto middle = offsets.begin() + static_cast<std::ptrdiff_t>(offsets.size() / 2);
+  std::nth_element(offsets.begin(), middle, offsets.end());
+  return *middle;
+}
+
+std::string StereoRigCheck::hint() const {
+  if (matchesHeld() < kMinMatches) return "";
+  char text[400];
+  if (rowFailedFraction() > 0.5) {
+    std::snprintf(text, sizeof(text),
+                  "%.0f %% of the left-right matches lie further apart in rows than "
+                  "stereo/row_tolerance_px (%.1f px; median row offset %.1f px): are the images "
+                  "rectified (image_rect, not image_raw) and is the calibration the rig's own?",
+                  100.0 * rowFailedFraction(), row_tolerance_px_, medianRowOffsetPx());
+    return text;
+  }
+  if (negativeDisparityFraction() > 0.5) {
+    std::snprintf(text, sizeof(text),
+                  "%.0f %% of the left-right matches have negative disparity (the right image's "
+                  "point right of the left one's): are the left and right images swapped?",
+                  100.0 * negativeDisparityFraction());
+    return text;
+  }
+  return "";
+}
+
+}  // namespace ekf_vislam

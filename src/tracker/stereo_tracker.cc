@@ -213,7 +213,7 @@ bool StereoTracker::process(const cv::Mat& left, const cv::Mat& right, double st
 std::vector<float> StereoTracker::trackTemporal(const std::vector<cv::Mat>& left_pyramid,
                                                 const CameraMotionPrior* prior, double dt,
                                                 TrackerFrameStats* stats) {
-  auto t = Clock::now();
+  const auto t = Clock::now();
   CameraMotionPrior prediction;
   std::vector<cv::Point2f> prev(tracks_.size());
   for (size_t i = 0; i < tracks_.size(); ++i) prev[i] = tracks_[i].left;
@@ -221,70 +221,90 @@ std::vector<float> StereoTracker::trackTemporal(const std::vector<cv::Mat>& left
   // Without a prediction (a second pair without a twist), the tracks start where they were:
   // search one pyramid level more.
   const bool predicted = predictLeft(prior, dt, &prediction, &cur);
-  // The previous image brought to this one's exposure (the pyramid rebuilt from it); without a
-  // map, the previous pyramid as it is.
-  std::vector<cv::Mat> exposed_prev_pyramid;
   double ms_exposure = 0;
-  if (options_.exposure_compensation) {
-    const auto t_exposure = Clock::now();
-    const cv::Mat& prev_image = prev_left_pyramid_[0];
-    const std::optional<IntensityMap> map = fitIntensityMap(
-        prev_image, prev, left_pyramid[0], cur, options_.window_size, kMinExposurePoints);
-    if (map) {
-      stats->exposure_gain_temporal = map->gain;
-      cv::buildOpticalFlowPyramid(applyIntensityMap(prev_image, *map), exposed_prev_pyramid,
-                                  pyramidWindow(options_),
-                                  static_cast<int>(prev_left_pyramid_.size() / 2) - 1, true);
-    }
-    ms_exposure = msSince(t_exposure);
-    stats->ms_pyramids += ms_exposure;
+  const std::vector<cv::Mat> exposed_prev_pyramid =
+      exposedPreviousPyramid(left_pyramid, prev, cur, &ms_exposure, stats);
+  followTracks(exposed_prev_pyramid.empty() ? prev_left_pyramid_ : exposed_prev_pyramid,
+               left_pyramid, predicted, &prev, &cur, stats);
+  stats->ms_temporal = msSince(t) - ms_exposure;  // that time is the pyramids'
+  if (options_.refine) {
+    const auto t_refine = Clock::now();
+    keepTracks(refineLeft(left_pyramid[0], &cur, stats), &prev, &cur);
+    stats->ms_refine = msSince(t_refine);
   }
-  const std::vector<cv::Mat>& prev_pyramid =
-      exposed_prev_pyramid.empty() ? prev_left_pyramid_ : exposed_prev_pyramid;
+  // A track now on a masked pixel ends (mask/left; after the refinement, which may move it).
+  if (!masks_.left.empty()) {
+    std::vector<uint8_t> unmasked(tracks_.size(), 1);
+    stats->klt_lost += refuseMaskedPoints(masks_.left, cur, &unmasked);
+    keepTracks(unmasked, &prev, &cur);
+  }
+  return checkMotion(prev, cur, prediction, stats);
+}
+
+std::vector<cv::Mat> StereoTracker::exposedPreviousPyramid(const std::vector<cv::Mat>& left_pyramid,
+                                                           const std::vector<cv::Point2f>& prev,
+                                                           const std::vector<cv::Point2f>& cur,
+                                                           double* ms,
+                                                           TrackerFrameStats* stats) const {
+  std::vector<cv::Mat> pyramid;
+  if (!options_.exposure_compensation) return pyramid;
+  const auto t = Clock::now();
+  const cv::Mat& prev_image = prev_left_pyramid_[0];
+  const std::optional<IntensityMap> map = fitIntensityMap(prev_image, prev, left_pyramid[0], cur,
+                                                          options_.window_size, kMinExposurePoints);
+  if (map) {
+    stats->exposure_gain_temporal = map->gain;
+    cv::buildOpticalFlowPyramid(applyIntensityMap(prev_image, *map), pyramid,
+                                pyramidWindow(options_),
+                                static_cast<int>(prev_left_pyramid_.size() / 2) - 1, true);
+  }
+  *ms = msSince(t);
+  stats->ms_pyramids += *ms;
+  return pyramid;
+}
+
+void StereoTracker::followTracks(const std::vector<cv::Mat>& prev_pyramid,
+                                 const std::vector<cv::Mat>& left_pyramid, bool predicted,
+                                 std::vector<cv::Point2f>* prev, std::vector<cv::Point2f>* cur,
+                                 TrackerFrameStats* stats) {
   const KltSettings klt{cv::Size(options_.window_size, options_.window_size),
                         options_.pyramid_levels + (predicted ? 0 : 1),
                         cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
                                          options_.max_iterations, options_.epsilon)};
   std::vector<uint8_t> status;
   std::vector<float> error;
-  cv::calcOpticalFlowPyrLK(prev_pyramid, left_pyramid, prev, cur, status, error, klt.window,
+  cv::calcOpticalFlowPyrLK(prev_pyramid, left_pyramid, *prev, *cur, status, error, klt.window,
                            klt.levels, klt.criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
   const cv::Size size = left_pyramid[0].size();
   std::vector<size_t> candidates;
   candidates.reserve(tracks_.size());
   for (size_t i = 0; i < tracks_.size(); ++i) {
-    if (!status[i] || !insideImage(cur[i], size, options_.border_px)) {
+    if (!status[i] || !insideImage((*cur)[i], size, options_.border_px)) {
       ++stats->klt_lost;
     } else {
       candidates.push_back(i);
     }
   }
-  // Each step below ends some tracks: their previous and current points go with them.
-  const auto keepTracks = [&](const std::vector<uint8_t>& keep) {
-    keepSelected(keep, &tracks_);
-    keepSelected(keep, &prev);
-    keepSelected(keep, &cur);
-  };
-  const std::vector<uint8_t> passed = backCheck(left_pyramid, prev_pyramid, cur, prev, candidates,
+  const std::vector<uint8_t> passed = backCheck(left_pyramid, prev_pyramid, *cur, *prev, candidates,
                                                 klt, options_.forward_backward_px);
   stats->forward_backward_rejected += static_cast<int>(candidates.size()) -
                                       static_cast<int>(std::count(passed.begin(), passed.end(), 1));
-  keepTracks(passed);
-  stats->ms_temporal = msSince(t) - ms_exposure;  // that time is the pyramids'
-  if (options_.refine) {
-    t = Clock::now();
-    keepTracks(refineLeft(left_pyramid[0], &cur, stats));
-    stats->ms_refine = msSince(t);
-  }
-  // A track now on a masked pixel ends (mask/left; after the refinement, which may move it).
-  if (!masks_.left.empty()) {
-    std::vector<uint8_t> unmasked(tracks_.size(), 1);
-    stats->klt_lost += refuseMaskedPoints(masks_.left, cur, &unmasked);
-    keepTracks(unmasked);
-  }
+  keepTracks(passed, prev, cur);
+}
 
+void StereoTracker::keepTracks(const std::vector<uint8_t>& keep, std::vector<cv::Point2f>* prev,
+                               std::vector<cv::Point2f>* cur) {
+  keepSelected(keep, &tracks_);
+  keepSelected(keep, prev);
+  keepSelected(keep, cur);
+}
+
+std::vector<float> StereoTracker::checkMotion(const std::vector<cv::Point2f>& prev,
+                                              const std::vector<cv::Point2f>& cur,
+                                              const CameraMotionPrior& prediction,
+                                              TrackerFrameStats* stats) {
   // RANSAC over the surviving matches, with each track's previous stereo point.
-  t = Clock::now();
+  const auto t = Clock::now();
   std::vector<cv::Point3f> prev_points(tracks_.size());
   for (size_t i = 0; i < tracks_.size(); ++i) prev_points[i] = pointOf(tracks_[i]);
   const MotionCheckResult check =

@@ -53,11 +53,34 @@ class StereoTracker {
   // there is neither (positions unchanged).
   bool predictLeft(const CameraMotionPrior* prior, double dt, CameraMotionPrior* used,
                    std::vector<cv::Point2f>* predicted) const;
-  // KLT of the tracks into the new left image, forward-backward check and RANSAC; drops the
-  // lost tracks and returns each survivor's predicted disparity (the left-right KLT seed).
+  // KLT of the tracks into the new left image, forward-backward check, refinement, left mask
+  // and RANSAC; drops the lost tracks and returns each survivor's predicted disparity (the
+  // left-right KLT seed).
   std::vector<float> trackTemporal(const std::vector<cv::Mat>& left_pyramid,
                                    const CameraMotionPrior* prior, double dt,
                                    TrackerFrameStats* stats);
+  // The previous left pyramid rebuilt from the previous image brought to the new one's exposure
+  // (klt/exposure_compensation; a map fitted on the tracks `prev` -> `cur`); empty when off or
+  // without a map. Its time (*ms) counts as the pyramids'.
+  std::vector<cv::Mat> exposedPreviousPyramid(const std::vector<cv::Mat>& left_pyramid,
+                                              const std::vector<cv::Point2f>& prev,
+                                              const std::vector<cv::Point2f>& cur, double* ms,
+                                              TrackerFrameStats* stats) const;
+  // KLT from `prev` (start points *cur) into the new left image and the forward-backward check:
+  // the tracks lost or outside the image border end (with their points in *prev, *cur).
+  void followTracks(const std::vector<cv::Mat>& prev_pyramid,
+                    const std::vector<cv::Mat>& left_pyramid, bool predicted,
+                    std::vector<cv::Point2f>* prev, std::vector<cv::Point2f>* cur,
+                    TrackerFrameStats* stats);
+  // Ends the tracks whose `keep` is 0, with their points in *prev and *cur.
+  void keepTracks(const std::vector<uint8_t>& keep, std::vector<cv::Point2f>* prev,
+                  std::vector<cv::Point2f>* cur);
+  // RANSAC over the temporal matches (the tracks' previous stereo points against `cur`): the
+  // outliers end; the survivors move to `cur` and get their predicted disparity (returned) from
+  // the estimated motion, else `prediction`.
+  std::vector<float> checkMotion(const std::vector<cv::Point2f>& prev,
+                                 const std::vector<cv::Point2f>& cur,
+                                 const CameraMotionPrior& prediction, TrackerFrameStats* stats);
   // Aligns each track's reference patch to `left` from its KLT position in *cur and moves it
   // there. Where that fails, the KLT position stands and the reference is taken anew (also when
   // the warp scaled it too much), or with refine/end_failed_tracks the track is to end: returns

@@ -62,4 +62,10 @@ uint64_t EstimatorStats::observationsRejected() const {
   return sum;
 }
 
+uint64_t EstimatorStats::observationsScreened() const {
+  return observationsRejected() + get(Counter::kObservationUpdate) +
+         get(Counter::kObservationInitialized) + get(Counter::kObsWaiting) +
+         get(Counter::kObsJumpHeld);
+}
+
 }  // namespace ekf_vislam

@@ -46,6 +46,27 @@ std::string sparseObservationsHint(EstimatorMode mode, uint64_t observations_upd
   return text.str();
 }
 
+std::string featureGeometryHint(uint64_t row_rejected, uint64_t disparity_rejected,
+                                uint64_t screened) {
+  if (screened < kFeatureHintMinObservations) return "";
+  const double total = static_cast<double>(screened);
+  std::ostringstream text;
+  text.precision(3);
+  if (static_cast<double>(row_rejected) > kFeatureHintFraction * total) {
+    text << 100.0 * static_cast<double>(row_rejected) / total << " % of the observations ("
+         << row_rejected << " of " << screened
+         << ") had left and right rows further apart than limits/max_row_difference_px: are the "
+            "feature source's images rectified, and are its coordinates pixels of the rectified "
+            "images the calibration describes?";
+  } else if (static_cast<double>(disparity_rejected) > kFeatureHintFraction * total) {
+    text << 100.0 * static_cast<double>(disparity_rejected) / total << " % of the observations ("
+         << disparity_rejected << " of " << screened
+         << ") had a disparity u_left - u_right below landmarks/min_disparity_px, negative "
+            "included: are the left and right images (or u_left and u_right) swapped?";
+  }
+  return text.str();
+}
+
 std::string accelerometerHint(uint64_t refused, uint64_t used) {
   if (refused == 0) return "";
   std::ostringstream text;

@@ -130,5 +130,20 @@ TEST(HealthHints, RefusedAccelerometerSamplesNameTheLikelyCause) {
   EXPECT_NE(hint.find("gravity/enabled"), std::string::npos) << hint;
 }
 
+TEST(FeatureGeometryHint, NamesRowsApartOrSwappedImages) {
+  // Real tracks reject a few percent (the course files: doc/ros.md).
+  EXPECT_EQ(featureGeometryHint(20, 60, 1000), "");
+  // Too few observations to tell.
+  EXPECT_EQ(featureGeometryHint(150, 0, kFeatureHintMinObservations - 1), "");
+  const std::string rows = featureGeometryHint(800, 10, 1000);
+  EXPECT_NE(rows.find("80 % of the observations (800 of 1000)"), std::string::npos) << rows;
+  EXPECT_NE(rows.find("rectified"), std::string::npos) << rows;
+  const std::string swapped = featureGeometryHint(5, 990, 1000);
+  EXPECT_NE(swapped.find("99 %"), std::string::npos) << swapped;
+  EXPECT_NE(swapped.find("swapped"), std::string::npos) << swapped;
+  // Half is not more than half.
+  EXPECT_EQ(featureGeometryHint(500, 0, 1000), "");
+}
+
 }  // namespace
 }  // namespace ekf_vislam

@@ -328,7 +328,9 @@ void printSummary(const EstimatorRunner& runner, const std::string& out_dir) {
                              stats.get(Counter::kFrameUsed)),
       roadTiltHint(estimator.roadTiltDegrees(), options.vehicle),
       accelerometerHint(stats.get(Counter::kAccelImplausible) + stats.get(Counter::kAccelNonFinite),
-                        stats.get(Counter::kAccelUsed))};
+                        stats.get(Counter::kAccelUsed)),
+      featureGeometryHint(stats.get(Counter::kObsRowMismatch), stats.get(Counter::kObsDisparity),
+                          stats.observationsScreened())};
   for (const std::string& hint : hints) {
     if (!hint.empty()) std::fprintf(stderr, "vislam_offline: warning: %s\n", hint.c_str());
   }

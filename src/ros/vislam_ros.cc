@@ -553,6 +553,7 @@ VislamRos::DiagnosticHints VislamRos::collectHints(const EstimatorStats& stats, 
   hints.tilt = roadTiltHint(estimator.roadTiltDegrees(), options_.vehicle);
   if (!hints.tilt.empty()) ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), hints.tilt.c_str());
   updateObservationRate(stats);
+  updateFeatureGeometry(stats);
   return hints;
 }
 
@@ -570,6 +571,10 @@ void VislamRos::setSummary(const DiagnosticHints& hints, const ros::WallTime& no
     status.summary(DiagnosticStatus::WARN, "no calibration: " + calibration_status_);
   } else if (needs_features && (now - last_features_).toSec() > ros_options_.input_timeout) {
     status.summary(DiagnosticStatus::WARN, "stereo/features stopped");
+  } else if (needs_features && !geometry_hint_.empty()) {
+    status.summary(DiagnosticStatus::WARN,
+                   "most stereo features rejected: images not rectified, or left and right "
+                   "swapped? (see the log)");
   } else if (!hints.disagreement.empty()) {
     status.summary(DiagnosticStatus::WARN,
                    "many observations gated: do the twist, the camera tf and the stamps agree? "
@@ -650,6 +655,20 @@ void VislamRos::updateObservationRate(const EstimatorStats& stats) {
   sparse_hint_ = sparseObservationsHint(options_.mode, updates, frames);
   if (!sparse_hint_.empty()) {
     ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), sparse_hint_.c_str());
+  }
+}
+
+void VislamRos::updateFeatureGeometry(const EstimatorStats& stats) {
+  const uint64_t screened = stats.observationsScreened() - geometry_window_screened_;
+  if (screened < kFeatureHintMinObservations) return;
+  const uint64_t rows = stats.get(Counter::kObsRowMismatch) - geometry_window_rows_;
+  const uint64_t disparity = stats.get(Counter::kObsDisparity) - geometry_window_disparity_;
+  geometry_window_screened_ += screened;
+  geometry_window_rows_ += rows;
+  geometry_window_disparity_ += disparity;
+  geometry_hint_ = featureGeometryHint(rows, disparity, screened);
+  if (!geometry_hint_.empty()) {
+    ROS_WARN_THROTTLE(30.0, "%s: %s", name_.c_str(), geometry_hint_.c_str());
   }
 }
 

@@ -1,6 +1,7 @@
 """vislam_offline's warnings about the regime: few observations updating the filter
-(sparseObservationsHint), a road tilt beyond its prior (roadTiltHint) and an accelerometer whose
-samples are refused (accelerometerHint)."""
+(sparseObservationsHint), a road tilt beyond its prior (roadTiltHint), an accelerometer whose
+samples are refused (accelerometerHint) and stereo features from swapped or unrectified images
+(featureGeometryHint)."""
 import json
 import os
 import subprocess
@@ -12,6 +13,8 @@ from ekf_vislam_tools import package, simulator
 TO_BAG = os.path.join(paths.SCRIPTS_DIR, 'dataset_to_bag.py')
 WARNING = 'observations per frame updated the filter'
 TILT_WARNING = "the road's tilt is estimated at"
+SWAP_WARNING = 'are the left and right images (or u_left and u_right) swapped?'
+ROW_WARNING = 'had left and right rows further apart than limits/max_row_difference_px'
 
 
 class RegimeWarningsTest(unittest.TestCase):
@@ -69,10 +72,36 @@ class RegimeWarningsTest(unittest.TestCase):
         self.assertEqual(stats['counters']['gravity_update'], 0)
         self.assertIn('200 of 200 accelerometer samples refused', stderr)
 
+    def test_swapped_or_unrectified_features_are_named(self):
+        # A feature source with its left and right images swapped: every disparity negative.
+        def swap(arrays):
+            features = arrays['features'].copy()
+            seen = features[0] >= 0
+            features[0][seen], features[2][seen] = arrays['features'][2][seen], \
+                arrays['features'][0][seen]
+            arrays['features'] = features
+        stderr, stats = self.run_offline('swapped', target_obs=70, change=swap)
+        self.assertGreater(stats['counters']['observation_disparity'], 5000)
+        self.assertIn(SWAP_WARNING, stderr)
+        self.assertNotIn(ROW_WARNING, stderr)
+
+        # Its right image's rows 8 px below the left one's (beyond max_row_difference_px, 5).
+        def lower_right_rows(arrays):
+            features = arrays['features'].copy()
+            seen = features[3] >= 0
+            features[3][seen] += 8.0
+            arrays['features'] = features
+        stderr, stats = self.run_offline('rows', target_obs=70, change=lower_right_rows)
+        self.assertGreater(stats['counters']['observation_row_mismatch'], 5000)
+        self.assertIn(ROW_WARNING, stderr)
+        self.assertNotIn(SWAP_WARNING, stderr)
+
     def test_dense_tracks_say_nothing(self):
         stderr, stats = self.run_offline('dense', target_obs=70)
         self.assertGreater(stats['observations_per_frame'], 20.0)
         self.assertNotIn(WARNING, stderr)
+        self.assertNotIn(SWAP_WARNING, stderr)
+        self.assertNotIn(ROW_WARNING, stderr)
         self.assertLess(stats['road_tilt_deg'], 3.0)
         self.assertNotIn(TILT_WARNING, stderr)
 

@@ -74,6 +74,9 @@ class EstimatorStats {
   void clear() { counts_.fill(0); }
   /// Observations rejected for any reason (not used in an update or an initialization).
   uint64_t observationsRejected() const;
+  /// Observations the input checks looked at (used, waiting, held or rejected; not those a
+  /// dead-reckoning run ignores).
+  uint64_t observationsScreened() const;
 
  private:
   std::array<uint64_t, static_cast<int>(Counter::kCount)> counts_{};

@@ -52,6 +52,17 @@ std::string sparseObservationsHint(EstimatorMode mode, uint64_t observations_upd
 constexpr double kTiltHintSigmas = 3.0;
 std::string roadTiltHint(double road_tilt_deg, const VehicleOptions& vehicle);
 
+/// A hint when the stereo features themselves look wrong: of at least kFeatureHintMinObservations
+/// screened observations, more than kFeatureHintFraction rejected because their left and right
+/// rows disagree (images not rectified, or rows not the rectified images' pixels), or because
+/// their disparity u_left - u_right is below landmarks/min_disparity_px (negative: left and right
+/// swapped). The course files reject 0.18-2.1 % for their disparity and none for their rows
+/// (doc/ros.md); empty otherwise.
+constexpr double kFeatureHintFraction = 0.5;
+constexpr uint64_t kFeatureHintMinObservations = 200;
+std::string featureGeometryHint(uint64_t row_rejected, uint64_t disparity_rejected,
+                                uint64_t screened);
+
 /// Accelerometer samples refused (non-finite, or |f| outside 0.3-4 g: a driver that removes
 /// gravity, other units): what to check. Empty when none was.
 std::string accelerometerHint(uint64_t refused, uint64_t used);

@@ -111,6 +111,9 @@ class VislamRos {
   /// Closes the observation-rate window once it holds kSparseHintMinFrames frames: sets
   /// observations_per_frame_ and sparse_hint_ (warned in the log).
   void updateObservationRate(const EstimatorStats& stats);
+  /// Closes the feature-geometry window once it holds kFeatureHintMinObservations observations:
+  /// sets geometry_hint_ (warned in the log).
+  void updateFeatureGeometry(const EstimatorStats& stats);
 
   bool resetService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response);
   /// After a reset: path and markers cleared, odometry time starts again (locked).
@@ -168,6 +171,11 @@ class VislamRos {
   uint64_t rate_window_updates_ = 0;      ///< observations used in updates, likewise
   double observations_per_frame_ = -1.0;  ///< over the last full window (-1: none yet)
   std::string sparse_hint_;               ///< sparseObservationsHint of that window
+  // Rejected stereo geometry over windows of at least kFeatureHintMinObservations observations.
+  uint64_t geometry_window_screened_ = 0;   ///< observations screened when the window started
+  uint64_t geometry_window_rows_ = 0;       ///< rejected for their rows, likewise
+  uint64_t geometry_window_disparity_ = 0;  ///< rejected for their disparity, likewise
+  std::string geometry_hint_;               ///< featureGeometryHint of the last full window
   double last_update_ms_ = 0.0;
   int last_processed_count_ = 0;
 

@@ -73,25 +73,26 @@ class RegimeWarningsTest(unittest.TestCase):
         self.assertIn('200 of 200 accelerometer samples refused', stderr)
 
     def test_swapped_or_unrectified_features_are_named(self):
+        def observed(change_rows):
+            """A change of the observed columns of features (rows uL, vL, uR, vR)."""
+            def change(arrays):
+                features = arrays['features'].copy()
+                change_rows(features, features[0] >= 0)
+                arrays['features'] = features
+            return change
+
         # A feature source with its left and right images swapped: every disparity negative.
-        def swap(arrays):
-            features = arrays['features'].copy()
-            seen = features[0] >= 0
-            features[0][seen], features[2][seen] = arrays['features'][2][seen], \
-                arrays['features'][0][seen]
-            arrays['features'] = features
-        stderr, stats = self.run_offline('swapped', target_obs=70, change=swap)
+        def swap(f, seen):
+            f[0][seen], f[2][seen] = f[2][seen].copy(), f[0][seen].copy()
+        stderr, stats = self.run_offline('swapped', target_obs=70, change=observed(swap))
         self.assertGreater(stats['counters']['observation_disparity'], 5000)
         self.assertIn(SWAP_WARNING, stderr)
         self.assertNotIn(ROW_WARNING, stderr)
 
         # Its right image's rows 8 px below the left one's (beyond max_row_difference_px, 5).
-        def lower_right_rows(arrays):
-            features = arrays['features'].copy()
-            seen = features[3] >= 0
-            features[3][seen] += 8.0
-            arrays['features'] = features
-        stderr, stats = self.run_offline('rows', target_obs=70, change=lower_right_rows)
+        def lower_right_rows(f, seen):
+            f[3][seen] += 8.0
+        stderr, stats = self.run_offline('rows', target_obs=70, change=observed(lower_right_rows))
         self.assertGreater(stats['counters']['observation_row_mismatch'], 5000)
         self.assertIn(ROW_WARNING, stderr)
         self.assertNotIn(SWAP_WARNING, stderr)

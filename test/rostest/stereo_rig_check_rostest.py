@@ -9,13 +9,12 @@ import tempfile
 import threading
 import unittest
 
-import rospkg
 import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import log, run  # noqa: E402
+from vislam_rostest import log, rendered_drive_bag  # noqa: E402
 
 from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
 
@@ -30,13 +29,7 @@ class StereoRigCheckTest(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node('stereo_rig_check_rostest', anonymous=True)
         cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_rig_check_')
-        package = rospkg.RosPack().get_path(PKG)
-        folder = os.path.join(cls.tmp, 'drive')
-        bag = os.path.join(cls.tmp, 'drive.bag')
-        run(['/usr/bin/python3', os.path.join(package, 'scripts', 'render_stereo_drive.py'),
-             folder, '--frames', str(FRAMES)])
-        run(['/usr/bin/python3', os.path.join(package, 'scripts', 'play_stereo_images.py'),
-             folder, '--bag', bag])
+        bag = rendered_drive_bag(cls.tmp, FRAMES)
         cls.lock = threading.Lock()
         cls.statuses = {}  # name -> the newest status
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics, queue_size=100)

@@ -13,7 +13,6 @@ import time
 import unittest
 
 import numpy as np
-import rospkg
 import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray
@@ -23,7 +22,7 @@ from sensor_msgs.msg import Image
 from ekf_vislam.msg import StereoFeatureArray
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import DelayedRelay, log, run  # noqa: E402
+from vislam_rostest import DelayedRelay, log, rendered_drive_bag  # noqa: E402
 
 from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
 
@@ -51,13 +50,7 @@ class StereoTrackerPipelineTest(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node('stereo_tracker_rostest', anonymous=True)
         cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_tracker_rostest_')
-        package = rospkg.RosPack().get_path(PKG)
-        folder = os.path.join(cls.tmp, 'drive')
-        cls.bag = os.path.join(cls.tmp, 'drive.bag')
-        run(['/usr/bin/python3', os.path.join(package, 'scripts', 'render_stereo_drive.py'),
-             folder, '--frames', str(FRAMES)])
-        run(['/usr/bin/python3', os.path.join(package, 'scripts', 'play_stereo_images.py'),
-             folder, '--bag', cls.bag])
+        cls.bag = rendered_drive_bag(cls.tmp, FRAMES)
         cls.lock = threading.Lock()
         cls.features, cls.odometry, cls.groundtruth, cls.images, cls.diagnostics = [], [], [], [], []
         cls.masked_features = []

@@ -12,12 +12,10 @@ import numpy as np
 import rospkg
 import rospy
 import rostest
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from diagnostic_msgs.msg import DiagnosticStatus
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import ESTIMATOR_INPUTS, PLAY_RATE  # noqa: E402
-
-from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
+from vislam_rostest import EstimatorStatusCollector  # noqa: E402
 
 PKG = 'ekf_vislam'
 FRAMES = 150
@@ -42,34 +40,13 @@ def swapped_bag(prefix):
     return prefix + '.bag'
 
 
-class VislamFeatureGeometryTest(unittest.TestCase):
-    @classmethod
-    def on_diagnostics(cls, msg):
-        for status in msg.status:
-            if status.name.endswith('estimator'):
-                cls.statuses.append(status)
-
+class VislamFeatureGeometryTest(EstimatorStatusCollector, unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         rospy.init_node('vislam_feature_geometry_rostest', anonymous=True)
         cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_geometry_')
         bag = swapped_bag(os.path.join(cls.tmp, 'drive'))
-        cls.statuses = []
-        rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics, queue_size=100)
-        rospy.wait_for_service('/vislam/save', timeout=60.0)
-        play_bag(bag, '/vislam_geometry_player', PLAY_RATE,
-                 {topic: ('/vislam_manager',) for topic in ESTIMATOR_INPUTS})
-
-        def frames_in():
-            values = cls.values(-1) if cls.statuses else {}
-            return int(values.get('frames_received', 0)) >= FRAMES
-        wait_until(frames_in, 30.0)
-        count = len(cls.statuses)
-        wait_until(lambda: len(cls.statuses) > count + 1, 10.0)
-
-    @classmethod
-    def values(cls, index):
-        return {kv.key: kv.value for kv in cls.statuses[index].values}
+        cls.play_and_collect(bag, '/vislam_geometry_player', FRAMES)
 
     @classmethod
     def tearDownClass(cls):

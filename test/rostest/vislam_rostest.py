@@ -74,6 +74,50 @@ def simulated_bag(prefix, seed, frames, *options):
     return prefix + '.bag'
 
 
+def rendered_drive_bag(tmp, frames):
+    """A rendered stereo drive (render_stereo_drive.py) of `frames` pairs in TMP/drive and its bag
+    of images, camera_info, twist and ground truth (play_stereo_images.py --bag): TMP/drive.bag."""
+    scripts = os.path.join(rospkg.RosPack().get_path(PKG), 'scripts')
+    folder, bag = os.path.join(tmp, 'drive'), os.path.join(tmp, 'drive.bag')
+    run(['/usr/bin/python3', os.path.join(scripts, 'render_stereo_drive.py'), folder, '--frames',
+         str(frames)])
+    run(['/usr/bin/python3', os.path.join(scripts, 'play_stereo_images.py'), folder, '--bag', bag])
+    return bag
+
+
+class EstimatorStatusCollector:
+    """Mixin for a test class: plays a bag into the nodelet of launch/vislam.launch and keeps
+    every status of its estimator from /diagnostics (cls.statuses)."""
+
+    @classmethod
+    def on_diagnostics(cls, msg):
+        for status in msg.status:
+            if status.name.endswith('estimator'):
+                cls.statuses.append(status)
+
+    @classmethod
+    def play_and_collect(cls, bag, player, frames):
+        """Plays `bag` as node `player` once the nodelet is connected; returns when the status
+        counts `frames` feature frames received and one more period (which closes the last
+        window of the hints) has come."""
+        cls.statuses = []
+        rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics, queue_size=100)
+        rospy.wait_for_service('/vislam/save', timeout=60.0)
+        play_bag(bag, player, PLAY_RATE,
+                 {topic: ('/vislam_manager',) for topic in ESTIMATOR_INPUTS})
+
+        def frames_in():
+            values = cls.values(-1) if cls.statuses else {}
+            return int(values.get('frames_received', 0)) >= frames
+        wait_until(frames_in, 30.0)
+        count = len(cls.statuses)
+        wait_until(lambda: len(cls.statuses) > count + 1, 10.0)
+
+    @classmethod
+    def values(cls, index):
+        return {kv.key: kv.value for kv in cls.statuses[index].values}
+
+
 def read_tum(path):
     """(N,) stamps and (N, 7) [x y z qx qy qz qw] of a TUM file (N may be 0)."""
     rows = [line.split() for line in open(path) if line.strip() and not line.startswith('#')]

@@ -9,46 +9,22 @@ import unittest
 
 import rospy
 import rostest
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from diagnostic_msgs.msg import DiagnosticStatus
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import ESTIMATOR_INPUTS, PLAY_RATE, simulated_bag  # noqa: E402
-
-from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
+from vislam_rostest import EstimatorStatusCollector, simulated_bag  # noqa: E402
 
 PKG = 'ekf_vislam'
 FRAMES = 300
 
 
-class VislamSparseTest(unittest.TestCase):
-    @classmethod
-    def on_diagnostics(cls, msg):
-        for status in msg.status:
-            if status.name.endswith('estimator'):
-                cls.statuses.append(status)
-
+class VislamSparseTest(EstimatorStatusCollector, unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         rospy.init_node('vislam_sparse_rostest', anonymous=True)
         cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_sparse_')
         bag = simulated_bag(os.path.join(cls.tmp, 'sparse'), 6, FRAMES, '--target-obs', '3')
-        cls.statuses = []
-        rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics, queue_size=100)
-        rospy.wait_for_service('/vislam/save', timeout=60.0)
-        play_bag(bag, '/vislam_sparse_player', PLAY_RATE,
-                 {topic: ('/vislam_manager',) for topic in ESTIMATOR_INPUTS})
-
-        def frames_in():
-            values = cls.values(-1) if cls.statuses else {}
-            return int(values.get('frames_received', 0)) >= FRAMES
-        wait_until(frames_in, 30.0)
-        # One more period closes the last window.
-        count = len(cls.statuses)
-        wait_until(lambda: len(cls.statuses) > count + 1, 10.0)
-
-    @classmethod
-    def values(cls, index):
-        return {kv.key: kv.value for kv in cls.statuses[index].values}
+        cls.play_and_collect(bag, '/vislam_sparse_player', FRAMES)
 
     @classmethod
     def tearDownClass(cls):

@@ -1,5 +1,7 @@
 #include "ekf_vislam/core/stamp_gap_detector.h"
 
+#include "ekf_vislam/core/median.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -9,9 +11,8 @@ namespace ekf_vislam {
 
 double StampGapDetector::period() const {
   if (static_cast<int>(intervals_.size()) < min_intervals_) return 0.0;
-  std::vector<double> sorted(intervals_.begin(), intervals_.end());
-  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-  return sorted[sorted.size() / 2];
+  std::vector<double> intervals(intervals_.begin(), intervals_.end());
+  return upperMedian(&intervals);
 }
 
 int StampGapDetector::add(double stamp) {

@@ -1,5 +1,7 @@
 #include "ekf_vislam/core/track_jump_detector.h"
 
+#include "ekf_vislam/core/median.h"
+
 #include <Eigen/Cholesky>
 
 #include <algorithm>
@@ -15,9 +17,7 @@ constexpr double kMinSigmaPx = 0.05;  // floor of the robust scale (noise-free i
 
 // 1.4826 x median absolute value: the standard deviation of Gaussian errors, robust to jumps.
 double robustSigma(std::vector<double>* abs_errors) {
-  auto middle = abs_errors->begin() + abs_errors->size() / 2;
-  std::nth_element(abs_errors->begin(), middle, abs_errors->end());
-  return std::max(kMinSigmaPx, 1.4826 * *middle);
+  return std::max(kMinSigmaPx, 1.4826 * upperMedian(abs_errors));
 }
 
 }  // namespace

@@ -1,5 +1,7 @@
 #include "ekf_vislam/core/twist_noise_estimator.h"
 
+#include "ekf_vislam/core/median.h"
+
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -42,9 +44,7 @@ void TwistNoiseEstimator::push(const Eigen::Vector3d& before, const Eigen::Vecto
 
 double TwistNoiseEstimator::sigmaOf(const std::deque<double>& squares) {
   std::vector<double> values(squares.begin(), squares.end());
-  auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
-  std::nth_element(values.begin(), middle, values.end());
-  return std::sqrt(*middle / (6.0 * kChiSquare1Median));
+  return std::sqrt(upperMedian(&values) / (6.0 * kChiSquare1Median));
 }
 
 }  // namespace ekf_vislam

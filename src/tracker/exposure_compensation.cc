@@ -1,5 +1,7 @@
 #include "ekf_vislam/tracker/exposure_compensation.h"
 
+#include "ekf_vislam/core/median.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -10,13 +12,6 @@ namespace {
 constexpr double kMinGain = 0.25, kMaxGain = 4.0;
 // Gray levels: a window with less contrast (flat, or saturated) gives no gain.
 constexpr double kMinDeviation = 2.0;
-
-// Median of `values` (reordered); `values` not empty.
-double median(std::vector<double>* values) {
-  const size_t mid = values->size() / 2;
-  std::nth_element(values->begin(), values->begin() + mid, values->end());
-  return (*values)[mid];
-}
 
 // Mean and standard deviation of the box x box window centred on p, or false when the window
 // does not lie inside the image.
@@ -56,10 +51,10 @@ std::optional<IntensityMap> fitIntensityMap(const cv::Mat& from,
   }
   if (static_cast<int>(gains.size()) < std::max(min_points, 1)) return std::nullopt;
   IntensityMap map;
-  map.gain = std::clamp(median(&gains), kMinGain, kMaxGain);
+  map.gain = std::clamp(upperMedian(&gains), kMinGain, kMaxGain);
   std::vector<double> offsets(from_means.size());
   for (size_t i = 0; i < offsets.size(); ++i) offsets[i] = to_means[i] - map.gain * from_means[i];
-  map.offset = median(&offsets);
+  map.offset = upperMedian(&offsets);
   return map;
 }
 

@@ -1,5 +1,7 @@
 #include "ekf_vislam/tracker/stereo_rig_check.h"
 
+#include "ekf_vislam/core/median.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -42,10 +44,7 @@ double StereoRigCheck::medianRowOffsetPx() const {
   for (const Pair& pair : pairs_) {
     if (std::isfinite(pair.row_offset_px)) offsets.push_back(pair.row_offset_px);
   }
-  if (offsets.empty()) return 0.0;
-  const auto middle = offsets.begin() + static_cast<std::ptrdiff_t>(offsets.size() / 2);
-  std::nth_element(offsets.begin(), middle, offsets.end());
-  return *middle;
+  return offsets.empty() ? 0.0 : upperMedian(&offsets);
 }
 
 std::string StereoRigCheck::hint() const {

@@ -1,5 +1,6 @@
 #include "ekf_vislam/tracker/stereo_tracker.h"
 
+#include "ekf_vislam/core/median.h"
 #include "ekf_vislam/tracker/exposure_compensation.h"
 #include "ekf_vislam/tracker/klt_back_check.h"
 #include "ekf_vislam/tracker/motion_check.h"
@@ -67,11 +68,7 @@ void summarizeStereoMatches(StereoMatchCounts counts, TrackerFrameStats* stats) 
   stats->stereo_converged = counts.converged();
   stats->stereo_row_failed = counts.row_failed;
   stats->stereo_negative_disparity = counts.negative_disparity;
-  std::vector<float>& offsets = counts.row_offsets;
-  if (offsets.empty()) return;
-  const auto middle = offsets.begin() + static_cast<std::ptrdiff_t>(offsets.size() / 2);
-  std::nth_element(offsets.begin(), middle, offsets.end());
-  stats->stereo_row_offset_px = *middle;
+  if (!counts.row_offsets.empty()) stats->stereo_row_offset_px = upperMedian(&counts.row_offsets);
 }
 
 }  // namespace

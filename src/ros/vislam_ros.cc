@@ -536,12 +536,9 @@ VislamRos::DiagnosticHints VislamRos::collectHints(const EstimatorStats& stats, 
   DiagnosticHints hints;
   // Inputs that contradict each other (twist axes against the camera tf, calibration, stamps)
   // show as many gated observations, period after period.
-  const uint64_t gated = stats.get(Counter::kObsGated);
-  const uint64_t updated = stats.get(Counter::kObservationUpdate);
-  hints.disagreement =
-      disagreementHint(options_.mode, gated - gated_at_last_diag_, updated - updated_at_last_diag_);
-  gated_at_last_diag_ = gated;
-  updated_at_last_diag_ = updated;
+  const auto [gated, updated] = *disagreement_window_.close(
+      {stats.get(Counter::kObsGated), stats.get(Counter::kObservationUpdate)}, 0);
+  hints.disagreement = disagreementHint(options_.mode, gated, updated);
   if (!hints.disagreement.empty()) {
     ROS_WARN_THROTTLE(30.0, "%s: in the last %.1f s %s", name_.c_str(), dt,
                       hints.disagreement.c_str());
@@ -646,11 +643,11 @@ void VislamRos::addDiagnosticValues(double twist_rate, double feature_rate,
 }
 
 void VislamRos::updateObservationRate(const EstimatorStats& stats) {
-  const uint64_t frames = stats.get(Counter::kFrameUsed) - rate_window_frames_;
-  if (frames < kSparseHintMinFrames) return;
-  const uint64_t updates = stats.get(Counter::kObservationUpdate) - rate_window_updates_;
-  rate_window_frames_ += frames;
-  rate_window_updates_ += updates;
+  const auto window =
+      rate_window_.close({stats.get(Counter::kFrameUsed), stats.get(Counter::kObservationUpdate)},
+                         kSparseHintMinFrames);
+  if (!window) return;
+  const auto [frames, updates] = *window;
   observations_per_frame_ = static_cast<double>(updates) / static_cast<double>(frames);
   sparse_hint_ = sparseObservationsHint(options_.mode, updates, frames);
   if (!sparse_hint_.empty()) {
@@ -659,13 +656,12 @@ void VislamRos::updateObservationRate(const EstimatorStats& stats) {
 }
 
 void VislamRos::updateFeatureGeometry(const EstimatorStats& stats) {
-  const uint64_t screened = stats.observationsScreened() - geometry_window_screened_;
-  if (screened < kFeatureHintMinObservations) return;
-  const uint64_t rows = stats.get(Counter::kObsRowMismatch) - geometry_window_rows_;
-  const uint64_t disparity = stats.get(Counter::kObsDisparity) - geometry_window_disparity_;
-  geometry_window_screened_ += screened;
-  geometry_window_rows_ += rows;
-  geometry_window_disparity_ += disparity;
+  const auto window =
+      geometry_window_.close({stats.observationsScreened(), stats.get(Counter::kObsRowMismatch),
+                              stats.get(Counter::kObsDisparity)},
+                             kFeatureHintMinObservations);
+  if (!window) return;
+  const auto [screened, rows, disparity] = *window;
   geometry_hint_ = featureGeometryHint(rows, disparity, screened);
   if (!geometry_hint_.empty()) {
     ROS_WARN_THROTTLE(30.0, "%s: %s", name_.c_str(), geometry_hint_.c_str());

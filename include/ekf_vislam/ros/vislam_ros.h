@@ -17,6 +17,7 @@
 
 #include <ekf_vislam/StereoFeature.h>
 #include <ekf_vislam/StereoFeatureArray.h>
+#include "ekf_vislam/core/counter_window.h"
 #include "ekf_vislam/core/estimator_runner.h"
 #include "ekf_vislam/core/stamp_gap_detector.h"
 #include "ekf_vislam/core/types.h"
@@ -164,18 +165,15 @@ class VislamRos {
   uint64_t odometry_non_finite_ = 0;
   uint64_t divergence_at_last_diag_ = 0;
   bool diverging_ = false;
-  uint64_t gated_at_last_diag_ = 0;    ///< observations gated, for the disagreement hint
-  uint64_t updated_at_last_diag_ = 0;  ///< observations used in updates, likewise
+  /// Observations gated and used in updates, per diagnostics period (the disagreement hint).
+  CounterWindow<2> disagreement_window_;
   // Observations per frame over windows of at least kSparseHintMinFrames frames.
-  uint64_t rate_window_frames_ = 0;       ///< frames used when the window started
-  uint64_t rate_window_updates_ = 0;      ///< observations used in updates, likewise
+  CounterWindow<2> rate_window_;          ///< frames used, observations used in updates
   double observations_per_frame_ = -1.0;  ///< over the last full window (-1: none yet)
   std::string sparse_hint_;               ///< sparseObservationsHint of that window
   // Rejected stereo geometry over windows of at least kFeatureHintMinObservations observations.
-  uint64_t geometry_window_screened_ = 0;   ///< observations screened when the window started
-  uint64_t geometry_window_rows_ = 0;       ///< rejected for their rows, likewise
-  uint64_t geometry_window_disparity_ = 0;  ///< rejected for their disparity, likewise
-  std::string geometry_hint_;               ///< featureGeometryHint of the last full window
+  CounterWindow<3> geometry_window_;  ///< observations screened, rejected for rows, disparity
+  std::string geometry_hint_;         ///< featureGeometryHint of the last full window
   double last_update_ms_ = 0.0;
   int last_processed_count_ = 0;
 

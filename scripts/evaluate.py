@@ -64,8 +64,9 @@ def parse_args(argv):
         prog=PROG, description=__doc__.split('\n')[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog='metrics (see ekf_vislam_tools.metrics): ATE RMSE/mean/median/max of the position\n'
-               'errors after a rigid Umeyama alignment (no scale), rotation RMSE, KITTI RPE over\n'
-               '100..800 m segments every 10 frames (null below 100 m), final position error;\n'
+               'errors after a rigid Umeyama alignment (no scale), rotation RMSE (after the\n'
+               'rotation that best maps the estimated orientations onto the true ones), KITTI RPE\n'
+               'over 100..800 m segments every 10 frames (null below 100 m), final position error;\n'
                'landmarks: errors after the primary alignment, matched by id, and the fraction\n'
                'with squared Mahalanobis error (diagonal per-axis sigmas) <= 14.16 (chi-square,\n'
                '3 dof, at 0.9973 = the 1-D 3-sigma probability).\n'

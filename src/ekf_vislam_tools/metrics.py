@@ -3,9 +3,11 @@
 Frames: the ground truth is ``gtworld_T_imu`` (poses of the IMU in the ground-truth world), the
 estimate is ``estworld_T_imu`` (in the estimator's own world frame). The two worlds differ by an
 unknown rigid motion ``gtworld_T_estworld``, found by a Umeyama fit (no scale) of the matched
-estimated positions onto the ground-truth positions. Absolute errors (ATE, rotation RMSE, final
-position error, landmark errors) are measured after applying it; the KITTI relative error (RPE)
-needs no alignment.
+estimated positions onto the ground-truth positions. Absolute errors (ATE, final position error,
+landmark errors) are measured after applying it. The rotation RMSE is measured after the rotation
+that best maps the estimated orientations onto the ground-truth ones instead: positions along a
+nearly straight path leave the position fit's rotation about that path undetermined, and would
+put an arbitrary roll into every orientation. The KITTI relative error (RPE) needs no alignment.
 
 Typical use::
 
@@ -154,6 +156,16 @@ def ate(gt_xyz, est_xyz, align=True):
     result = error_stats(errors)
     result.update(errors=errors, R=R, t=t)
     return result
+
+
+def orientation_alignment(R_gt, R_est):
+    """The rotation R (3, 3) that best maps the estimated orientations onto the ground truth's:
+    the minimiser of sum_k |R_gt[k] - R R_est[k]|_F^2 over matched (N, 3, 3) rotations, the
+    projection of sum_k R_gt[k] R_est[k]^T onto SO(3)."""
+    M = np.einsum('nij,nkj->ik', np.asarray(R_gt, dtype=float), np.asarray(R_est, dtype=float))
+    U, _, Vt = np.linalg.svd(M)
+    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])
+    return U @ D @ Vt
 
 
 def rotation_rmse(R_gt, R_est, R_align=None):
@@ -310,8 +322,10 @@ def trajectory_metrics(matched, lengths=KITTI_LENGTHS, step=10):
     result = dict(
         ate_rmse_m=stats['rmse'], ate_mean_m=stats['mean'], ate_median_m=stats['median'],
         ate_max_m=stats['max'],
-        rotation_rmse_deg=rotation_rmse(matched.gtworld_T_imu_gt[:, :3, :3],
-                                        matched.gtworld_T_imu_est[:, :3, :3]),
+        rotation_rmse_deg=rotation_rmse(
+            matched.gtworld_T_imu_gt[:, :3, :3], matched.estworld_T_imu_est[:, :3, :3],
+            orientation_alignment(matched.gtworld_T_imu_gt[:, :3, :3],
+                                  matched.estworld_T_imu_est[:, :3, :3])),
         final_position_error_m=float(matched.position_errors_m[-1]),
         path_length_m=float(matched.distance_m[-1] - matched.distance_m[0]),
         matched_poses=int(matched.idx_est.size),

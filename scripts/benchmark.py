@@ -18,7 +18,7 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, '..', 'src'))
 from ekf_vislam_tools import metrics, package, trajectory  # noqa: E402
-from ekf_vislam_tools.report import fmt, markdown_table  # noqa: E402
+from ekf_vislam_tools.report import fmt, machine_description, markdown_table  # noqa: E402
 
 MODES = ('slam', 'mapping', 'deadreckoning')
 PY = '/usr/bin/python3'
@@ -107,6 +107,7 @@ def main():
     bags = os.path.join(out, 'bags')
     os.makedirs(bags, exist_ok=True)
     binary = offline_binary()
+    machine = machine_description()
     cases = []
     for seed in args.seeds:
         prefix = os.path.join(bags, 'sim%d' % seed)
@@ -127,7 +128,7 @@ def main():
     for name, bag, gt in cases:
         print('benchmark: %s ...' % name, file=sys.stderr, flush=True)
         rows += evaluate_case(name, bag, gt, out, binary, args.config)
-    text = table(rows)
+    text = machine + '\n\n' + table(rows)
     print(text)
     slam_sims = [r['ate_m'] for r in rows if r['dataset'].startswith('sim') and r['mode'] == 'slam']
     if slam_sims:

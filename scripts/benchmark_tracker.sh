@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Speed of the stereo tracker: runs track_stereo_images over a KITTI-layout folder (default: the
 # 1241x376 highway clip ../shared/data/kitti_clips/odometry_01_000000-000050) and prints the
-# median and p99 milliseconds per stereo pair (tracking only: image decoding excluded) and the
-# frame rate they mean, for each of --repeat runs. --config: tracker options (default: built-in).
+# median and p99 milliseconds per stereo pair (tracking only: image decoding excluded), the
+# frame rate they mean and each stage's median, for each of --repeat runs, after a line naming
+# the machine. --config: tracker options (default: built-in).
 #   scripts/benchmark_tracker.sh [FOLDER] [--repeat N] [--config tracker.yaml]
 set -eo pipefail
 export PATH=/usr/bin:/bin:${PATH}
@@ -26,6 +27,8 @@ TOOL=$(command -v track_stereo_images || true)
 [[ -n "${TOOL}" ]] || TOOL=$(ls "${EKF_VISLAM_WS:-${REPO}/build}"/devel/lib/ekf_vislam/track_stereo_images)
 TMP=$(mktemp -d)
 trap 'rm -rf "${TMP}"' EXIT
+PYTHONPATH="${REPO}/src" /usr/bin/python3 -c \
+  'from ekf_vislam_tools.report import machine_description; print(machine_description())'
 for run in $(seq 1 "${REPEAT}"); do
   "${TOOL}" --left "${FOLDER}/image_left" --right "${FOLDER}/image_right" --calib "${FOLDER}/calib.txt" \
     --times "${FOLDER}/times.txt" --out "${TMP}/tracks.npz" --stats "${TMP}/stats.csv" --quiet "${CONFIG[@]}"
@@ -40,5 +43,8 @@ print('run %s: %d pairs of %s: ms per pair median %.2f, p99 %.2f, max %.2f -> %.
       % (sys.argv[2], len(ms), sys.argv[3].rstrip('/').split('/')[-1], np.median(ms),
          np.percentile(ms, 99), ms.max(), 1000 / np.median(ms), 1000 / np.percentile(ms, 99),
          features.mean()))
+stages = ('pyramids', 'temporal', 'refine', 'ransac', 'stereo', 'detect')
+print('  stage medians, ms: ' + ', '.join(
+    '%s %.2f' % (s, np.median([float(r['ms_' + s]) for r in rows])) for s in stages))
 PY
 done

@@ -2,7 +2,7 @@
 #  - ekf_vislam_tracker: the ROS-free tracker core (OpenCV + Eigen), src/tracker;
 #  - track_stereo_images: the offline tool over a KITTI-layout image folder;
 #  - ekf_vislam_tracker_nodelet (ekf_vislam/StereoTrackerNodelet) and stereo_tracker_node;
-#  - ekf_vislam_tracker_test (gtest), registered with ctest.
+#  - ekf_vislam_tracker_test and ekf_vislam_tracker_ros_test (gtest), registered with ctest.
 find_package(OpenCV REQUIRED COMPONENTS core imgproc imgcodecs features2d video calib3d)
 find_package(cv_bridge REQUIRED)
 find_package(image_transport REQUIRED)
@@ -60,7 +60,7 @@ if(CATKIN_ENABLE_TESTING)
 endif()
 
 # ROS layer of the tracker (thin: messages in and out).
-add_library(ekf_vislam_tracker_ros src/ros/stereo_tracker_ros.cc)
+add_library(ekf_vislam_tracker_ros src/ros/stereo_tracker_ros.cc src/ros/gray_image.cc)
 target_include_directories(ekf_vislam_tracker_ros SYSTEM PUBLIC
   ${cv_bridge_INCLUDE_DIRS} ${image_transport_INCLUDE_DIRS} ${message_filters_INCLUDE_DIRS})
 target_link_libraries(ekf_vislam_tracker_ros ekf_vislam_tracker ekf_vislam_ros
@@ -73,6 +73,11 @@ target_link_libraries(ekf_vislam_tracker_nodelet ekf_vislam_tracker_ros)
 
 add_executable(stereo_tracker_node src/ros/stereo_tracker_node.cc)
 target_link_libraries(stereo_tracker_node ekf_vislam_tracker_ros)
+
+if(CATKIN_ENABLE_TESTING)
+  catkin_add_gtest(ekf_vislam_tracker_ros_test src/core/gtest_main.cc src/ros/gray_image_test.cc)
+  target_link_libraries(ekf_vislam_tracker_ros_test ekf_vislam_tracker_ros)
+endif()
 
 install(TARGETS ekf_vislam_tracker_ros ekf_vislam_tracker_nodelet stereo_tracker_node
   ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}

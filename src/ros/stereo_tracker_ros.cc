@@ -1,6 +1,7 @@
 #include "ekf_vislam/ros/stereo_tracker_ros.h"
 
 #include "ekf_vislam/core/late_stream_wait.h"
+#include "ekf_vislam/ros/gray_image.h"
 #include "ekf_vislam/ros/ros_parameter_source.h"
 #include "ekf_vislam/tracker/debug_drawing.h"
 
@@ -8,7 +9,6 @@
 #include <ekf_vislam/StereoFeatureArray.h>
 #include <sensor_msgs/image_encodings.h>
 #include <tf2_eigen/tf2_eigen.h>
-#include <opencv2/imgproc.hpp>
 
 #include <cmath>
 #include <stdexcept>
@@ -204,15 +204,11 @@ bool StereoTrackerRos::wellFormed(const sensor_msgs::Image& left, const sensor_m
                       name_.c_str(), apart, unsynchronized_);
     return false;
   }
-  namespace enc = sensor_msgs::image_encodings;
   for (const sensor_msgs::Image* image : {&left, &right}) {
-    if (image->encoding != enc::MONO8 && image->encoding != enc::BGR8 &&
-        image->encoding != enc::RGB8) {
+    if (!isTrackableEncoding(image->encoding)) {
       ++bad_encoding_;
-      ROS_WARN_THROTTLE(kWarnPeriod,
-                        "%s: encoding '%s' (expected mono8, bgr8 or rgb8): pair skipped (%lu so "
-                        "far)",
-                        name_.c_str(), image->encoding.c_str(), bad_encoding_);
+      ROS_WARN_THROTTLE(kWarnPeriod, "%s: encoding '%s' (expected %s): pair skipped (%lu so far)",
+                        name_.c_str(), image->encoding.c_str(), kTrackableEncodings, bad_encoding_);
       return false;
     }
   }
@@ -221,24 +217,6 @@ bool StereoTrackerRos::wellFormed(const sensor_msgs::Image& left, const sensor_m
     ROS_WARN_THROTTLE(kWarnPeriod, "%s: left image %ux%u, right %ux%u: pair skipped (%lu so far)",
                       name_.c_str(), left.width, left.height, right.width, right.height,
                       size_mismatch_);
-    return false;
-  }
-  return true;
-}
-
-bool StereoTrackerRos::toGray(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray,
-                              std::string* why) const {
-  namespace enc = sensor_msgs::image_encodings;
-  try {
-    // wellFormed admitted mono8, bgr8 and rgb8 only.
-    if (msg->encoding == enc::MONO8) {
-      *gray = cv_bridge::toCvShare(msg)->image;  // no copy
-    } else {
-      cv::cvtColor(cv_bridge::toCvShare(msg)->image, *gray,
-                   msg->encoding == enc::BGR8 ? cv::COLOR_BGR2GRAY : cv::COLOR_RGB2GRAY);
-    }
-  } catch (const cv_bridge::Exception& e) {
-    *why = std::string("cannot convert the image: ") + e.what();
     return false;
   }
   return true;
@@ -325,8 +303,8 @@ void StereoTrackerRos::trackPair(const ImagePair& pair) {
   }
   cv::Mat left, right;
   std::string why;
-  if (!toGray(left_msg, &left, &why) || !toGray(right_msg, &right, &why)) {
-    ++bad_encoding_;  // an encoding checked at arrival whose data cv_bridge refuses
+  if (!toGrayImage(left_msg, &left, &why) || !toGrayImage(right_msg, &right, &why)) {
+    ++bad_encoding_;  // an encoding checked at arrival whose data cannot be read
     ROS_WARN_THROTTLE(kWarnPeriod, "%s: %s: pair skipped (%lu so far)", name_.c_str(), why.c_str(),
                       bad_encoding_);
     return;

@@ -75,13 +75,12 @@ class StereoTrackerRos {
   /// waiting pair and twist is dropped, and tracking starts again with new ids.
   bool restartIfTimeJumped(int stream, const ros::Time& stamp);
   /// False (warned, counted) for a pair that can never be tracked: stamps further apart than
-  /// ros/max_stamp_difference, an encoding other than mono8, bgr8 or rgb8, sizes that differ.
+  /// ros/max_stamp_difference, an encoding the tracker does not take (gray_image.h), sizes that
+  /// differ.
   /// Checked at arrival, so such a pair does not wait for the twist stream.
   bool wellFormed(const sensor_msgs::Image& left, const sensor_msgs::Image& right);
   /// Counts and warns about pairs missing before this one (StampGapDetector on the left stamps).
   void noteMissingPairs(double stamp);
-  /// The gray image of a pair wellFormed admitted; false (*why) when cv_bridge refuses its data.
-  bool toGray(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* why) const;
   bool calibrationFor(const sensor_msgs::Image& left, RectifiedStereo* stereo, std::string* why);
   std::optional<CameraMotionPrior> motionPrior(const std::string& camera_frame, double from,
                                                double to);

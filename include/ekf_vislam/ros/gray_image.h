@@ -1,0 +1,25 @@
+// The stereo tracker's image input: which sensor_msgs/Image encodings it takes, and each as the
+// 8-bit gray image the tracker core works on.
+#pragma once
+
+#include <sensor_msgs/Image.h>
+#include <opencv2/core.hpp>
+
+#include <string>
+
+namespace ekf_vislam {
+
+/// The encodings the tracker takes, for messages: "mono8, 8UC1, bgr8, rgb8, bgra8 or rgba8".
+extern const char* const kTrackableEncodings;
+
+/// Whether the tracker takes an image of this encoding: 8-bit gray (mono8, or 8UC1 as some
+/// drivers call it) or 8-bit colour (bgr8, rgb8, and the bgra8 / rgba8 of cameras such as the
+/// ZED), which is converted to gray.
+bool isTrackableEncoding(const std::string& encoding);
+
+/// The image as 8-bit gray: shared with the message (no copy, valid while `msg` lives) for gray
+/// encodings, converted for colour ones. False, with *why, for another encoding or data cv_bridge
+/// refuses.
+bool toGrayImage(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* why);
+
+}  // namespace ekf_vislam

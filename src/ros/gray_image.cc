@@ -1,0 +1,60 @@
+#include "ekf_vislam/ros/gray_image.h"
+
+#include <cv_bridge/cv_bridge.h>
+#include <sensor_msgs/image_encodings.h>
+#include <opencv2/imgproc.hpp>
+
+#include <string>
+
+namespace ekf_vislam {
+
+namespace enc = sensor_msgs::image_encodings;
+
+const char* const kTrackableEncodings = "mono8, 8UC1, bgr8, rgb8, bgra8 or rgba8";
+
+namespace {
+
+// The cv::cvtColor code that takes a colour encoding to gray, or -1 for a gray one.
+int toGrayCode(const std::string& encoding) {
+  if (encoding == enc::BGR8) return cv::COLOR_BGR2GRAY;
+  if (encoding == enc::RGB8) return cv::COLOR_RGB2GRAY;
+  if (encoding == enc::BGRA8) return cv::COLOR_BGRA2GRAY;
+  if (encoding == enc::RGBA8) return cv::COLOR_RGBA2GRAY;
+  return -1;
+}
+
+}  // namespace
+
+bool isTrackableEncoding(const std::string& encoding) {
+  return encoding == enc::MONO8 || encoding == enc::TYPE_8UC1 || toGrayCode(encoding) >= 0;
+}
+
+bool toGrayImage(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* why) {
+  if (!isTrackableEncoding(msg->encoding)) {
+    *why = "encoding '" + msg->encoding + "' (expected " + kTrackableEncodings + ")";
+    return false;
+  }
+  const size_t channels = static_cast<size_t>(enc::numChannels(msg->encoding));
+  if (msg->step < msg->width * channels ||
+      static_cast<size_t>(msg->step) * msg->height > msg->data.size()) {
+    *why = "image data shorter than its step and height say (" + std::to_string(msg->data.size()) +
+           " bytes for step " + std::to_string(msg->step) + " and " + std::to_string(msg->height) +
+           " rows)";
+    return false;
+  }
+  try {
+    const cv::Mat image = cv_bridge::toCvShare(msg)->image;  // no copy
+    const int code = toGrayCode(msg->encoding);
+    if (code < 0) {
+      *gray = image;
+    } else {
+      cv::cvtColor(image, *gray, code);
+    }
+  } catch (const cv_bridge::Exception& e) {
+    *why = std::string("cannot convert the image: ") + e.what();
+    return false;
+  }
+  return true;
+}
+
+}  // namespace ekf_vislam

@@ -1,0 +1,84 @@
+// Unit tests of the stereo tracker's image input (no roscore).
+#include "ekf_vislam/ros/gray_image.h"
+
+#include <sensor_msgs/image_encodings.h>
+
+#include <gtest/gtest.h>
+
+#include <boost/make_shared.hpp>
+
+#include <vector>
+
+namespace ekf_vislam {
+namespace {
+
+// A 4 x 3 image of `encoding` whose every pixel holds `pixel` (one byte per channel).
+sensor_msgs::ImageConstPtr uniformImage(const std::string& encoding,
+                                        const std::vector<uint8_t>& pixel) {
+  auto msg = boost::make_shared<sensor_msgs::Image>();
+  msg->encoding = encoding;
+  msg->width = 4;
+  msg->height = 3;
+  msg->step = static_cast<uint32_t>(msg->width * pixel.size());
+  for (uint32_t i = 0; i < msg->width * msg->height; ++i) {
+    msg->data.insert(msg->data.end(), pixel.begin(), pixel.end());
+  }
+  return msg;
+}
+
+TEST(GrayImage, GrayAndColourEncodingsGiveTheGrayLevel) {
+  // Pure blue and pure red differ in gray (0.114 against 0.299 of 255), so a channel order read
+  // the wrong way round shows.
+  const struct {
+    const char* encoding;
+    std::vector<uint8_t> pixel;
+    int gray;
+  } cases[] = {
+      {"mono8", {77}, 77},           {"8UC1", {77}, 77},
+      {"bgr8", {255, 0, 0}, 29},     {"rgb8", {0, 0, 255}, 29},
+      {"bgra8", {255, 0, 0, 9}, 29}, {"rgba8", {0, 0, 255, 9}, 29},
+      {"bgr8", {0, 0, 255}, 76},     {"rgba8", {255, 0, 0, 200}, 76},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.encoding);
+    EXPECT_TRUE(isTrackableEncoding(c.encoding));
+    cv::Mat gray;
+    std::string why;
+    const sensor_msgs::ImageConstPtr msg = uniformImage(c.encoding, c.pixel);
+    ASSERT_TRUE(toGrayImage(msg, &gray, &why)) << why;
+    ASSERT_EQ(gray.type(), CV_8UC1);
+    ASSERT_EQ(gray.size(), cv::Size(4, 3));
+    EXPECT_EQ(static_cast<int>(gray.at<uint8_t>(2, 3)), c.gray);
+  }
+}
+
+TEST(GrayImage, GrayImagesAreSharedNotCopied) {
+  const sensor_msgs::ImageConstPtr msg = uniformImage("mono8", {5});
+  cv::Mat gray;
+  std::string why;
+  ASSERT_TRUE(toGrayImage(msg, &gray, &why));
+  EXPECT_EQ(gray.data, msg->data.data());
+}
+
+TEST(GrayImage, OtherEncodingsAndShortDataAreRefusedWithAReason) {
+  for (const char* encoding : {"mono16", "16UC1", "32FC1", "bayer_rggb8", "yuv422", ""}) {
+    SCOPED_TRACE(encoding);
+    EXPECT_FALSE(isTrackableEncoding(encoding));
+    cv::Mat gray;
+    std::string why;
+    EXPECT_FALSE(toGrayImage(uniformImage(encoding, {1, 2}), &gray, &why));
+    EXPECT_NE(why.find("expected mono8"), std::string::npos) << why;
+  }
+  auto shorter = boost::make_shared<sensor_msgs::Image>(*uniformImage("bgr8", {1, 2, 3}));
+  shorter->data.resize(shorter->data.size() - 1);
+  cv::Mat gray;
+  std::string why;
+  EXPECT_FALSE(toGrayImage(shorter, &gray, &why));
+  EXPECT_NE(why.find("shorter"), std::string::npos) << why;
+  auto narrow = boost::make_shared<sensor_msgs::Image>(*uniformImage("rgba8", {1, 2, 3, 4}));
+  narrow->step = 12;  // 4 pixels of 4 bytes need 16
+  EXPECT_FALSE(toGrayImage(narrow, &gray, &why));
+}
+
+}  // namespace
+}  // namespace ekf_vislam

@@ -20,6 +20,9 @@ namespace {
 constexpr double kWarnPeriod = 5.0;          // s, throttle of the bad-input warnings
 constexpr double kTwistHistory = 5.0;        // s of twists kept for the motion prior
 constexpr double kCameraInfoPatience = 1.0;  // s of image time pairs wait before a warning
+// Feature messages a subscriber in another process (the estimator run standalone, a recorder)
+// may fall behind before the oldest is dropped: minutes of a camera's rate, a few kB each.
+constexpr int kFeatureQueue = 2000;
 constexpr const char* kNoCameraInfo =
     "no camera_info yet on stereo/left/camera_info and stereo/right/camera_info";
 
@@ -45,7 +48,7 @@ StereoTrackerRos::StereoTrackerRos(const ros::NodeHandle& nh, const ros::NodeHan
   time_jumps_ = TimeJumpDetector(ros_options_.time_jump_reset, 2);
   rig_check_ = StereoRigCheck(options_.row_tolerance_px);
 
-  features_pub_ = nh_.advertise<ekf_vislam::StereoFeatureArray>("stereo/features", 10);
+  features_pub_ = nh_.advertise<ekf_vislam::StereoFeatureArray>("stereo/features", kFeatureQueue);
   debug_pub_ = image_transport_.advertise("stereo/debug_image", 1);
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_);
 
@@ -54,6 +57,7 @@ StereoTrackerRos::StereoTrackerRos(const ros::NodeHandle& nh, const ros::NodeHan
                                                        &StereoTrackerRos::produceDiagnostics);
   wait_timer_ = nh_.createWallTimer(ros::WallDuration(0.1), &StereoTrackerRos::waitTimer, this);
 
+  tracking_thread_ = std::thread(&StereoTrackerRos::trackingThread, this);
   const int queue = ros_options_.queue_size;
   left_info_sub_ =
       nh_.subscribe("stereo/left/camera_info", queue, &StereoTrackerRos::leftInfoCallback, this);
@@ -77,16 +81,71 @@ StereoTrackerRos::StereoTrackerRos(const ros::NodeHandle& nh, const ros::NodeHan
   sync_->registerCallback(&StereoTrackerRos::imageCallback, this);
 }
 
+StereoTrackerRos::~StereoTrackerRos() {
+  {
+    std::lock_guard<std::mutex> lock(inbox_mutex_);
+    stopping_ = true;
+  }
+  inbox_cv_.notify_all();
+  if (tracking_thread_.joinable()) tracking_thread_.join();
+}
+
+void StereoTrackerRos::post(std::function<void()> event, size_t image_bytes) {
+  {
+    std::lock_guard<std::mutex> lock(inbox_mutex_);
+    if (stopping_) return;
+    if (image_bytes > 0 && !inbox_.empty() &&
+        inbox_image_bytes_ + image_bytes > ros_options_.max_backlog_mb * 1e6) {
+      ++pairs_dropped_backlog_;
+      ROS_WARN_THROTTLE(kWarnPeriod,
+                        "%s: tracking is behind by %lu events and %.0f MB of images "
+                        "(ros/max_backlog_mb): the new pair is dropped (%lu so far)",
+                        name_.c_str(), inbox_.size(), inbox_image_bytes_ / 1e6,
+                        pairs_dropped_backlog_);
+      return;
+    }
+    inbox_image_bytes_ += image_bytes;
+    peak_backlog_bytes_ = std::max(peak_backlog_bytes_, inbox_image_bytes_);
+    inbox_.push_back({std::move(event), image_bytes});
+  }
+  inbox_cv_.notify_one();
+}
+
+void StereoTrackerRos::trackingThread() {
+  std::unique_lock<std::mutex> inbox_lock(inbox_mutex_);
+  for (;;) {
+    inbox_cv_.wait(inbox_lock, [this] { return stopping_ || !inbox_.empty(); });
+    if (stopping_) return;
+    InboxEvent event = std::move(inbox_.front());
+    inbox_.pop_front();
+    inbox_lock.unlock();
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      try {
+        event.run();
+      } catch (const std::exception& e) {  // (OpenCV, cv_bridge) the thread and the node go on
+        ++tracker_refused_;
+        ROS_ERROR_THROTTLE(kWarnPeriod, "%s: %s: input skipped (%lu refused so far)", name_.c_str(),
+                           e.what(), tracker_refused_);
+      }
+    }
+    inbox_lock.lock();
+    inbox_image_bytes_ -= event.image_bytes;
+  }
+}
+
 void StereoTrackerRos::leftInfoCallback(const sensor_msgs::CameraInfoConstPtr& msg) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  left_info_ = msg;
-  processReadyPairs();
+  post([this, msg] {
+    left_info_ = msg;
+    processReadyPairs();
+  });
 }
 
 void StereoTrackerRos::rightInfoCallback(const sensor_msgs::CameraInfoConstPtr& msg) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  right_info_ = msg;
-  processReadyPairs();
+  post([this, msg] {
+    right_info_ = msg;
+    processReadyPairs();
+  });
 }
 
 void StereoTrackerRos::twistCallback(const geometry_msgs::TwistStampedConstPtr& msg) {
@@ -103,9 +162,13 @@ void StereoTrackerRos::odometryTwistCallback(const nav_msgs::OdometryConstPtr& m
   addTwist(msg->header.stamp, msg->twist.twist, msg->child_frame_id);
 }
 
-void StereoTrackerRos::addTwist(const ros::Time& ros_stamp, const geometry_msgs::Twist& t,
+void StereoTrackerRos::addTwist(const ros::Time& ros_stamp, const geometry_msgs::Twist& twist,
                                 const std::string& frame) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  post([this, ros_stamp, twist, frame] { receiveTwist(ros_stamp, twist, frame); });
+}
+
+void StereoTrackerRos::receiveTwist(const ros::Time& ros_stamp, const geometry_msgs::Twist& t,
+                                    const std::string& frame) {
   restartIfTimeJumped(1, ros_stamp);
   const double stamp = ros_stamp.toSec();
   if (!twists_.empty() && stamp <= twists_.back().stamp) return;
@@ -149,8 +212,12 @@ bool StereoTrackerRos::pairReady(const ImagePair& pair, double now) const {
 }
 
 void StereoTrackerRos::waitTimer(const ros::WallTimerEvent&) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (!waiting_pairs_.empty()) processReadyPairs();
+  // One check at a time in the inbox: a busy tracking thread does not collect a tick per 0.1 s.
+  if (tick_posted_.exchange(true)) return;
+  post([this] {
+    tick_posted_ = false;
+    if (!waiting_pairs_.empty()) processReadyPairs();
+  });
 }
 
 void StereoTrackerRos::processReadyPairs() {
@@ -271,7 +338,13 @@ std::optional<CameraMotionPrior> StereoTrackerRos::motionPrior(const std::string
 
 void StereoTrackerRos::imageCallback(const sensor_msgs::ImageConstPtr& left_msg,
                                      const sensor_msgs::ImageConstPtr& right_msg) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  const double arrival = steadyClockSeconds();
+  post([this, left_msg, right_msg, arrival] { receivePair(left_msg, right_msg, arrival); },
+       left_msg->data.size() + right_msg->data.size());
+}
+
+void StereoTrackerRos::receivePair(const sensor_msgs::ImageConstPtr& left_msg,
+                                   const sensor_msgs::ImageConstPtr& right_msg, double arrival) {
   ++pairs_received_;
   restartIfTimeJumped(0, left_msg->header.stamp);
   noteMissingPairs(left_msg->header.stamp.toSec());
@@ -285,7 +358,7 @@ void StereoTrackerRos::imageCallback(const sensor_msgs::ImageConstPtr& left_msg,
     return;
   }
   if (!wellFormed(*left_msg, *right_msg)) return;
-  waiting_pairs_.push_back({left_msg, right_msg, steadyClockSeconds()});
+  waiting_pairs_.push_back({left_msg, right_msg, arrival});
   processReadyPairs();
 }
 
@@ -397,6 +470,13 @@ void StereoTrackerRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWr
   status.add("pairs_dropped_waiting", pairs_dropped_waiting_);
   status.add("pairs_missing", pair_gaps_.missing());
   status.add("pairs_waiting", waiting_pairs_.size());
+  {
+    std::lock_guard<std::mutex> inbox_lock(inbox_mutex_);
+    status.add("backlog_events", inbox_.size());
+    status.add("backlog_mb", inbox_image_bytes_ / 1e6);
+    status.add("backlog_mb_peak", peak_backlog_bytes_ / 1e6);
+    status.add("pairs_dropped_backlog", pairs_dropped_backlog_);
+  }
   status.add("twist_predictions", twist_used_);
   status.add("features_last", last_stats_.published);
   status.add("track_ms_last", last_stats_.ms_total);

@@ -14,6 +14,9 @@ namespace ekf_vislam {
 namespace {
 
 constexpr double kWarnPeriod = 5.0;  // s, throttle of the bad-input warnings
+// Twists a subscriber in another process (the estimator run standalone) may fall behind before
+// the oldest is dropped: 10 s at 200 Hz.
+constexpr int kTwistQueue = 2000;
 
 template <typename Options, typename Visitor>
 void visitTwistCombinerRosOptions(Options& o, Visitor& v) {
@@ -67,7 +70,7 @@ TwistCombinerRos::TwistCombinerRos(const ros::NodeHandle& nh, const ros::NodeHan
   combiner_ = std::make_unique<TwistCombiner>(options);
   time_jumps_ = TimeJumpDetector(ros_options_.time_jump_reset, 2);
 
-  twist_pub_ = nh_.advertise<geometry_msgs::TwistWithCovarianceStamped>("imu/twist", 100);
+  twist_pub_ = nh_.advertise<geometry_msgs::TwistWithCovarianceStamped>("imu/twist", kTwistQueue);
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_);
   imu_T_frame_ = FixedFrameTransforms(&tf_buffer_, ros_options_.imu_frame);
   diagnostics_ = std::make_unique<PeriodicDiagnostics>(nh_, pnh_, name_, "twist combiner",

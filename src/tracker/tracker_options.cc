@@ -70,6 +70,7 @@ void visitTrackerRosOptions(Options& o, Visitor& v) {
   v.number("ros/max_twist_wait", o.max_twist_wait, Bound::kNonNegative);
   v.number("ros/diagnostic_period", o.diagnostic_period, Bound::kPositive);
   v.number("ros/time_jump_reset", o.time_jump_reset, Bound::kNonNegative);
+  v.number("ros/max_backlog_mb", o.max_backlog_mb, Bound::kPositive);
 }
 
 constexpr auto kTable = [](auto& options, auto& visitor) { visitTrackerOptions(options, visitor); };

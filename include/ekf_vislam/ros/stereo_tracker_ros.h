@@ -28,19 +28,28 @@
 
 #include <Eigen/Geometry>
 
+#include <atomic>
+#include <condition_variable>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
+#include <thread>
 #include <utility>
 
 namespace ekf_vislam {
 
+/// Callbacks only post what arrives to an inbox; one tracking thread handles it in arrival order
+/// (under mutex_), so a pair late for tracking waits there instead of in a ROS queue that would
+/// drop it, up to ros/max_backlog_mb of images.
 class StereoTrackerRos {
  public:
   /// Reads the tracker options from `pnh` (throws std::runtime_error when invalid).
   StereoTrackerRos(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const std::string& name);
+  /// Stops the tracking thread (what is still in the inbox is not handled).
+  ~StereoTrackerRos();
 
  private:
   using SyncPolicy =
@@ -51,8 +60,21 @@ class StereoTrackerRos {
     double arrival;  ///< when the synchronizer delivered it (steadyClockSeconds)
   };
 
+  struct InboxEvent {
+    std::function<void()> run;  ///< on the tracking thread, under mutex_
+    size_t image_bytes = 0;     ///< of the images it holds (ros/max_backlog_mb)
+  };
+
+  /// Queues `event` for the tracking thread. A pair (image_bytes > 0) that would take the
+  /// images waiting beyond ros/max_backlog_mb is dropped (counted, warned).
+  void post(std::function<void()> event, size_t image_bytes = 0);
+  void trackingThread();
   void imageCallback(const sensor_msgs::ImageConstPtr& left,
                      const sensor_msgs::ImageConstPtr& right);
+  /// A synchronized pair on the tracking thread: checked, then waits in waiting_pairs_ until
+  /// pairReady. `arrival`: when the synchronizer delivered it (steadyClockSeconds).
+  void receivePair(const sensor_msgs::ImageConstPtr& left, const sensor_msgs::ImageConstPtr& right,
+                   double arrival);
   /// Tracks the waiting pairs that are ready, oldest first (caller holds mutex_).
   void processReadyPairs();
   /// Both camera_info messages have arrived (nothing can be tracked before).
@@ -68,9 +90,11 @@ class StereoTrackerRos {
   void twistCallback(const geometry_msgs::TwistStampedConstPtr& msg);
   void twistWithCovarianceCallback(const geometry_msgs::TwistWithCovarianceStampedConstPtr& msg);
   void odometryTwistCallback(const nav_msgs::OdometryConstPtr& msg);
-  /// One twist sample of the motion prior (any of the three message types).
+  /// One twist sample of the motion prior (any of the three message types), posted.
   void addTwist(const ros::Time& stamp, const geometry_msgs::Twist& twist,
                 const std::string& frame);
+  void receiveTwist(const ros::Time& stamp, const geometry_msgs::Twist& twist,
+                    const std::string& frame);
   /// True when `stamp` on `stream` (0 images, 1 twist) went back in time: then every track,
   /// waiting pair and twist is dropped, and tracking starts again with new ids.
   bool restartIfTimeJumped(int stream, const ros::Time& stamp);
@@ -109,7 +133,16 @@ class StereoTrackerRos {
   std::unique_ptr<PeriodicDiagnostics> diagnostics_;
   ros::WallTimer wait_timer_;
 
-  std::mutex mutex_;
+  std::mutex inbox_mutex_;  ///< guards the inbox and its counters; never held while tracking
+  std::condition_variable inbox_cv_;
+  std::deque<InboxEvent> inbox_;
+  size_t inbox_image_bytes_ = 0, peak_backlog_bytes_ = 0;
+  uint64_t pairs_dropped_backlog_ = 0;
+  bool stopping_ = false;
+  std::atomic<bool> tick_posted_{false};  ///< a waitTimer check is in the inbox
+  std::thread tracking_thread_;
+
+  std::mutex mutex_;  ///< guards everything below: held by the tracking thread per event
   sensor_msgs::CameraInfoConstPtr left_info_, right_info_;
   std::deque<StampedTwist> twists_;      ///< imu/twist samples, stamp order
   std::string twist_frame_;              ///< their frame (the last one received)

@@ -116,6 +116,7 @@ struct StereoTrackerRosOptions {
   double max_twist_wait = 0.5;     ///< s a pair waits for the twist stream (message and wall time)
   double diagnostic_period = 1.0;  ///< s
   double time_jump_reset = 1.0;    ///< s back on one input: the tracker restarts (0 = off)
+  double max_backlog_mb = 1000.0;  ///< MB of images received and not yet handled, at most
 };
 
 /// Fills *options from the ros/ keys present in `source` and checks their ranges; false and

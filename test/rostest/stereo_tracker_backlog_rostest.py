@@ -1,0 +1,89 @@
+#!/usr/bin/python3
+"""rostest of the tracker's backlog (see stereo_tracker_backlog.test): a rendered drive played
+100 times faster than real time into a tracker with 10-message ROS queues loses no pair."""
+import os
+import shutil
+import sys
+import tempfile
+import threading
+import unittest
+
+import rospy
+import rostest
+from diagnostic_msgs.msg import DiagnosticArray
+
+from ekf_vislam.msg import StereoFeatureArray
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from vislam_rostest import log, rendered_drive_bag  # noqa: E402
+
+from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
+
+PKG = 'ekf_vislam'
+FRAMES = 60
+PLAY_RATE = 100.0
+ROS_QUEUE = 10  # ros/queue_size in stereo_tracker_backlog.test
+PAIR_MB = 2 * 640 * 192 / 1e6  # two mono8 images of the rendered drive
+
+
+class StereoTrackerBacklogTest(unittest.TestCase):
+
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('stereo_tracker_backlog_rostest', anonymous=True)
+        cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_backlog_')
+        bag = rendered_drive_bag(cls.tmp, FRAMES)
+        cls.lock = threading.Lock()
+        cls.values = {}
+        cls.feature_stamps = []
+        rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics, queue_size=100)
+        rospy.Subscriber('/stereo/features', StereoFeatureArray, cls.on_features,
+                         queue_size=1000)
+        required = {topic: ('/tracker',) for topic in ('/stereo/left/image_rect',
+                                                       '/stereo/right/image_rect',
+                                                       '/stereo/left/camera_info',
+                                                       '/stereo/right/camera_info')}
+        wait_until(lambda: rospy.get_param('/use_sim_time', False), 5.0)
+        play_bag(bag, '/stereo_tracker_backlog_player', PLAY_RATE, required)
+        # The synchronizer emits the last pair only once a later message comes: FRAMES - 1.
+        wait_until(lambda: int(cls.value('pairs_tracked')) >= FRAMES - 1, 60.0)
+        wait_until(lambda: len(cls.feature_stamps) >= FRAMES - 1, 10.0)
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.tmp, ignore_errors=True)
+
+    @classmethod
+    def on_diagnostics(cls, msg):
+        with cls.lock:
+            for status in msg.status:
+                if 'stereo tracker' in status.name:
+                    cls.values = {kv.key: kv.value for kv in status.values}
+
+    @classmethod
+    def on_features(cls, msg):
+        with cls.lock:
+            cls.feature_stamps.append(msg.header.stamp.to_sec())
+
+    @classmethod
+    def value(cls, key):
+        with cls.lock:
+            return float(cls.values.get(key, 0))
+
+    def test_every_pair_is_tracked_from_a_backlog_beyond_the_ros_queues(self):
+        wait_until(lambda: self.value('backlog_events') == 0, 10.0)
+        with self.lock:
+            log('tracker diagnostics: %s' % self.values)
+            stamps = list(self.feature_stamps)
+        self.assertGreaterEqual(int(self.value('pairs_tracked')), FRAMES - 1)
+        self.assertEqual(self.value('pairs_missing'), 0)
+        self.assertEqual(self.value('pairs_dropped_backlog'), 0)
+        self.assertEqual(self.value('pairs_dropped_waiting'), 0)
+        self.assertGreaterEqual(len(stamps), FRAMES - 1)
+        self.assertEqual(stamps, sorted(set(stamps)))  # each pair once, in order
+        # The test means something only if tracking fell behind by more than the ROS queues hold.
+        self.assertGreater(self.value('backlog_mb_peak'), ROS_QUEUE * PAIR_MB)
+
+
+if __name__ == '__main__':
+    rostest.rosrun(PKG, 'stereo_tracker_backlog', StereoTrackerBacklogTest)

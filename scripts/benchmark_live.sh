@@ -7,7 +7,8 @@
 # update time and latency (diagnostics), the time the estimator finished after the last pair,
 # and whether vislam_offline on the recorded features reproduces the live trajectory bit for bit
 # (live = offline).
-#   scripts/benchmark_live.sh FOLDER [--rate R] [--config estimator.yaml] [--out DIR]
+#   scripts/benchmark_live.sh FOLDER [--rate R] [--config estimator.yaml]
+#                             [--tracker-config tracker.yaml] [--out DIR]
 # Needs no roscore running on port 11399 (it starts its own there).
 set -eo pipefail
 export PATH=/usr/bin:/bin:${PATH}
@@ -15,13 +16,15 @@ REPO=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 FOLDER=""
 RATE=3
 CONFIG=""
+TRACKER_CONFIG=""
 OUT=""
 while (($#)); do
   case "$1" in
     --rate) RATE=$2; shift 2 ;;
     --config) CONFIG=$(readlink -f "$2"); shift 2 ;;
+    --tracker-config) TRACKER_CONFIG=$(readlink -f "$2"); shift 2 ;;
     --out) OUT=$2; shift 2 ;;
-    -h|--help) sed -n 2,11p "$0"; exit 0 ;;
+    -h|--help) sed -n 2,12p "$0"; exit 0 ;;
     *) FOLDER=$1; shift ;;
   esac
 done
@@ -38,6 +41,7 @@ trap 'kill -INT ${CORE} 2>/dev/null || true' EXIT
 until rostopic list >/dev/null 2>&1; do sleep 0.5; done
 ARGS=(use_sim_time:=true output_dir:="${OUT}/live")
 [[ -n "${CONFIG}" ]] && ARGS+=(config:="${CONFIG}")
+[[ -n "${TRACKER_CONFIG}" ]] && ARGS+=(tracker_config:="${TRACKER_CONFIG}")
 roslaunch ekf_vislam stereo_vislam.launch "${ARGS[@]}" >"${OUT}/launch.log" 2>&1 &
 LAUNCH=$!
 rosbag record -O "${OUT}/live.bag" /stereo/features /imu/twist /stereo/left/camera_info \

@@ -57,6 +57,8 @@ StereoTrackerRos::StereoTrackerRos(const ros::NodeHandle& nh, const ros::NodeHan
                                                        &StereoTrackerRos::produceDiagnostics);
   wait_timer_ = nh_.createWallTimer(ros::WallDuration(0.1), &StereoTrackerRos::waitTimer, this);
 
+  diagnostics_cache_.level = diagnostic_msgs::DiagnosticStatus::WARN;
+  diagnostics_cache_.message = "tracking: the counters come after the pair being tracked";
   tracking_thread_ = std::thread(&StereoTrackerRos::trackingThread, this);
   const int queue = ros_options_.queue_size;
   left_info_sub_ =
@@ -128,6 +130,7 @@ void StereoTrackerRos::trackingThread() {
         ROS_ERROR_THROTTLE(kWarnPeriod, "%s: %s: input skipped (%lu refused so far)", name_.c_str(),
                            e.what(), tracker_refused_);
       }
+      cacheDiagnosticsIfRequested();
     }
     inbox_lock.lock();
     inbox_image_bytes_ -= event.image_bytes;
@@ -439,7 +442,36 @@ void StereoTrackerRos::publish(const sensor_msgs::Image& left_msg, const cv::Mat
 }
 
 void StereoTrackerRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  // Never wait for the tracking thread: while a backlog lasts it takes mutex_ again after each
+  // pair, so this callback (and, on a one-threaded node, the images behind it in the ROS queue)
+  // would wait for the whole backlog. Idle, it reads the values now; busy, it takes those the
+  // tracking thread leaves after its current event.
+  std::unique_lock<std::mutex> lock(mutex_, std::try_to_lock);
+  if (lock.owns_lock()) {
+    fillDiagnostics(status);
+  } else {
+    diagnostics_requested_ = true;
+    std::lock_guard<std::mutex> cache_lock(diagnostics_cache_mutex_);
+    status.level = diagnostics_cache_.level;
+    status.message = diagnostics_cache_.message;
+    status.values = diagnostics_cache_.values;
+  }
+  std::lock_guard<std::mutex> inbox_lock(inbox_mutex_);
+  status.add("backlog_events", inbox_.size());
+  status.add("backlog_mb", inbox_image_bytes_ / 1e6);
+  status.add("backlog_mb_peak", peak_backlog_bytes_ / 1e6);
+  status.add("pairs_dropped_backlog", pairs_dropped_backlog_);
+}
+
+void StereoTrackerRos::cacheDiagnosticsIfRequested() {
+  if (!diagnostics_requested_.exchange(false)) return;
+  diagnostic_updater::DiagnosticStatusWrapper status;
+  fillDiagnostics(status);
+  std::lock_guard<std::mutex> cache_lock(diagnostics_cache_mutex_);
+  diagnostics_cache_ = status;
+}
+
+void StereoTrackerRos::fillDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) const {
   const uint64_t bad = bad_encoding_ + size_mismatch_ + unsynchronized_ + missing_camera_info_ +
                        bad_camera_info_ + tracker_refused_ + pairs_out_of_order_ +
                        pairs_dropped_waiting_ + pair_gaps_.missing();
@@ -470,13 +502,6 @@ void StereoTrackerRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWr
   status.add("pairs_dropped_waiting", pairs_dropped_waiting_);
   status.add("pairs_missing", pair_gaps_.missing());
   status.add("pairs_waiting", waiting_pairs_.size());
-  {
-    std::lock_guard<std::mutex> inbox_lock(inbox_mutex_);
-    status.add("backlog_events", inbox_.size());
-    status.add("backlog_mb", inbox_image_bytes_ / 1e6);
-    status.add("backlog_mb_peak", peak_backlog_bytes_ / 1e6);
-    status.add("pairs_dropped_backlog", pairs_dropped_backlog_);
-  }
   status.add("twist_predictions", twist_used_);
   status.add("features_last", last_stats_.published);
   status.add("track_ms_last", last_stats_.ms_total);

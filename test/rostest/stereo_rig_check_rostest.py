@@ -14,7 +14,7 @@ import rostest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import log, rendered_drive_bag  # noqa: E402
+from vislam_rostest import log, rendered_drive_bag, stereo_inputs_required  # noqa: E402
 
 from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
 
@@ -33,11 +33,7 @@ class StereoRigCheckTest(unittest.TestCase):
         cls.lock = threading.Lock()
         cls.statuses = {}  # name -> the newest status
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics, queue_size=100)
-        nodes = ('/tracker_as_recorded', '/swapped/tracker_swapped')
-        required = {topic: nodes for topic in ('/stereo/left/image_rect',
-                                               '/stereo/right/image_rect',
-                                               '/stereo/left/camera_info',
-                                               '/stereo/right/camera_info')}
+        required = stereo_inputs_required(('/tracker_as_recorded', '/swapped/tracker_swapped'))
         play_bag(bag, '/stereo_rig_check_player', PLAY_RATE, required)
 
         def tracked_everything():

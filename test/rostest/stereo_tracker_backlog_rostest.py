@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """rostest of the tracker's backlog (see stereo_tracker_backlog.test): a rendered drive played
-100 times faster than real time into a tracker with 10-message ROS queues loses no pair, and its
+20 times faster than real time into a tracker with 30-message ROS queues loses no pair, and its
 features are those of the offline tool (track_stereo_images) on the same images, bit for bit."""
 import os
 import shutil
@@ -17,14 +17,17 @@ from diagnostic_msgs.msg import DiagnosticArray
 from ekf_vislam.msg import StereoFeatureArray
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import log, rendered_drive_bag, run  # noqa: E402
+from vislam_rostest import (log, rendered_drive_bag, run,  # noqa: E402
+                            stereo_inputs_required)
 
 from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
 
 PKG = 'ekf_vislam'
-FRAMES = 60
-PLAY_RATE = 100.0
-ROS_QUEUE = 10  # ros/queue_size in stereo_tracker_backlog.test
+FRAMES = 120
+# 200 pairs per second: several times what the tracker takes, while a callback thread starved
+# for less than ROS_QUEUE / 200 s (the tracking thread keeps both cores busy) loses nothing.
+PLAY_RATE = 20.0
+ROS_QUEUE = 30  # ros/queue_size in stereo_tracker_backlog.test
 PAIR_MB = 2 * 640 * 192 / 1e6  # two mono8 images of the rendered drive
 START_TIME = 1000.0  # play_stereo_images.py's default --start-time
 
@@ -42,10 +45,7 @@ class StereoTrackerBacklogTest(unittest.TestCase):
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics, queue_size=100)
         rospy.Subscriber('/stereo/features', StereoFeatureArray, cls.on_features,
                          queue_size=1000)
-        required = {topic: ('/tracker',) for topic in ('/stereo/left/image_rect',
-                                                       '/stereo/right/image_rect',
-                                                       '/stereo/left/camera_info',
-                                                       '/stereo/right/camera_info')}
+        required = stereo_inputs_required(('/tracker',))
         wait_until(lambda: rospy.get_param('/use_sim_time', False), 5.0)
         play_bag(bag, '/stereo_tracker_backlog_player', PLAY_RATE, required)
         # The synchronizer emits the last pair only once a later message comes: FRAMES - 1.

@@ -22,7 +22,8 @@ from sensor_msgs.msg import Image
 from ekf_vislam.msg import StereoFeatureArray
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import DelayedRelay, log, rendered_drive_bag  # noqa: E402
+from vislam_rostest import (DelayedRelay, log, rendered_drive_bag,  # noqa: E402
+                            stereo_inputs_required)
 
 from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
 
@@ -68,9 +69,7 @@ class StereoTrackerPipelineTest(unittest.TestCase):
         # Played once the tracker and the estimator (one manager) and this test are connected.
         manager = ('/stereo_vislam_manager',)
         both = manager + ('/masked/tracker_with_mask',)
-        required = {topic: both for topic in ('/stereo/right/image_rect',
-                                              '/stereo/left/camera_info',
-                                              '/stereo/right/camera_info')}
+        required = stereo_inputs_required(both)
         required['/imu/twist'] = manager
         required['/stereo/left/image_rect'] = both + (rospy.get_name(),)
         cls.required = required

@@ -74,6 +74,16 @@ def simulated_bag(prefix, seed, frames, *options):
     return prefix + '.bag'
 
 
+#: The stereo tracker's inputs in a rendered drive's bag (rendered_drive_bag).
+STEREO_INPUTS = ('/stereo/left/image_rect', '/stereo/right/image_rect',
+                 '/stereo/left/camera_info', '/stereo/right/camera_info')
+
+
+def stereo_inputs_required(nodes):
+    """play_bag's `required`: each of STEREO_INPUTS connected to every node in `nodes`."""
+    return {topic: tuple(nodes) for topic in STEREO_INPUTS}
+
+
 def rendered_drive_bag(tmp, frames):
     """A rendered stereo drive (render_stereo_drive.py) of `frames` pairs in TMP/drive and its bag
     of images, camera_info, twist and ground truth (play_stereo_images.py --bag): TMP/drive.bag."""

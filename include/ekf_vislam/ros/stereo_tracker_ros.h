@@ -110,7 +110,12 @@ class StereoTrackerRos {
                                                double to);
   void publish(const sensor_msgs::Image& left_msg, const cv::Mat& left, const cv::Mat& right,
                const StereoFrame& frame);
+  /// The diagnostics callback: never waits for the tracking thread (see the .cc).
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
+  /// The status from the members (caller holds mutex_), backlog fields aside.
+  void fillDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) const;
+  /// On the tracking thread after each event: the status for a callback that found it busy.
+  void cacheDiagnosticsIfRequested();
   /// Every 0.1 s of wall time: tracks the pairs whose wait for the twist stream is over.
   void waitTimer(const ros::WallTimerEvent&);
 
@@ -141,6 +146,9 @@ class StereoTrackerRos {
   bool stopping_ = false;
   std::atomic<bool> tick_posted_{false};  ///< a waitTimer check is in the inbox
   std::thread tracking_thread_;
+  std::atomic<bool> diagnostics_requested_{false};  ///< a callback found the thread busy
+  std::mutex diagnostics_cache_mutex_;
+  diagnostic_msgs::DiagnosticStatus diagnostics_cache_;  ///< left by the tracking thread
 
   std::mutex mutex_;  ///< guards everything below: held by the tracking thread per event
   sensor_msgs::CameraInfoConstPtr left_info_, right_info_;

@@ -8,7 +8,8 @@
 # and whether vislam_offline on the recorded features reproduces the live trajectory bit for bit
 # (live = offline).
 #   scripts/benchmark_live.sh FOLDER [--rate R] [--config estimator.yaml]
-#                             [--tracker-config tracker.yaml] [--out DIR]
+#                             [--tracker-config tracker.yaml] [--standalone] [--out DIR]
+# --standalone: the two nodes (stereo_tracker_node, vislam_node) instead of one nodelet manager.
 # Needs no roscore running on port 11399 (it starts its own there).
 set -eo pipefail
 export PATH=/usr/bin:/bin:${PATH}
@@ -17,14 +18,16 @@ FOLDER=""
 RATE=3
 CONFIG=""
 TRACKER_CONFIG=""
+STANDALONE=false
 OUT=""
 while (($#)); do
   case "$1" in
     --rate) RATE=$2; shift 2 ;;
     --config) CONFIG=$(readlink -f "$2"); shift 2 ;;
     --tracker-config) TRACKER_CONFIG=$(readlink -f "$2"); shift 2 ;;
+    --standalone) STANDALONE=true; shift ;;
     --out) OUT=$2; shift 2 ;;
-    -h|--help) sed -n 2,12p "$0"; exit 0 ;;
+    -h|--help) sed -n 2,13p "$0"; exit 0 ;;
     *) FOLDER=$1; shift ;;
   esac
 done
@@ -39,7 +42,7 @@ roscore -p 11399 >"${OUT}/roscore.log" 2>&1 &
 CORE=$!
 trap 'kill -INT ${CORE} 2>/dev/null || true' EXIT
 until rostopic list >/dev/null 2>&1; do sleep 0.5; done
-ARGS=(use_sim_time:=true output_dir:="${OUT}/live")
+ARGS=(use_sim_time:=true output_dir:="${OUT}/live" standalone:="${STANDALONE}")
 [[ -n "${CONFIG}" ]] && ARGS+=(config:="${CONFIG}")
 [[ -n "${TRACKER_CONFIG}" ]] && ARGS+=(tracker_config:="${TRACKER_CONFIG}")
 roslaunch ekf_vislam stereo_vislam.launch "${ARGS[@]}" >"${OUT}/launch.log" 2>&1 &
@@ -70,19 +73,23 @@ PY
 COUNTER=$!
 # The player starts paused and resumes once the nodelets, the recorder and the counter are
 # connected (bag_playback), so no pair and no output is lost to a slow start.
-/usr/bin/python3 - "${OUT}/images.bag" "${RATE}" >"${OUT}/play.log" 2>&1 <<'PY'
+/usr/bin/python3 - "${OUT}/images.bag" "${RATE}" "${STANDALONE}" >"${OUT}/play.log" 2>&1 <<'PY'
 import sys
 import rospy
 from ekf_vislam_tools import bag_playback
-bag, rate = sys.argv[1], float(sys.argv[2])
-manager, recorder, counter = '/stereo_vislam_manager', '/benchmark_live_record', '/benchmark_live_count'
+bag, rate, standalone = sys.argv[1], float(sys.argv[2]), sys.argv[3] == 'true'
+recorder, counter = '/benchmark_live_record', '/benchmark_live_count'
+# The nodes that publish and subscribe: one manager, or the two standalone nodes.
+tracker, estimator = ('/stereo_tracker', '/vislam') if standalone else ('/stereo_vislam_manager',) * 2
 rospy.init_node('benchmark_live_play', anonymous=True)
-outputs = {'/stereo/features': (recorder,), '/vislam/odometry_update': (recorder, counter)}
-if not bag_playback.wait_until(lambda: bag_playback.publisher_connected(manager, outputs), 30.0):
-    sys.exit('benchmark_live: the recorder and the counter did not connect to the nodelets')
-inputs = {topic: (manager, recorder) for topic in ('/imu/twist', '/stereo/left/camera_info',
-                                                   '/stereo/right/camera_info')}
-inputs.update({topic: (manager,) for topic in ('/stereo/left/image_rect', '/stereo/right/image_rect')})
+outputs = ((tracker, {'/stereo/features': (recorder,)}),
+           (estimator, {'/vislam/odometry_update': (recorder, counter)}))
+if not bag_playback.wait_until(lambda: all(bag_playback.publisher_connected(node, topics)
+                                           for node, topics in outputs), 30.0):
+    sys.exit('benchmark_live: the recorder and the counter did not connect to the nodes')
+inputs = {topic: tuple({tracker, estimator}) + (recorder,)
+          for topic in ('/imu/twist', '/stereo/left/camera_info', '/stereo/right/camera_info')}
+inputs.update({topic: (tracker,) for topic in ('/stereo/left/image_rect', '/stereo/right/image_rect')})
 bag_playback.play_bag(bag, '/benchmark_live_player', rate, inputs, timeout=3600)
 PY
 PLAY_END=$(date +%s.%N)

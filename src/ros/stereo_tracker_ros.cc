@@ -92,10 +92,10 @@ StereoTrackerRos::~StereoTrackerRos() {
   if (tracking_thread_.joinable()) tracking_thread_.join();
 }
 
-void StereoTrackerRos::post(std::function<void()> event, size_t image_bytes) {
+bool StereoTrackerRos::post(std::function<void()> event, size_t image_bytes) {
   {
     std::lock_guard<std::mutex> lock(inbox_mutex_);
-    if (stopping_) return;
+    if (stopping_) return false;
     if (image_bytes > 0 && !inbox_.empty() &&
         inbox_image_bytes_ + image_bytes > ros_options_.max_backlog_mb * 1e6) {
       ++pairs_dropped_backlog_;
@@ -104,13 +104,14 @@ void StereoTrackerRos::post(std::function<void()> event, size_t image_bytes) {
                         "(ros/max_backlog_mb): the new pair is dropped (%lu so far)",
                         name_.c_str(), inbox_.size(), inbox_image_bytes_ / 1e6,
                         pairs_dropped_backlog_);
-      return;
+      return false;
     }
     inbox_image_bytes_ += image_bytes;
     peak_backlog_bytes_ = std::max(peak_backlog_bytes_, inbox_image_bytes_);
     inbox_.push_back({std::move(event), image_bytes});
   }
   inbox_cv_.notify_one();
+  return true;
 }
 
 void StereoTrackerRos::trackingThread() {
@@ -342,8 +343,13 @@ std::optional<CameraMotionPrior> StereoTrackerRos::motionPrior(const std::string
 void StereoTrackerRos::imageCallback(const sensor_msgs::ImageConstPtr& left_msg,
                                      const sensor_msgs::ImageConstPtr& right_msg) {
   const double arrival = steadyClockSeconds();
-  post([this, left_msg, right_msg, arrival] { receivePair(left_msg, right_msg, arrival); },
-       left_msg->data.size() + right_msg->data.size());
+  if (!post([this, left_msg, right_msg, arrival] { receivePair(left_msg, right_msg, arrival); },
+            left_msg->data.size() + right_msg->data.size())) {
+    // Dropped from a full backlog (counted there): the pair did arrive, so its stamp leaves no
+    // gap for pairs_missing, which counts what never came.
+    const double stamp = left_msg->header.stamp.toSec();
+    post([this, stamp] { pair_gaps_.add(stamp); });
+  }
 }
 
 void StereoTrackerRos::receivePair(const sensor_msgs::ImageConstPtr& left_msg,

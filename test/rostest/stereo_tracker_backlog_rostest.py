@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """rostest of the tracker's backlog (see stereo_tracker_backlog.test): a rendered drive played
 20 times faster than real time into a tracker with 30-message ROS queues loses no pair, and its
-features are those of the offline tool (track_stereo_images) on the same images, bit for bit."""
+features are those of the offline tool (track_stereo_images) on the same images, bit for bit; a
+second tracker whose backlog holds 8 pairs drops pairs, counted as dropped and not as missing."""
 import os
 import shutil
 import sys
@@ -30,6 +31,7 @@ PLAY_RATE = 20.0
 ROS_QUEUE = 30  # ros/queue_size in stereo_tracker_backlog.test
 PAIR_MB = 2 * 640 * 192 / 1e6  # two mono8 images of the rendered drive
 START_TIME = 1000.0  # play_stereo_images.py's default --start-time
+OVERLOADED = 'tracker_overloaded'  # its ros/max_backlog_mb holds 8 pairs
 
 
 class StereoTrackerBacklogTest(unittest.TestCase):
@@ -40,16 +42,18 @@ class StereoTrackerBacklogTest(unittest.TestCase):
         cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_backlog_')
         bag = rendered_drive_bag(cls.tmp, FRAMES)
         cls.lock = threading.Lock()
-        cls.values = {}
+        cls.values = {}  # node name -> its tracker's newest diagnostic values
         cls.features = {}  # stamp -> {id: (u_left, v_left, u_right, v_right)}
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics, queue_size=100)
         rospy.Subscriber('/stereo/features', StereoFeatureArray, cls.on_features,
                          queue_size=1000)
-        required = stereo_inputs_required(('/tracker',))
+        required = stereo_inputs_required(('/tracker', '/overloaded/tracker_overloaded'))
         wait_until(lambda: rospy.get_param('/use_sim_time', False), 5.0)
         play_bag(bag, '/stereo_tracker_backlog_player', PLAY_RATE, required)
         # The synchronizer emits the last pair only once a later message comes: FRAMES - 1.
         wait_until(lambda: int(cls.value('pairs_tracked')) >= FRAMES - 1, 60.0)
+        wait_until(lambda: cls.value('pairs_tracked', OVERLOADED) +
+                   cls.value('pairs_dropped_backlog', OVERLOADED) >= FRAMES - 1, 10.0)
         wait_until(lambda: len(cls.features) >= FRAMES - 1, 10.0)
         folder = os.path.join(cls.tmp, 'drive')
         cls.offline = os.path.join(cls.tmp, 'offline.npz')
@@ -66,8 +70,9 @@ class StereoTrackerBacklogTest(unittest.TestCase):
     def on_diagnostics(cls, msg):
         with cls.lock:
             for status in msg.status:
-                if 'stereo tracker' in status.name:
-                    cls.values = {kv.key: kv.value for kv in status.values}
+                if status.name.endswith(': stereo tracker'):
+                    node = status.name.split(':')[0].split('/')[-1]
+                    cls.values[node] = {kv.key: kv.value for kv in status.values}
 
     @classmethod
     def on_features(cls, msg):
@@ -76,14 +81,14 @@ class StereoTrackerBacklogTest(unittest.TestCase):
                 f.id: (f.u_left, f.v_left, f.u_right, f.v_right) for f in msg.features}
 
     @classmethod
-    def value(cls, key):
+    def value(cls, key, node='tracker'):
         with cls.lock:
-            return float(cls.values.get(key, 0))
+            return float(cls.values.get(node, {}).get(key, 0))
 
     def test_every_pair_is_tracked_from_a_backlog_beyond_the_ros_queues(self):
         wait_until(lambda: self.value('backlog_events') == 0, 10.0)
         with self.lock:
-            log('tracker diagnostics: %s' % self.values)
+            log('tracker diagnostics: %s' % self.values.get('tracker'))
             stamps = list(self.features)
         self.assertGreaterEqual(int(self.value('pairs_tracked')), FRAMES - 1)
         self.assertEqual(self.value('pairs_missing'), 0)
@@ -93,6 +98,18 @@ class StereoTrackerBacklogTest(unittest.TestCase):
         self.assertEqual(len(stamps), len(set(stamps)))  # each pair once
         # The test means something only if tracking fell behind by more than the ROS queues hold.
         self.assertGreater(self.value('backlog_mb_peak'), ROS_QUEUE * PAIR_MB)
+
+    def test_a_full_backlog_drops_pairs_counted_as_dropped_not_missing(self):
+        wait_until(lambda: self.value('backlog_events', OVERLOADED) == 0, 10.0)
+        with self.lock:
+            log('overloaded tracker diagnostics: %s' % self.values.get(OVERLOADED))
+        tracked = self.value('pairs_tracked', OVERLOADED)
+        dropped = self.value('pairs_dropped_backlog', OVERLOADED)
+        self.assertGreater(dropped, 0)
+        self.assertGreater(tracked, 0)
+        self.assertGreaterEqual(tracked + dropped, FRAMES - 1)
+        self.assertEqual(self.value('pairs_missing', OVERLOADED), 0)
+        self.assertLessEqual(self.value('backlog_mb_peak', OVERLOADED), 2.0)
 
     def test_live_features_are_the_offline_tools_bit_for_bit(self):
         offline = np.load(self.offline)

@@ -65,9 +65,10 @@ class StereoTrackerRos {
     size_t image_bytes = 0;     ///< of the images it holds (ros/max_backlog_mb)
   };
 
-  /// Queues `event` for the tracking thread. A pair (image_bytes > 0) that would take the
-  /// images waiting beyond ros/max_backlog_mb is dropped (counted, warned).
-  void post(std::function<void()> event, size_t image_bytes = 0);
+  /// Queues `event` for the tracking thread; false when it is not queued: a pair (image_bytes >
+  /// 0) that would take the images waiting beyond ros/max_backlog_mb is dropped (counted,
+  /// warned), and nothing is queued once the node stops.
+  bool post(std::function<void()> event, size_t image_bytes = 0);
   void trackingThread();
   void imageCallback(const sensor_msgs::ImageConstPtr& left,
                      const sensor_msgs::ImageConstPtr& right);

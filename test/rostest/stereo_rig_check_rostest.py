@@ -11,10 +11,11 @@ import unittest
 
 import rospy
 import rostest
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from diagnostic_msgs.msg import DiagnosticStatus
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import log, rendered_drive_bag, stereo_inputs_required  # noqa: E402
+from vislam_rostest import (NewestStatuses, log, rendered_drive_bag,  # noqa: E402
+                            stereo_inputs_required)
 
 from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
 
@@ -23,7 +24,7 @@ FRAMES = 20
 PLAY_RATE = 1.0
 
 
-class StereoRigCheckTest(unittest.TestCase):
+class StereoRigCheckTest(NewestStatuses, unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
@@ -31,8 +32,7 @@ class StereoRigCheckTest(unittest.TestCase):
         cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_rig_check_')
         bag = rendered_drive_bag(cls.tmp, FRAMES)
         cls.lock = threading.Lock()
-        cls.statuses = {}  # name -> the newest status
-        rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics, queue_size=100)
+        cls.listen_to_diagnostics()
         required = stereo_inputs_required(('/tracker_as_recorded', '/swapped/tracker_swapped'))
         play_bag(bag, '/stereo_rig_check_player', PLAY_RATE, required)
 
@@ -43,23 +43,12 @@ class StereoRigCheckTest(unittest.TestCase):
         wait_until(lambda: 'swapped' in cls.message('tracker_swapped'), 5.0)
 
     @classmethod
-    def on_diagnostics(cls, msg):
-        with cls.lock:
-            for status in msg.status:
-                cls.statuses[status.name] = status
-
-    @classmethod
     def status(cls, name_part):
-        with cls.lock:
-            for name, status in cls.statuses.items():
-                if name_part in name:
-                    return status
-        return None
+        return cls.latest_status(name_part)[0]
 
     @classmethod
     def values(cls, name_part):
-        status = cls.status(name_part)
-        return {kv.key: kv.value for kv in status.values} if status else {}
+        return cls.latest_status(name_part)[1]
 
     @classmethod
     def message(cls, name_part):

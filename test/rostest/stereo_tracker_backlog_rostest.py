@@ -13,12 +13,11 @@ import unittest
 import numpy as np
 import rospy
 import rostest
-from diagnostic_msgs.msg import DiagnosticArray
 
 from ekf_vislam.msg import StereoFeatureArray
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import (log, rendered_drive_bag, run,  # noqa: E402
+from vislam_rostest import (NewestStatuses, log, rendered_drive_bag, run,  # noqa: E402
                             stereo_inputs_required)
 
 from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
@@ -31,10 +30,11 @@ PLAY_RATE = 20.0
 ROS_QUEUE = 30  # ros/queue_size in stereo_tracker_backlog.test
 PAIR_MB = 2 * 640 * 192 / 1e6  # two mono8 images of the rendered drive
 START_TIME = 1000.0  # play_stereo_images.py's default --start-time
-OVERLOADED = 'tracker_overloaded'  # its ros/max_backlog_mb holds 8 pairs
+# The two trackers' diagnostic status names: the second's ros/max_backlog_mb holds 8 pairs.
+MAIN, OVERLOADED = 'tracker: stereo tracker', 'tracker_overloaded: stereo tracker'
 
 
-class StereoTrackerBacklogTest(unittest.TestCase):
+class StereoTrackerBacklogTest(NewestStatuses, unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
@@ -42,9 +42,8 @@ class StereoTrackerBacklogTest(unittest.TestCase):
         cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_backlog_')
         bag = rendered_drive_bag(cls.tmp, FRAMES)
         cls.lock = threading.Lock()
-        cls.values = {}  # node name -> its tracker's newest diagnostic values
         cls.features = {}  # stamp -> {id: (u_left, v_left, u_right, v_right)}
-        rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics, queue_size=100)
+        cls.listen_to_diagnostics()
         rospy.Subscriber('/stereo/features', StereoFeatureArray, cls.on_features,
                          queue_size=1000)
         required = stereo_inputs_required(('/tracker', '/overloaded/tracker_overloaded'))
@@ -67,28 +66,19 @@ class StereoTrackerBacklogTest(unittest.TestCase):
         shutil.rmtree(cls.tmp, ignore_errors=True)
 
     @classmethod
-    def on_diagnostics(cls, msg):
-        with cls.lock:
-            for status in msg.status:
-                if status.name.endswith(': stereo tracker'):
-                    node = status.name.split(':')[0].split('/')[-1]
-                    cls.values[node] = {kv.key: kv.value for kv in status.values}
-
-    @classmethod
     def on_features(cls, msg):
         with cls.lock:
             cls.features[msg.header.stamp.to_sec()] = {
                 f.id: (f.u_left, f.v_left, f.u_right, f.v_right) for f in msg.features}
 
     @classmethod
-    def value(cls, key, node='tracker'):
-        with cls.lock:
-            return float(cls.values.get(node, {}).get(key, 0))
+    def value(cls, key, node=MAIN):
+        return float(cls.latest_status(node)[1].get(key, 0))
 
     def test_every_pair_is_tracked_from_a_backlog_beyond_the_ros_queues(self):
         wait_until(lambda: self.value('backlog_events') == 0, 10.0)
+        log('tracker diagnostics: %s' % self.latest_status(MAIN)[1])
         with self.lock:
-            log('tracker diagnostics: %s' % self.values.get('tracker'))
             stamps = list(self.features)
         self.assertGreaterEqual(int(self.value('pairs_tracked')), FRAMES - 1)
         self.assertEqual(self.value('pairs_missing'), 0)
@@ -101,8 +91,7 @@ class StereoTrackerBacklogTest(unittest.TestCase):
 
     def test_a_full_backlog_drops_pairs_counted_as_dropped_not_missing(self):
         wait_until(lambda: self.value('backlog_events', OVERLOADED) == 0, 10.0)
-        with self.lock:
-            log('overloaded tracker diagnostics: %s' % self.values.get(OVERLOADED))
+        log('overloaded tracker diagnostics: %s' % self.latest_status(OVERLOADED)[1])
         tracked = self.value('pairs_tracked', OVERLOADED)
         dropped = self.value('pairs_dropped_backlog', OVERLOADED)
         self.assertGreater(dropped, 0)

@@ -15,14 +15,13 @@ import unittest
 import numpy as np
 import rospy
 import rostest
-from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import Image
 
 from ekf_vislam.msg import StereoFeatureArray
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import (DelayedRelay, log, rendered_drive_bag,  # noqa: E402
+from vislam_rostest import (DelayedRelay, NewestStatuses, log, rendered_drive_bag,  # noqa: E402
                             stereo_inputs_required)
 
 from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
@@ -45,7 +44,7 @@ MASKED_FROM_ROW = 144
 REPLAY_TWIST_DELAY_S = 3.0
 
 
-class StereoTrackerPipelineTest(unittest.TestCase):
+class StereoTrackerPipelineTest(NewestStatuses, unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
@@ -53,7 +52,7 @@ class StereoTrackerPipelineTest(unittest.TestCase):
         cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_tracker_rostest_')
         cls.bag = rendered_drive_bag(cls.tmp, FRAMES)
         cls.lock = threading.Lock()
-        cls.features, cls.odometry, cls.groundtruth, cls.images, cls.diagnostics = [], [], [], [], []
+        cls.features, cls.odometry, cls.groundtruth, cls.images = [], [], [], []
         cls.masked_features = []
         rospy.Subscriber('/stereo/features', StereoFeatureArray, cls.keep(cls.features),
                          queue_size=1000)
@@ -64,8 +63,7 @@ class StereoTrackerPipelineTest(unittest.TestCase):
                          queue_size=1000)
         rospy.Subscriber('/stereo/left/image_rect', Image,
                          lambda m: cls.images.append(m.header.stamp), queue_size=1000)
-        rospy.Subscriber('/diagnostics', DiagnosticArray, cls.keep(cls.diagnostics),
-                         queue_size=100)
+        cls.listen_to_diagnostics()
         # Played once the tracker and the estimator (one manager) and this test are connected.
         manager = ('/stereo_vislam_manager',)
         both = manager + ('/masked/tracker_with_mask',)
@@ -94,16 +92,6 @@ class StereoTrackerPipelineTest(unittest.TestCase):
             with cls.lock:
                 store.append(msg)
         return callback
-
-    def latest_status(self, name_part):
-        """The newest diagnostic status whose name holds name_part, and its values as a dict
-        ((None, {}) when none has come)."""
-        with self.lock:
-            for msg in reversed(self.diagnostics):
-                for status in msg.status:
-                    if name_part in status.name:
-                        return status, {kv.key: kv.value for kv in status.values}
-        return None, {}
 
     @classmethod
     def tearDownClass(cls):

@@ -95,6 +95,33 @@ def rendered_drive_bag(tmp, frames):
     return bag
 
 
+class NewestStatuses:
+    """Mixin for a test class: keeps the newest /diagnostics status of each name. setUpClass calls
+    listen_to_diagnostics() once cls.lock (a threading.Lock) exists."""
+
+    @classmethod
+    def listen_to_diagnostics(cls):
+        cls.newest_statuses = {}  # status name -> its newest status
+        rospy.Subscriber('/diagnostics', DiagnosticArray, cls.keep_newest_statuses,
+                         queue_size=100)
+
+    @classmethod
+    def keep_newest_statuses(cls, msg):
+        with cls.lock:
+            for status in msg.status:
+                cls.newest_statuses[status.name] = status
+
+    @classmethod
+    def latest_status(cls, name_part):
+        """The newest status whose name holds name_part, and its values as a dict ((None, {})
+        when none has come)."""
+        with cls.lock:
+            for name, status in cls.newest_statuses.items():
+                if name_part in name:
+                    return status, {kv.key: kv.value for kv in status.values}
+        return None, {}
+
+
 class EstimatorStatusCollector:
     """Mixin for a test class: plays a bag into the nodelet of launch/vislam.launch and keeps
     every status of its estimator from /diagnostics (cls.statuses)."""

@@ -454,7 +454,7 @@ void StereoTrackerRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWr
   // tracking thread leaves after its current event.
   std::unique_lock<std::mutex> lock(mutex_, std::try_to_lock);
   if (lock.owns_lock()) {
-    fillDiagnostics(status);
+    fillDiagnostics(droppedFromBacklog(), status);
   } else {
     diagnostics_requested_ = true;
     std::lock_guard<std::mutex> cache_lock(diagnostics_cache_mutex_);
@@ -472,15 +472,21 @@ void StereoTrackerRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWr
 void StereoTrackerRos::cacheDiagnosticsIfRequested() {
   if (!diagnostics_requested_.exchange(false)) return;
   diagnostic_updater::DiagnosticStatusWrapper status;
-  fillDiagnostics(status);
+  fillDiagnostics(droppedFromBacklog(), status);
   std::lock_guard<std::mutex> cache_lock(diagnostics_cache_mutex_);
   diagnostics_cache_ = status;
 }
 
-void StereoTrackerRos::fillDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) const {
+uint64_t StereoTrackerRos::droppedFromBacklog() {
+  std::lock_guard<std::mutex> inbox_lock(inbox_mutex_);
+  return pairs_dropped_backlog_;
+}
+
+void StereoTrackerRos::fillDiagnostics(uint64_t dropped_from_backlog,
+                                       diagnostic_updater::DiagnosticStatusWrapper& status) const {
   const uint64_t bad = bad_encoding_ + size_mismatch_ + unsynchronized_ + missing_camera_info_ +
                        bad_camera_info_ + tracker_refused_ + pairs_out_of_order_ +
-                       pairs_dropped_waiting_ + pair_gaps_.missing();
+                       pairs_dropped_waiting_ + pair_gaps_.missing() + dropped_from_backlog;
   if (pairs_received_ == 0) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no synchronized stereo pair yet");
   } else if (!hasCameraInfo()) {

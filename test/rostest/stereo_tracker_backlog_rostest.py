@@ -13,6 +13,7 @@ import unittest
 import numpy as np
 import rospy
 import rostest
+from diagnostic_msgs.msg import DiagnosticStatus
 
 from ekf_vislam.msg import StereoFeatureArray
 
@@ -99,6 +100,7 @@ class StereoTrackerBacklogTest(NewestStatuses, unittest.TestCase):
         self.assertGreaterEqual(tracked + dropped, FRAMES - 1)
         self.assertEqual(self.value('pairs_missing', OVERLOADED), 0)
         self.assertLessEqual(self.value('backlog_mb_peak', OVERLOADED), 2.0)
+        self.assertEqual(self.latest_status(OVERLOADED)[0].level, DiagnosticStatus.WARN)
 
     def test_live_features_are_the_offline_tools_bit_for_bit(self):
         offline = np.load(self.offline)

@@ -113,8 +113,12 @@ class StereoTrackerRos {
                const StereoFrame& frame);
   /// The diagnostics callback: never waits for the tracking thread (see the .cc).
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
-  /// The status from the members (caller holds mutex_), backlog fields aside.
-  void fillDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) const;
+  /// pairs_dropped_backlog_, read under the inbox lock.
+  uint64_t droppedFromBacklog();
+  /// The status from the members (caller holds mutex_), backlog fields aside; pairs dropped from
+  /// the backlog count among the skipped pairs of its summary.
+  void fillDiagnostics(uint64_t dropped_from_backlog,
+                       diagnostic_updater::DiagnosticStatusWrapper& status) const;
   /// On the tracking thread after each event: the status for a callback that found it busy.
   void cacheDiagnosticsIfRequested();
   /// Every 0.1 s of wall time: tracks the pairs whose wait for the twist stream is over.

@@ -76,9 +76,11 @@ class OffByDefaultTest(unittest.TestCase):
             self.assertAlmostEqual(float(r[key].sum()), BEFORE_SUMS[key], delta=1e-12 * 500)
         self.assertAlmostEqual(float(r['world_T_imu'][-1, :3, 3].sum()),
                                BEFORE_LAST_POSITION_SUM, delta=1e-9)
-        np.testing.assert_array_equal(r['linear_velocity'][:, 30], BEFORE_V30)
-        np.testing.assert_array_equal(r['rotational_velocity'][:, 45], BEFORE_W45)
-        np.testing.assert_array_equal(r['features'][:, 5, 32], BEFORE_FEATURE_5_32)
+        # Within a few of the last bits: numpy's vectorised sin and cos differ by instruction set.
+        for value, before in ((r['linear_velocity'][:, 30], BEFORE_V30),
+                              (r['rotational_velocity'][:, 45], BEFORE_W45),
+                              (r['features'][:, 5, 32], BEFORE_FEATURE_5_32)):
+            np.testing.assert_allclose(value, before, rtol=1e-12, atol=0)
 
     def test_the_accelerometer_leaves_every_other_stream(self):
         plain = simulator.simulate(11, frames=120)

@@ -3,9 +3,9 @@
 # times.txt, poses.txt for the twist) is written as a bag (play_stereo_images.py), played with
 # `rosbag play --clock -r RATE` (paused until every node is connected) into
 # launch/stereo_vislam.launch (one nodelet manager), and the features, twist and odometry are
-# recorded. Prints the pairs received, tracked and dropped, the frames the estimator used, its
-# update time and latency (diagnostics), the time the estimator finished after the last pair,
-# and whether vislam_offline on the recorded features reproduces the live trajectory bit for bit
+# recorded. Prints the machine, the pairs received, tracked and dropped, the frames the
+# estimator used, its update time and latency (diagnostics), the time the estimator finished
+# after the last pair, and whether vislam_offline on the recorded features reproduces the live trajectory bit for bit
 # (live = offline).
 #   scripts/benchmark_live.sh FOLDER [--rate R] [--config estimator.yaml]
 #                             [--tracker-config tracker.yaml] [--standalone] [--out DIR]
@@ -33,6 +33,8 @@ while (($#)); do
 done
 [[ -f "${FOLDER}/poses.txt" ]] || { echo "benchmark_live: FOLDER with poses.txt needed"; exit 2; }
 source "${REPO}/scripts/env.sh" >/dev/null
+PYTHONPATH="${REPO}/src" /usr/bin/python3 -c \
+  'from ekf_vislam_tools.report import machine_description; print(machine_description())'
 export ROS_MASTER_URI=http://localhost:11399
 OUT=${OUT:-$(mktemp -d)}
 mkdir -p "${OUT}"

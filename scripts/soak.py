@@ -1,5 +1,6 @@
 #!/usr/bin/python3
-"""Reliability soak and outlier study of ekf_vislam on synthetic drives; prints one table.
+"""Reliability soak and outlier study of ekf_vislam on synthetic drives; prints the machine and
+one table.
 
 Soak: a one-hour drive (36,000 frames at 10 Hz, about 27 km) is simulated, converted to a bag and
 run through vislam_offline, once whole and once cut after its first half. Reported: peak memory
@@ -38,7 +39,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, '..', 'src'))
 from ekf_vislam_tools import metrics, package, trajectory  # noqa: E402
-from ekf_vislam_tools.report import fmt, markdown_table  # noqa: E402
+from ekf_vislam_tools.report import fmt, machine_description, markdown_table  # noqa: E402
 
 PY = '/usr/bin/python3'
 DEFAULT_OUTLIER_RATE = 0.03  # simulator.DEFAULT_OPTIONS['outlier_rate']
@@ -392,7 +393,7 @@ def summary_lines(soak_rows, soak_info, outlier_rows):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     parser.add_argument('--frames', type=int, default=36000,
                         help='frames of the soak drive (default %(default)s = 1 h at 10 Hz)')
     parser.add_argument('--seed', type=int, default=1, help='seed of the soak drive')
@@ -423,13 +424,14 @@ def main():
     out = os.path.abspath(args.out)
     os.makedirs(out, exist_ok=True)
     binary = offline_binary()
+    machine = machine_description()
     start = time.monotonic()
     soak_rows, soak_info, outlier_rows = [], {}, []
     if not args.skip_soak:
         soak_rows, soak_info = soak(args, binary, out)
     if not args.skip_outliers:
         outlier_rows = outlier_study(args, binary, out)
-    text = table(soak_rows + outlier_rows)
+    text = machine + '\n\n' + table(soak_rows + outlier_rows)
     text += '\n\n' + '\n'.join(summary_lines(soak_rows, soak_info, outlier_rows))
     text += '\n\nsoak.py total run time %.0f s' % (time.monotonic() - start)
     print(text)

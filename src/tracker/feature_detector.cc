@@ -17,18 +17,21 @@ int GridFeatureDetector::cellOf(const cv::Point2f& point, const cv::Size& size) 
   return row * options_.grid_cols + col;
 }
 
+std::vector<cv::KeyPoint> GridFeatureDetector::independentCandidates(const cv::Mat& image) const {
+  std::vector<cv::KeyPoint> keypoints;
+  if (candidatesIndependent()) cv::FAST(image, keypoints, options_.fast_threshold, true);
+  return keypoints;
+}
+
 std::vector<cv::KeyPoint> GridFeatureDetector::candidates(const cv::Mat& image,
                                                           const cv::Mat& free_mask) const {
-  std::vector<cv::KeyPoint> keypoints;
-  if (options_.detector == FeatureDetectorType::kFast) {
-    cv::FAST(image, keypoints, options_.fast_threshold, true);
-    return keypoints;
-  }
+  if (candidatesIndependent()) return independentCandidates(image);
   std::vector<cv::Point2f> corners;
   const int wanted = 4 * options_.grid_cols * options_.grid_rows * options_.max_features_per_cell;
   cv::goodFeaturesToTrack(image, corners, wanted, options_.shi_tomasi_quality,
                           std::max(1.0, options_.min_feature_distance), free_mask, 3);
   // goodFeaturesToTrack returns the strongest first: keep that order as the response.
+  std::vector<cv::KeyPoint> keypoints;
   keypoints.reserve(corners.size());
   for (size_t i = 0; i < corners.size(); ++i) {
     keypoints.emplace_back(corners[i], 1.f, -1.f, static_cast<float>(corners.size() - i));
@@ -38,7 +41,8 @@ std::vector<cv::KeyPoint> GridFeatureDetector::candidates(const cv::Mat& image,
 
 std::vector<cv::Point2f> GridFeatureDetector::detect(const cv::Mat& image,
                                                      const std::vector<cv::Point2f>& existing,
-                                                     const cv::Mat& usable) const {
+                                                     const cv::Mat& usable,
+                                                     const std::vector<cv::KeyPoint>* found) const {
   const cv::Size size = image.size();
   const int num_cells = options_.grid_cols * options_.grid_rows;
   std::vector<int> cell_count(num_cells, 0);
@@ -56,9 +60,14 @@ std::vector<cv::Point2f> GridFeatureDetector::detect(const cv::Mat& image,
     if (radius > 0) cv::circle(free_mask, p, radius, cv::Scalar(0), -1);
   }
 
-  std::vector<cv::KeyPoint> keypoints = candidates(image, free_mask);
+  std::vector<cv::KeyPoint> searched;
+  const std::vector<cv::KeyPoint>* keypoints = found;
+  if (keypoints == nullptr || !candidatesIndependent()) {
+    searched = candidates(image, free_mask);
+    keypoints = &searched;
+  }
   std::vector<std::vector<const cv::KeyPoint*>> by_cell(num_cells);
-  for (const cv::KeyPoint& kp : keypoints) {
+  for (const cv::KeyPoint& kp : *keypoints) {
     const int cell = cellOf(kp.pt, size);
     if (cell >= 0 && cell_count[cell] < options_.max_features_per_cell) {
       by_cell[cell].push_back(&kp);

@@ -73,6 +73,28 @@ TEST(GridFeatureDetector, NoCornerOnAMaskedPixel) {
   for (const cv::Point2f& p : masked) EXPECT_LT(cvRound(p.y), 120) << p;
 }
 
+// The corners searched beforehand (as the tracker does beside its tracking) give what detect()
+// finds itself; Shi-Tomasi's search depends on the existing features, so it ignores them.
+TEST_P(Detectors, CornersSearchedBeforehandGiveTheSameSelection) {
+  TrackerOptions options;
+  options.detector = GetParam();
+  const cv::Mat image = rectangles(cv::Size(400, 200));
+  GridFeatureDetector detector(options);
+  std::vector<cv::Point2f> existing;
+  for (int i = 0; i < 30; ++i) existing.emplace_back(10.f + 13 * i, 20.f + 5 * i);
+  const std::vector<cv::KeyPoint> found = detector.independentCandidates(image);
+  EXPECT_EQ(detector.candidatesIndependent(), GetParam() == FeatureDetectorType::kFast);
+  EXPECT_EQ(found.empty(), !detector.candidatesIndependent());
+  const std::vector<cv::Point2f> searched_now = detector.detect(image, existing);
+  ASSERT_GT(searched_now.size(), 20u);
+  EXPECT_EQ(detector.detect(image, existing, cv::Mat(), &found), searched_now);
+  // Another image's corners would be taken as they are: they do reach the selection.
+  if (detector.candidatesIndependent()) {
+    const std::vector<cv::KeyPoint> other = detector.independentCandidates(image.t());
+    EXPECT_NE(detector.detect(image, existing, cv::Mat(), &other), searched_now);
+  }
+}
+
 TEST(GridFeatureDetector, FlatImageGivesNothing) {
   GridFeatureDetector detector{TrackerOptions()};
   EXPECT_TRUE(detector.detect(cv::Mat(200, 400, CV_8UC1, cv::Scalar(90)), {}).empty());

@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <future>
 #include <optional>
 #include <utility>
 
@@ -131,33 +132,32 @@ bool StereoTracker::predictLeft(const CameraMotionPrior* prior, double dt, Camer
   return has_prediction;
 }
 
+std::string StereoTracker::inputProblem(const cv::Mat& left, const cv::Mat& right,
+                                        double stamp) const {
+  const int min_size =
+      2 * options_.border_px + std::max(options_.window_size, options_.stereo_window_size);
+  if (left.empty() || right.empty()) return "empty image";
+  if (left.type() != CV_8UC1 || right.type() != CV_8UC1) {
+    return "images must be 8-bit single channel";
+  }
+  if (left.size() != right.size()) return "left and right images differ in size";
+  if (left.cols < min_size || left.rows < min_size) {
+    return "image smaller than twice the border plus the KLT window";
+  }
+  if (std::string mask_problem = checkMaskSizes(masks_, left.size()); !mask_problem.empty()) {
+    return mask_problem;
+  }
+  if (!std::isfinite(stamp) || (has_prev_ && stamp <= prev_stamp_)) {
+    return "time stamp not after the previous pair's";
+  }
+  return "";
+}
+
 bool StereoTracker::process(const cv::Mat& left, const cv::Mat& right, double stamp,
                             const CameraMotionPrior* prior, StereoFrame* frame, std::string* why) {
   const auto start = Clock::now();
-  const int min_size =
-      2 * options_.border_px + std::max(options_.window_size, options_.stereo_window_size);
-  if (left.empty() || right.empty()) {
-    *why = "empty image";
-    return false;
-  }
-  if (left.type() != CV_8UC1 || right.type() != CV_8UC1) {
-    *why = "images must be 8-bit single channel";
-    return false;
-  }
-  if (left.size() != right.size()) {
-    *why = "left and right images differ in size";
-    return false;
-  }
-  if (left.cols < min_size || left.rows < min_size) {
-    *why = "image smaller than twice the border plus the KLT window";
-    return false;
-  }
-  if (const std::string mask_problem = checkMaskSizes(masks_, left.size()); !mask_problem.empty()) {
-    *why = mask_problem;
-    return false;
-  }
-  if (!std::isfinite(stamp) || (has_prev_ && stamp <= prev_stamp_)) {
-    *why = "time stamp not after the previous pair's";
+  if (std::string problem = inputProblem(left, right, stamp); !problem.empty()) {
+    *why = std::move(problem);
     return false;
   }
   if (has_prev_ && left.size() != image_size_) reset();
@@ -167,14 +167,31 @@ bool StereoTracker::process(const cv::Mat& left, const cv::Mat& right, double st
   // The temporal KLT takes one level more without a prediction (trackTemporal).
   const int levels = std::max(options_.pyramid_levels + 1, options_.stereo_pyramid_levels);
   const cv::Size window = pyramidWindow(options_);
+  // The new left image's pyramid and FAST corners do not depend on the tracks: two more threads
+  // make them while this one predicts the tracks and brings the previous pyramid to the new
+  // exposure (the results are those made in turn, bit for bit). Declared before their futures,
+  // which wait for them on every way out.
   std::vector<cv::Mat> left_pyramid, right_pyramid;
-  auto t = Clock::now();
-  cv::buildOpticalFlowPyramid(left, left_pyramid, window, levels, true);
-  stats.ms_pyramids = msSince(t);
+  std::vector<cv::KeyPoint> corners_found;
+  std::future<void> left_pyramid_built = std::async(std::launch::async, [&] {
+    cv::buildOpticalFlowPyramid(left, left_pyramid, window, levels, true);
+  });
+  std::future<void> corners_searched;
+  if (detector_.candidatesIndependent()) {
+    corners_searched = std::async(std::launch::async,
+                                  [&] { corners_found = detector_.independentCandidates(left); });
+  }
 
-  std::vector<float> predicted_disparity;
+  std::optional<TemporalStart> temporal;
   if (has_prev_ && !tracks_.empty()) {
-    predicted_disparity = trackTemporal(left_pyramid, prior, stamp - prev_stamp_, &stats);
+    temporal = startTemporal(left, prior, stamp - prev_stamp_, &stats);
+  }
+  auto t = Clock::now();
+  left_pyramid_built.get();
+  stats.ms_pyramids += msSince(t);
+  std::vector<float> predicted_disparity;
+  if (temporal) {
+    predicted_disparity = trackTemporal(std::move(*temporal), left_pyramid, &stats);
   } else {
     tracks_.clear();
     has_last_motion_ = false;
@@ -193,7 +210,12 @@ bool StereoTracker::process(const cv::Mat& left, const cv::Mat& right, double st
   StereoMatchCounts stereo_counts;
   matchTracksInRight(left_pyramid, right_pyramid, predicted_disparity, &stereo_counts, &stats);
   stats.ms_stereo = msSince(t);
-  addNewTracks(left, left_pyramid, right_pyramid, &stereo_counts, &stats);
+  t = Clock::now();
+  if (corners_searched.valid()) corners_searched.get();
+  stats.ms_detect = msSince(t);
+  addNewTracks(left, left_pyramid, right_pyramid,
+               detector_.candidatesIndependent() ? &corners_found : nullptr, &stereo_counts,
+               &stats);
   summarizeStereoMatches(std::move(stereo_counts), &stats);
 
   prev_left_pyramid_ = std::move(left_pyramid);
@@ -207,23 +229,30 @@ bool StereoTracker::process(const cv::Mat& left, const cv::Mat& right, double st
   return true;
 }
 
-std::vector<float> StereoTracker::trackTemporal(const std::vector<cv::Mat>& left_pyramid,
-                                                const CameraMotionPrior* prior, double dt,
-                                                TrackerFrameStats* stats) {
+StereoTracker::TemporalStart StereoTracker::startTemporal(const cv::Mat& left,
+                                                          const CameraMotionPrior* prior, double dt,
+                                                          TrackerFrameStats* stats) const {
   const auto t = Clock::now();
-  CameraMotionPrior prediction;
-  std::vector<cv::Point2f> prev(tracks_.size());
-  for (size_t i = 0; i < tracks_.size(); ++i) prev[i] = tracks_[i].left;
-  std::vector<cv::Point2f> cur;
+  TemporalStart start;
+  start.prev.resize(tracks_.size());
+  for (size_t i = 0; i < tracks_.size(); ++i) start.prev[i] = tracks_[i].left;
   // Without a prediction (a second pair without a twist), the tracks start where they were:
   // search one pyramid level more.
-  const bool predicted = predictLeft(prior, dt, &prediction, &cur);
-  double ms_exposure = 0;
-  const std::vector<cv::Mat> exposed_prev_pyramid =
-      exposedPreviousPyramid(left_pyramid, prev, cur, &ms_exposure, stats);
-  followTracks(exposed_prev_pyramid.empty() ? prev_left_pyramid_ : exposed_prev_pyramid,
-               left_pyramid, predicted, &prev, &cur, stats);
-  stats->ms_temporal = msSince(t) - ms_exposure;  // that time is the pyramids'
+  start.predicted = predictLeft(prior, dt, &start.prediction, &start.cur);
+  stats->ms_temporal = msSince(t);
+  start.exposed_prev_pyramid = exposedPreviousPyramid(left, start.prev, start.cur, stats);
+  return start;
+}
+
+std::vector<float> StereoTracker::trackTemporal(TemporalStart start,
+                                                const std::vector<cv::Mat>& left_pyramid,
+                                                TrackerFrameStats* stats) {
+  const auto t = Clock::now();
+  std::vector<cv::Point2f>& prev = start.prev;
+  std::vector<cv::Point2f>& cur = start.cur;
+  followTracks(start.exposed_prev_pyramid.empty() ? prev_left_pyramid_ : start.exposed_prev_pyramid,
+               left_pyramid, start.predicted, &prev, &cur, stats);
+  stats->ms_temporal += msSince(t);
   if (options_.refine) {
     const auto t_refine = Clock::now();
     keepTracks(refineLeft(left_pyramid[0], &cur, stats), &prev, &cur);
@@ -235,28 +264,26 @@ std::vector<float> StereoTracker::trackTemporal(const std::vector<cv::Mat>& left
     stats->klt_lost += refuseMaskedPoints(masks_.left, cur, &unmasked);
     keepTracks(unmasked, &prev, &cur);
   }
-  return checkMotion(prev, cur, prediction, stats);
+  return checkMotion(prev, cur, start.prediction, stats);
 }
 
-std::vector<cv::Mat> StereoTracker::exposedPreviousPyramid(const std::vector<cv::Mat>& left_pyramid,
+std::vector<cv::Mat> StereoTracker::exposedPreviousPyramid(const cv::Mat& left,
                                                            const std::vector<cv::Point2f>& prev,
                                                            const std::vector<cv::Point2f>& cur,
-                                                           double* ms,
                                                            TrackerFrameStats* stats) const {
   std::vector<cv::Mat> pyramid;
   if (!options_.exposure_compensation) return pyramid;
   const auto t = Clock::now();
   const cv::Mat& prev_image = prev_left_pyramid_[0];
-  const std::optional<IntensityMap> map = fitIntensityMap(prev_image, prev, left_pyramid[0], cur,
-                                                          options_.window_size, kMinExposurePoints);
+  const std::optional<IntensityMap> map =
+      fitIntensityMap(prev_image, prev, left, cur, options_.window_size, kMinExposurePoints);
   if (map) {
     stats->exposure_gain_temporal = map->gain;
     cv::buildOpticalFlowPyramid(applyIntensityMap(prev_image, *map), pyramid,
                                 pyramidWindow(options_),
                                 static_cast<int>(prev_left_pyramid_.size() / 2) - 1, true);
   }
-  *ms = msSince(t);
-  stats->ms_pyramids += *ms;
+  stats->ms_pyramids += msSince(t);
   return pyramid;
 }
 
@@ -445,13 +472,14 @@ void StereoTracker::matchTracksInRight(const std::vector<cv::Mat>& left_pyramid,
 
 void StereoTracker::addNewTracks(const cv::Mat& left, const std::vector<cv::Mat>& left_pyramid,
                                  const std::vector<cv::Mat>& right_pyramid,
-                                 StereoMatchCounts* counts, TrackerFrameStats* stats) {
+                                 const std::vector<cv::KeyPoint>* found, StereoMatchCounts* counts,
+                                 TrackerFrameStats* stats) {
   auto t = Clock::now();
   std::vector<cv::Point2f> existing(tracks_.size());
   for (size_t i = 0; i < tracks_.size(); ++i) existing[i] = tracks_[i].left;
-  const std::vector<cv::Point2f> corners = detector_.detect(left, existing, masks_.left);
+  const std::vector<cv::Point2f> corners = detector_.detect(left, existing, masks_.left, found);
   stats->detected = static_cast<int>(corners.size());
-  stats->ms_detect = msSince(t);
+  stats->ms_detect += msSince(t);
 
   t = Clock::now();
   const std::vector<float> seed(corners.size(), 0.f);

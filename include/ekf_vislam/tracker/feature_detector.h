@@ -18,8 +18,17 @@ class GridFeatureDetector {
   /// `existing`, strongest first within a cell, at least min_feature_distance from `existing`
   /// and from each other, none within border_px of the image border nor on a zero pixel of
   /// `usable` (8-bit, the image's size; empty: everywhere usable).
+  /// `found`: the image's corners from independentCandidates(), when computed beforehand.
   std::vector<cv::Point2f> detect(const cv::Mat& image, const std::vector<cv::Point2f>& existing,
-                                  const cv::Mat& usable = cv::Mat()) const;
+                                  const cv::Mat& usable = cv::Mat(),
+                                  const std::vector<cv::KeyPoint>* found = nullptr) const;
+
+  /// Whether the corner search ignores the existing features (FAST: it may run before they are
+  /// known, e.g. beside the frame's tracking, and its result go to detect()). Shi-Tomasi's
+  /// search skips the features' surroundings.
+  bool candidatesIndependent() const { return options_.detector == FeatureDetectorType::kFast; }
+  /// The corners detect() selects from, when candidatesIndependent().
+  std::vector<cv::KeyPoint> independentCandidates(const cv::Mat& image) const;
 
   /// Grid cell index of a point (row-major), -1 outside the image.
   int cellOf(const cv::Point2f& point, const cv::Size& size) const;

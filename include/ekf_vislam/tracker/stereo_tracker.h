@@ -49,22 +49,35 @@ class StereoTracker {
     AffineWarp warp;           ///< the reference's warp into the last left image
   };
 
+  // Why a pair cannot be tracked (empty: it can).
+  std::string inputProblem(const cv::Mat& left, const cv::Mat& right, double stamp) const;
   // Each track's predicted left position, from the prior or the last motion (`used`); false when
   // there is neither (positions unchanged).
   bool predictLeft(const CameraMotionPrior* prior, double dt, CameraMotionPrior* used,
                    std::vector<cv::Point2f>* predicted) const;
+  // What the tracks' KLT starts from: each track's point in the previous left image and its
+  // predicted one in the new image, and the previous pyramid to track from.
+  struct TemporalStart {
+    CameraMotionPrior prediction;  ///< the motion the start points were predicted with
+    bool predicted = false;        ///< false: start points unchanged (no prior, no last motion)
+    std::vector<cv::Point2f> prev, cur;
+    std::vector<cv::Mat> exposed_prev_pyramid;  ///< empty: the stored one (no exposure map)
+  };
+  // Predicts the tracks' start points and brings the previous pyramid to the new left image's
+  // exposure: needs the new image, not its pyramid.
+  TemporalStart startTemporal(const cv::Mat& left, const CameraMotionPrior* prior, double dt,
+                              TrackerFrameStats* stats) const;
   // KLT of the tracks into the new left image, forward-backward check, refinement, left mask
   // and RANSAC; drops the lost tracks and returns each survivor's predicted disparity (the
   // left-right KLT seed).
-  std::vector<float> trackTemporal(const std::vector<cv::Mat>& left_pyramid,
-                                   const CameraMotionPrior* prior, double dt,
+  std::vector<float> trackTemporal(TemporalStart start, const std::vector<cv::Mat>& left_pyramid,
                                    TrackerFrameStats* stats);
   // The previous left pyramid rebuilt from the previous image brought to the new one's exposure
   // (klt/exposure_compensation; a map fitted on the tracks `prev` -> `cur`); empty when off or
-  // without a map. Its time (*ms) counts as the pyramids'.
-  std::vector<cv::Mat> exposedPreviousPyramid(const std::vector<cv::Mat>& left_pyramid,
+  // without a map. Its time counts as the pyramids'.
+  std::vector<cv::Mat> exposedPreviousPyramid(const cv::Mat& left,
                                               const std::vector<cv::Point2f>& prev,
-                                              const std::vector<cv::Point2f>& cur, double* ms,
+                                              const std::vector<cv::Point2f>& cur,
                                               TrackerFrameStats* stats) const;
   // KLT from `prev` (start points *cur) into the new left image and the forward-backward check:
   // the tracks lost or outside the image border end (with their points in *prev, *cur).
@@ -95,8 +108,11 @@ class StereoTracker {
                           const std::vector<cv::Mat>& right_pyramid,
                           const std::vector<float>& predicted_disparity, StereoMatchCounts* counts,
                           TrackerFrameStats* stats);
+  // New corners (from `found`, the left image's corners computed beforehand, or searched now
+  // when null) matched in the right image become new tracks.
   void addNewTracks(const cv::Mat& left, const std::vector<cv::Mat>& left_pyramid,
-                    const std::vector<cv::Mat>& right_pyramid, StereoMatchCounts* counts,
+                    const std::vector<cv::Mat>& right_pyramid,
+                    const std::vector<cv::KeyPoint>* found, StereoMatchCounts* counts,
                     TrackerFrameStats* stats);
   cv::Point3f pointOf(const Track& track) const;
   void fillFrame(double stamp, StereoFrame* frame);

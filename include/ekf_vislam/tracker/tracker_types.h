@@ -58,6 +58,9 @@ struct TrackerFrameStats {
   bool motion_estimated = false;      ///< PnP gave the camera motion of this frame
   double exposure_gain_temporal = 1;  ///< klt/exposure_compensation: previous to this left image
   double exposure_gain_stereo = 1;    ///< and right image to left
+  /// Wall times of the stages on the tracking thread. The new left image's pyramid and FAST
+  /// corners are made on two more threads meanwhile: ms_pyramids and ms_detect hold only the
+  /// wait for them (with the other pyramids, and the corners' selection).
   double ms_pyramids = 0, ms_temporal = 0, ms_ransac = 0, ms_stereo = 0, ms_detect = 0,
          ms_refine = 0;
   double ms_total = 0;

@@ -5,8 +5,8 @@
 # launch/stereo_vislam.launch (one nodelet manager), and the features, twist and odometry are
 # recorded. Prints the machine, the pairs received, tracked and dropped, the frames the
 # estimator used, its update time and latency (diagnostics), the time the estimator finished
-# after the last pair, and whether vislam_offline on the recorded features reproduces the live trajectory bit for bit
-# (live = offline).
+# after the last pair, and whether vislam_offline on the recorded features reproduces the live
+# trajectory bit for bit (live = offline).
 #   scripts/benchmark_live.sh FOLDER [--rate R] [--config estimator.yaml]
 #                             [--tracker-config tracker.yaml] [--standalone] [--out DIR]
 # --standalone: the two nodes (stereo_tracker_node, vislam_node) instead of one nodelet manager.

@@ -2,7 +2,15 @@
 
 #include <opencv2/video/tracking.hpp>
 
+#include <algorithm>
+
 namespace ekf_vislam {
+
+KltSettings backCheckSettings(const KltSettings& forward, int levels) {
+  KltSettings back = forward;
+  back.levels = std::min(forward.levels, std::max(levels, 0));
+  return back;
+}
 
 std::vector<uint8_t> backCheck(const std::vector<cv::Mat>& moved_pyramid,
                                const std::vector<cv::Mat>& origin_pyramid,

@@ -4,6 +4,8 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
+#include <cmath>
+
 namespace ekf_vislam {
 namespace {
 
@@ -73,6 +75,43 @@ TEST(KltBackCheck, ACandidateGetsWhatABackTrackingOfEveryPointGives) {
   }
   EXPECT_GE(kept, 12);  // 13 odd points are exact matches
   EXPECT_LE(kept, 15);
+}
+
+TEST(KltBackCheck, SettingsKeepAtMostTheForwardLevels) {
+  const KltSettings forward{cv::Size(15, 15), 3, cv::TermCriteria()};
+  EXPECT_EQ(backCheckSettings(forward, 0).levels, 0);
+  EXPECT_EQ(backCheckSettings(forward, 2).levels, 2);
+  EXPECT_EQ(backCheckSettings(forward, 5).levels, 3);
+  EXPECT_EQ(backCheckSettings(forward, 0).window, forward.window);
+}
+
+// The backward KLT starts where a consistent match returns to: on the full image alone it keeps
+// the true matches and refuses the wrong ones, near (1.5 px) and far (up to 25 px, beyond the
+// window's reach), as the pyramidal one does.
+TEST(KltBackCheck, OnTheFullImageAloneDecidesAsThePyramid) {
+  const ShiftedPair pair;
+  const std::vector<float> offsets = {0.f, 1.5f, 3.f, 9.f, 25.f};
+  std::vector<cv::Point2f> origin, moved;
+  std::vector<size_t> all;
+  cv::RNG rng(7);
+  for (int i = 0; i < 60; ++i) {
+    origin.emplace_back(rng.uniform(40.f, 280.f), rng.uniform(40.f, 200.f));
+    const float off = offsets[i % offsets.size()];
+    const float angle = rng.uniform(0.f, 6.2832f);
+    moved.emplace_back(origin.back().x + 3.0f + off * std::cos(angle),
+                       origin.back().y - 2.0f + off * std::sin(angle));
+    all.push_back(all.size());
+  }
+  const std::vector<uint8_t> full_image =
+      backCheck(pair.second_pyramid, pair.first_pyramid, moved, origin, all,
+                backCheckSettings(pair.klt, 0), 0.5);
+  const std::vector<uint8_t> pyramid =
+      backCheck(pair.second_pyramid, pair.first_pyramid, moved, origin, all, pair.klt, 0.5);
+  for (size_t i = 0; i < origin.size(); ++i) {
+    const bool true_match = i % offsets.size() == 0;
+    EXPECT_EQ(full_image[i], true_match ? 1 : 0) << i;
+    EXPECT_EQ(pyramid[i], true_match ? 1 : 0) << i;
+  }
 }
 
 }  // namespace

@@ -95,8 +95,9 @@ std::vector<cv::Point2f> matchStereo(const std::vector<cv::Mat>& left_pyramid,
       candidates.push_back(i);
     }
   }
-  const std::vector<uint8_t> back_ok = backCheck(right_pyramid, left_pyramid, right, left,
-                                                 candidates, klt, options.stereo_back_check_px);
+  const std::vector<uint8_t> back_ok =
+      backCheck(right_pyramid, left_pyramid, right, left, candidates,
+                backCheckSettings(klt, options.back_check_levels), options.stereo_back_check_px);
 
   std::vector<size_t> matched;
   matched.reserve(candidates.size());

@@ -309,8 +309,9 @@ void StereoTracker::followTracks(const std::vector<cv::Mat>& prev_pyramid,
       candidates.push_back(i);
     }
   }
-  const std::vector<uint8_t> passed = backCheck(left_pyramid, prev_pyramid, *cur, *prev, candidates,
-                                                klt, options_.forward_backward_px);
+  const std::vector<uint8_t> passed =
+      backCheck(left_pyramid, prev_pyramid, *cur, *prev, candidates,
+                backCheckSettings(klt, options_.back_check_levels), options_.forward_backward_px);
   stats->forward_backward_rejected += static_cast<int>(candidates.size()) -
                                       static_cast<int>(std::count(passed.begin(), passed.end(), 1));
   keepTracks(passed, prev, cur);

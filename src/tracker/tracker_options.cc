@@ -31,6 +31,7 @@ void visitTrackerOptions(Options& o, Visitor& v) {
   v.integer("klt/max_iterations", o.max_iterations, Bound::kAtLeastOne);
   v.number("klt/epsilon", o.epsilon, Bound::kPositive);
   v.number("klt/forward_backward_px", o.forward_backward_px, Bound::kPositive);
+  v.integer("klt/back_check_levels", o.back_check_levels, Bound::kNonNegative);
   v.flag("klt/predict_with_last_motion", o.predict_with_last_motion);
   v.flag("klt/exposure_compensation", o.exposure_compensation);
   v.flag("refine/enabled", o.refine);

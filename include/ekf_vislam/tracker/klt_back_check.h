@@ -18,9 +18,16 @@ struct KltSettings {
   cv::TermCriteria criteria;
 };
 
+/// The backward pass's settings: the forward pass's with at most `levels` pyramid levels above
+/// the full image. The backward KLT starts where a consistent match returns to, so it needs none
+/// of the reach the levels give; they only cost time and let the coarse images' wider context
+/// pull a point away (tracker option klt/back_check_levels).
+KltSettings backCheckSettings(const KltSettings& forward, int levels);
+
 /// `origin[i]` lies in `origin_pyramid`'s image and moved to `moved[i]` in `moved_pyramid`'s.
 /// Returns one flag per point: 1 where i is in `candidates`, its back-tracking from moved[i]
-/// (started at origin[i]) converged and ended within `tolerance_px` of origin[i].
+/// (started at origin[i], with the settings `klt`) converged and ended within `tolerance_px` of
+/// origin[i].
 std::vector<uint8_t> backCheck(const std::vector<cv::Mat>& moved_pyramid,
                                const std::vector<cv::Mat>& origin_pyramid,
                                const std::vector<cv::Point2f>& moved,

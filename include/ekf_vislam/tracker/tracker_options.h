@@ -45,6 +45,8 @@ struct TrackerOptions {
   int max_iterations = 10;           ///< KLT iterations per level
   double epsilon = 0.03;             ///< KLT convergence threshold (px)
   double forward_backward_px = 0.5;  ///< max distance of the backward-tracked point to the start
+  int back_check_levels = 0;  ///< pyramid levels above the full image of the backward KLT of both
+                              ///< back-checks (temporal and left-right; at most the forward's)
   bool predict_with_last_motion = true;  ///< KLT initial guess from the last frame's estimated
                                          ///< motion (for points with a stereo depth)
   bool exposure_compensation = true;     ///< both KLT steps compare images brought to the same gain

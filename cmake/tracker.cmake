@@ -18,6 +18,7 @@ add_library(ekf_vislam_tracker
   src/tracker/stereo_rig_check.cc
   src/tracker/patch_refiner.cc
   src/tracker/rectified_stereo.cc
+  src/tracker/pnp_ransac.cc
   src/tracker/motion_check.cc
   src/tracker/stereo_tracker.cc
   src/tracker/debug_drawing.cc
@@ -48,6 +49,7 @@ if(CATKIN_ENABLE_TESTING)
     src/tracker/pose_twist_test.cc
     src/tracker/twist_motion_prior_test.cc
     src/tracker/klt_back_check_test.cc
+    src/tracker/pnp_ransac_test.cc
     src/tracker/exposure_compensation_test.cc
     src/tracker/stereo_tracker_test.cc
     src/tracker/stereo_rig_check_test.cc

@@ -1,5 +1,6 @@
 #include "ekf_vislam/tracker/motion_check.h"
 
+#include "ekf_vislam/tracker/pnp_ransac.h"
 #include "ekf_vislam/tracker/rectified_stereo.h"
 
 #include <opencv2/calib3d.hpp>
@@ -77,22 +78,26 @@ MotionCheckResult checkTemporalMatches(const std::vector<cv::Point3f>& prev_poin
   if (static_cast<int>(object.size()) < options.min_ransac_points) {
     return fundamentalCheck(prev_pixels, cur_pixels, options);
   }
-  const cv::Matx33d K = cameraMatrix(calibration);
-  cv::Mat rvec, tvec;
-  std::vector<int> pnp_inliers;
-  const bool found = cv::solvePnPRansac(object, image, K, cv::noArray(), rvec, tvec, false,
-                                        options.ransac_iterations, options.ransac_threshold_px,
-                                        options.ransac_confidence, pnp_inliers, cv::SOLVEPNP_AP3P);
-  if (!found || static_cast<int>(pnp_inliers.size()) < options.min_ransac_points / 2) {
+  PnpRansacOptions ransac;
+  ransac.threshold_px = options.ransac_threshold_px;
+  ransac.confidence = options.ransac_confidence;
+  ransac.max_iterations = options.ransac_iterations;
+  const PnpRansacResult pnp = pnpRansac(object, image, calibration, ransac);
+  if (!pnp.found || static_cast<int>(pnp.inliers.size()) < options.min_ransac_points / 2) {
     return fundamentalCheck(prev_pixels, cur_pixels, options);
   }
   // Refine on the inliers, then classify every match against the refined motion.
   std::vector<cv::Point3f> inlier_object;
   std::vector<cv::Point2f> inlier_image;
-  for (int k : pnp_inliers) {
+  for (int k : pnp.inliers) {
     inlier_object.push_back(object[k]);
     inlier_image.push_back(image[k]);
   }
+  const cv::Matx33d K = cameraMatrix(calibration);
+  cv::Mat R_start, rvec, tvec;
+  cv::eigen2cv(pnp.cur_R_prev, R_start);
+  cv::Rodrigues(R_start, rvec);
+  cv::eigen2cv(pnp.cur_t_prev, tvec);
   cv::solvePnPRefineLM(inlier_object, inlier_image, K, cv::noArray(), rvec, tvec);
 
   MotionCheckResult result;

@@ -22,7 +22,7 @@ struct PnpRansacOptions {
 };
 
 struct PnpRansacResult {
-  bool found = false;  ///< a motion with at least 4 inliers (three of them the sample's)
+  bool found = false;  ///< a motion that explains at least 4 matches
   Eigen::Matrix3d cur_R_prev = Eigen::Matrix3d::Identity();  ///< p_cur = R p_prev + t
   Eigen::Vector3d cur_t_prev = Eigen::Vector3d::Zero();
   std::vector<int> inliers;  ///< indices of the matches the motion reprojects within the threshold

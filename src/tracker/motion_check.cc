@@ -66,13 +66,11 @@ MotionCheckResult checkTemporalMatches(const std::vector<cv::Point3f>& prev_poin
 
   std::vector<cv::Point3f> object;
   std::vector<cv::Point2f> image;
-  std::vector<int> index;
   for (size_t i = 0; i < n; ++i) {
     const cv::Point3f& p = prev_points[i];
     if (p.z > 0 && p.z <= options.max_pnp_depth_m) {
       object.push_back(p);
       image.push_back(cur_pixels[i]);
-      index.push_back(static_cast<int>(i));
     }
   }
   if (static_cast<int>(object.size()) < options.min_ransac_points) {

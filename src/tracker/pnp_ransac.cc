@@ -76,14 +76,7 @@ Motion refineOn(Motion motion, const std::vector<int>& matches,
     for (const int i : matches) {
       const Eigen::Vector3d q = motion.cur_R_prev * points[i] + motion.cur_t_prev;
       if (q.z() <= 0) continue;
-      const double inv_z = 1.0 / q.z();
-      Eigen::Matrix<double, 2, 3> d_pixel_d_q;
-      d_pixel_d_q << c.fx * inv_z, 0, -c.fx * q.x() * inv_z * inv_z, 0, c.fy * inv_z,
-          -c.fy * q.y() * inv_z * inv_z;
-      Eigen::Matrix3d q_hat;
-      q_hat << 0, -q.z(), q.y(), q.z(), 0, -q.x(), -q.y(), q.x(), 0;
-      Eigen::Matrix<double, 2, 6> jacobian;
-      jacobian << -d_pixel_d_q * q_hat, d_pixel_d_q;
+      const Eigen::Matrix<double, 2, 6> jacobian = reprojectionJacobian(c, q);
       const Eigen::Vector2d residual = project(c, q) - pixels[i];
       normal.noalias() += jacobian.transpose() * jacobian;
       gradient.noalias() += jacobian.transpose() * residual;
@@ -102,6 +95,20 @@ Motion refineOn(Motion motion, const std::vector<int>& matches,
 }
 
 }  // namespace
+
+Eigen::Matrix<double, 2, 6> reprojectionJacobian(const RectifiedStereo& calibration,
+                                                 const Eigen::Vector3d& q) {
+  const double inv_z = 1.0 / q.z();
+  Eigen::Matrix<double, 2, 3> d_pixel_d_q;
+  d_pixel_d_q << calibration.fx * inv_z, 0, -calibration.fx * q.x() * inv_z * inv_z, 0,
+      calibration.fy * inv_z, -calibration.fy * q.y() * inv_z * inv_z;
+  Eigen::Matrix3d q_hat;
+  q_hat << 0, -q.z(), q.y(), q.z(), 0, -q.x(), -q.y(), q.x(), 0;
+  // q <- exp(dtheta) q + dt = q - q_hat dtheta + dt to first order.
+  Eigen::Matrix<double, 2, 6> jacobian;
+  jacobian << -d_pixel_d_q * q_hat, d_pixel_d_q;
+  return jacobian;
+}
 
 int ransacIterationsNeeded(double inlier_ratio, int sample_size, double confidence,
                            int max_iterations) {

@@ -117,6 +117,27 @@ TEST(PnpRansac, MatchesWithoutACommonMotionExplainFew) {
                    .found);
 }
 
+TEST(PnpRansac, RefitJacobianMatchesFiniteDifferences) {
+  const Eigen::Matrix3d R =
+      Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.2, 1.0, -0.1).normalized()).toRotationMatrix();
+  const Eigen::Vector3d t(0.4, -0.1, -1.5);
+  const Eigen::Vector3d p_prev(2.0, -1.0, 12.0);
+  const Eigen::Vector3d q = R * p_prev + t;
+  const Eigen::Matrix<double, 2, 6> analytic = reprojectionJacobian(kCamera, q);
+  constexpr double kStep = 1e-6;
+  for (int k = 0; k < 6; ++k) {
+    Eigen::Matrix<double, 6, 1> delta = Eigen::Matrix<double, 6, 1>::Zero();
+    delta(k) = kStep;
+    const Eigen::Vector3d dtheta = delta.head<3>();
+    const Eigen::Matrix3d turn =
+        dtheta.norm() > 0 ? Eigen::AngleAxisd(dtheta.norm(), dtheta.normalized()).toRotationMatrix()
+                          : Eigen::Matrix3d::Identity();
+    const Eigen::Vector3d q_moved = turn * R * p_prev + turn * t + delta.tail<3>();
+    const Eigen::Vector2d numeric = (project(kCamera, q_moved) - project(kCamera, q)) / kStep;
+    EXPECT_LT((numeric - analytic.col(k)).norm(), 1e-4 * (1.0 + analytic.col(k).norm())) << k;
+  }
+}
+
 TEST(PnpRansac, IterationsFollowTheInlierRatio) {
   EXPECT_EQ(ransacIterationsNeeded(1.0, 3, 0.99, 200), 1);
   // 1 - (1 - 0.5^3)^35 = 0.9906 >= 0.99 > 1 - (1 - 0.5^3)^34 = 0.9893.

@@ -35,6 +35,11 @@ PnpRansacResult pnpRansac(const std::vector<cv::Point3f>& points_prev,
                           const std::vector<cv::Point2f>& pixels_cur,
                           const RectifiedStereo& calibration, const PnpRansacOptions& options);
 
+/// d pixel / d (dtheta, dt) of a point q = R p + t (current camera frame, z > 0) under the motion
+/// update R <- exp(dtheta) R, t <- exp(dtheta) t + dt: the Jacobian of the refit's Gauss-Newton.
+Eigen::Matrix<double, 2, 6> reprojectionJacobian(const RectifiedStereo& calibration,
+                                                 const Eigen::Vector3d& q);
+
 /// The number of samples that find an all-inlier one with `confidence`, for an inlier ratio and
 /// a sample size, at most `max_iterations`.
 int ransacIterationsNeeded(double inlier_ratio, int sample_size, double confidence,

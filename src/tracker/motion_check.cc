@@ -1,5 +1,6 @@
 #include "ekf_vislam/tracker/motion_check.h"
 
+#include "ekf_vislam/core/se3.h"
 #include "ekf_vislam/tracker/pnp_ransac.h"
 #include "ekf_vislam/tracker/rectified_stereo.h"
 
@@ -11,10 +12,6 @@
 namespace ekf_vislam {
 
 namespace {
-
-cv::Matx33d cameraMatrix(const RectifiedStereo& c) {
-  return cv::Matx33d(c.fx, 0, c.cx, 0, c.fy, c.cy, 0, 0, 1);
-}
 
 MotionCheckResult fundamentalCheck(const std::vector<cv::Point2f>& prev_pixels,
                                    const std::vector<cv::Point2f>& cur_pixels,
@@ -105,12 +102,7 @@ MotionCheckResult checkTemporalMatches(const std::vector<cv::Point3f>& prev_poin
   cv::Rodrigues(rvec, R);
   cv::cv2eigen(R, result.cur_R_prev);
   cv::cv2eigen(tvec, result.cur_t_prev);
-  const Eigen::Matrix3d E = [&] {
-    const Eigen::Vector3d& t = result.cur_t_prev;
-    Eigen::Matrix3d t_hat;
-    t_hat << 0, -t.z(), t.y(), t.z(), 0, -t.x(), -t.y(), t.x(), 0;
-    return Eigen::Matrix3d(t_hat * result.cur_R_prev);
-  }();
+  const Eigen::Matrix3d E = se3::hat(result.cur_t_prev) * result.cur_R_prev;
   const bool has_baseline = result.cur_t_prev.norm() > 1e-3;
 
   result.inlier.assign(n, 1);

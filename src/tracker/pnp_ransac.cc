@@ -1,5 +1,6 @@
 #include "ekf_vislam/tracker/pnp_ransac.h"
 
+#include "ekf_vislam/core/se3.h"
 #include "ekf_vislam/tracker/rectified_stereo.h"
 
 #include <opencv2/calib3d.hpp>
@@ -22,14 +23,19 @@ struct Motion {
   Eigen::Vector3d cur_t_prev;
 };
 
+// The rotation by |axis_angle| about its direction. (se3::expSO3 is the same map, but its
+// rounding differs in the last bits, and RANSAC's inlier decisions at the threshold follow them.)
+Eigen::Matrix3d rotationOf(const Eigen::Vector3d& axis_angle) {
+  const double angle = axis_angle.norm();
+  return angle > 0 ? Eigen::AngleAxisd(angle, axis_angle / angle).toRotationMatrix()
+                   : Eigen::Matrix3d::Identity();
+}
+
 Motion motionOf(const cv::Mat& rvec, const cv::Mat& tvec) {
   const cv::Vec3d r(rvec);
   const cv::Vec3d t(tvec);
-  const Eigen::Vector3d axis_angle(r[0], r[1], r[2]);
-  const double angle = axis_angle.norm();
   Motion motion;
-  motion.cur_R_prev = angle > 0 ? Eigen::AngleAxisd(angle, axis_angle / angle).toRotationMatrix()
-                                : Eigen::Matrix3d::Identity();
+  motion.cur_R_prev = rotationOf(Eigen::Vector3d(r[0], r[1], r[2]));
   motion.cur_t_prev = Eigen::Vector3d(t[0], t[1], t[2]);
   return motion;
 }
@@ -83,11 +89,7 @@ Motion refineOn(Motion motion, const std::vector<int>& matches,
     }
     const Eigen::Matrix<double, 6, 1> delta = -normal.ldlt().solve(gradient);
     if (!delta.allFinite()) break;
-    const Eigen::Vector3d dtheta = delta.head<3>();
-    const double angle = dtheta.norm();
-    const Eigen::Matrix3d turn = angle > 0
-                                     ? Eigen::AngleAxisd(angle, dtheta / angle).toRotationMatrix()
-                                     : Eigen::Matrix3d::Identity();
+    const Eigen::Matrix3d turn = rotationOf(delta.head<3>());
     motion.cur_R_prev = turn * motion.cur_R_prev;
     motion.cur_t_prev = turn * motion.cur_t_prev + delta.tail<3>();
   }
@@ -102,11 +104,9 @@ Eigen::Matrix<double, 2, 6> reprojectionJacobian(const RectifiedStereo& calibrat
   Eigen::Matrix<double, 2, 3> d_pixel_d_q;
   d_pixel_d_q << calibration.fx * inv_z, 0, -calibration.fx * q.x() * inv_z * inv_z, 0,
       calibration.fy * inv_z, -calibration.fy * q.y() * inv_z * inv_z;
-  Eigen::Matrix3d q_hat;
-  q_hat << 0, -q.z(), q.y(), q.z(), 0, -q.x(), -q.y(), q.x(), 0;
-  // q <- exp(dtheta) q + dt = q - q_hat dtheta + dt to first order.
+  // q <- exp(dtheta) q + dt = q - q^ dtheta + dt to first order.
   Eigen::Matrix<double, 2, 6> jacobian;
-  jacobian << -d_pixel_d_q * q_hat, d_pixel_d_q;
+  jacobian << -d_pixel_d_q * se3::hat(q), d_pixel_d_q;
   return jacobian;
 }
 
@@ -132,8 +132,7 @@ PnpRansacResult pnpRansac(const std::vector<cv::Point3f>& points_prev,
     points[i] = Eigen::Vector3d(points_prev[i].x, points_prev[i].y, points_prev[i].z);
     pixels[i] = Eigen::Vector2d(pixels_cur[i].x, pixels_cur[i].y);
   }
-  const cv::Matx33d K(calibration.fx, 0, calibration.cx, 0, calibration.fy, calibration.cy, 0, 0,
-                      1);
+  const cv::Matx33d K = cameraMatrix(calibration);
   const double threshold_sq = options.threshold_px * options.threshold_px;
   std::mt19937 rng(options.seed);
   std::uniform_int_distribution<int> pick(0, n - 1);

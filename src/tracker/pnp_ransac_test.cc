@@ -77,7 +77,7 @@ TEST(PnpRansac, FindsTheMotionAndRefusesTheWrongMatches) {
 
 TEST(PnpRansac, KeepsTheInliersOpenCvsRansacKeeps) {
   const RectifiedStereo& c = kCamera;
-  const cv::Matx33d K(c.fx, 0, c.cx, 0, c.fy, c.cy, 0, 0, 1);
+  const cv::Matx33d K = cameraMatrix(c);
   for (uint32_t seed = 1; seed <= 5; ++seed) {
     const Matches m = makeMatches(120, 0.4, 0.3, seed);
     const PnpRansacResult ours = pnpRansac(m.points_prev, m.pixels_cur, c, {});

@@ -20,6 +20,10 @@ Eigen::Vector2d project(const RectifiedStereo& calibration, const Eigen::Vector3
                          calibration.fy * p_cam.y() / p_cam.z() + calibration.cy);
 }
 
+cv::Matx33d cameraMatrix(const RectifiedStereo& calibration) {
+  return cv::Matx33d(calibration.fx, 0, calibration.cx, 0, calibration.fy, calibration.cy, 0, 0, 1);
+}
+
 double disparityAtDepth(const RectifiedStereo& calibration, double z) {
   return calibration.fx * calibration.baseline / z;
 }

@@ -25,6 +25,9 @@ std::optional<Eigen::Vector3d> triangulate(const RectifiedStereo& calibration,
 /// (fx * x / z + cx, fy * y / z + cy).
 Eigen::Vector2d project(const RectifiedStereo& calibration, const Eigen::Vector3d& p_cam);
 
+/// The left camera's matrix K = [fx 0 cx; 0 fy cy; 0 0 1], for OpenCV's calib3d calls.
+cv::Matx33d cameraMatrix(const RectifiedStereo& calibration);
+
 /// The disparity u_left - u_right (px) of a point at depth z (m): fx * baseline / z.
 double disparityAtDepth(const RectifiedStereo& calibration, double z);
 

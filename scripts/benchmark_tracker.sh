@@ -3,7 +3,8 @@
 # 1241x376 highway clip ../shared/data/kitti_clips/odometry_01_000000-000050) and prints the
 # median and p99 milliseconds per stereo pair (tracking only: image decoding excluded), the
 # frame rate they mean and each stage's median, for each of --repeat runs, after a line naming
-# the machine. --config: tracker options (default: built-in).
+# the machine, then the same over all runs' pairs together. --config: tracker options (default:
+# built-in).
 #   scripts/benchmark_tracker.sh [FOLDER] [--repeat N] [--config tracker.yaml]
 set -eo pipefail
 export PATH=/usr/bin:/bin:${PATH}
@@ -15,7 +16,7 @@ while (($#)); do
   case "$1" in
     --repeat) REPEAT=$2; shift 2 ;;
     --config) CONFIG=(--config "$2"); shift 2 ;;
-    -h|--help) sed -n 2,7p "$0"; exit 0 ;;
+    -h|--help) sed -n 2,8p "$0"; exit 0 ;;
     *) FOLDER=$1; shift ;;
   esac
 done
@@ -31,8 +32,8 @@ PYTHONPATH="${REPO}/src" /usr/bin/python3 -c \
   'from ekf_vislam_tools.report import machine_description; print(machine_description())'
 for run in $(seq 1 "${REPEAT}"); do
   "${TOOL}" --left "${FOLDER}/image_left" --right "${FOLDER}/image_right" --calib "${FOLDER}/calib.txt" \
-    --times "${FOLDER}/times.txt" --out "${TMP}/tracks.npz" --stats "${TMP}/stats.csv" --quiet "${CONFIG[@]}"
-  /usr/bin/python3 - "${TMP}/stats.csv" "${run}" "${FOLDER}" <<'PY'
+    --times "${FOLDER}/times.txt" --out "${TMP}/tracks.npz" --stats "${TMP}/stats_${run}.csv" --quiet "${CONFIG[@]}"
+  /usr/bin/python3 - "${TMP}/stats_${run}.csv" "${run}" "${FOLDER}" <<'PY'
 import csv, sys
 import numpy as np
 rows = list(csv.DictReader(open(sys.argv[1])))
@@ -48,3 +49,13 @@ print('  stage medians, ms: ' + ', '.join(
     '%s %.2f' % (s, np.median([float(r['ms_' + s]) for r in rows])) for s in stages))
 PY
 done
+# All runs' pairs together: a p99 over one short clip is nearly its slowest pair.
+/usr/bin/python3 - "${TMP}" "${REPEAT}" <<'PY'
+import csv, sys
+import numpy as np
+files = ['%s/stats_%d.csv' % (sys.argv[1], k) for k in range(1, int(sys.argv[2]) + 1)]
+ms = np.array([float(r['ms_total']) for f in files for r in csv.DictReader(open(f))])
+print('all %s runs: %d pairs: ms per pair median %.2f, p99 %.2f -> %.1f fps at p99; %.1f %% of the '
+      'pairs over 33.3 ms' % (sys.argv[2], len(ms), np.median(ms), np.percentile(ms, 99),
+                              1000 / np.percentile(ms, 99), 100 * np.mean(ms > 1000 / 30)))
+PY

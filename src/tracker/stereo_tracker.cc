@@ -64,6 +64,50 @@ void keepSelected(const std::vector<uint8_t>& keep, std::vector<T>* items) {
   items->resize(out);
 }
 
+// Tracks the motion is first fitted on when there is no prediction (predictFromFirstMatches).
+constexpr size_t kFirstMatchTracks = 100;
+
+struct TemporalKltResult {
+  std::vector<uint8_t> passed;  ///< per point: tracked inside the border and back-checked
+  int lost = 0;                 ///< KLT failed or left the border
+  int back_check_failed = 0;
+};
+
+// The temporal KLT from `prev` (start points *cur) into the new left image, and its
+// forward-backward check. Without a prediction it searches one pyramid level more.
+TemporalKltResult temporalKlt(const std::vector<cv::Mat>& prev_pyramid,
+                              const std::vector<cv::Mat>& left_pyramid, bool predicted,
+                              const std::vector<cv::Point2f>& prev, std::vector<cv::Point2f>* cur,
+                              const TrackerOptions& options) {
+  const KltSettings klt{cv::Size(options.window_size, options.window_size),
+                        options.pyramid_levels + (predicted ? 0 : 1),
+                        cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
+                                         options.max_iterations, options.epsilon)};
+  TemporalKltResult result;
+  if (prev.empty()) return result;
+  std::vector<uint8_t> status;
+  std::vector<float> error;
+  cv::calcOpticalFlowPyrLK(prev_pyramid, left_pyramid, prev, *cur, status, error, klt.window,
+                           klt.levels, klt.criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+  const cv::Size size = left_pyramid[0].size();
+  std::vector<size_t> candidates;
+  candidates.reserve(prev.size());
+  for (size_t i = 0; i < prev.size(); ++i) {
+    if (!status[i] || !insideImage((*cur)[i], size, options.border_px)) {
+      ++result.lost;
+    } else {
+      candidates.push_back(i);
+    }
+  }
+  result.passed =
+      backCheck(left_pyramid, prev_pyramid, *cur, prev, candidates,
+                backCheckSettings(klt, options.back_check_levels), options.forward_backward_px);
+  result.back_check_failed =
+      static_cast<int>(candidates.size()) -
+      static_cast<int>(std::count(result.passed.begin(), result.passed.end(), 1));
+  return result;
+}
+
 // The frame's left-right matches in the figures the rig check reads (stereo_rig_check.h).
 void summarizeStereoMatches(StereoMatchCounts counts, TrackerFrameStats* stats) {
   stats->stereo_converged = counts.converged();
@@ -248,10 +292,15 @@ std::vector<float> StereoTracker::trackTemporal(TemporalStart start,
                                                 const std::vector<cv::Mat>& left_pyramid,
                                                 TrackerFrameStats* stats) {
   const auto t = Clock::now();
+  const std::vector<cv::Mat>& prev_pyramid =
+      start.exposed_prev_pyramid.empty() ? prev_left_pyramid_ : start.exposed_prev_pyramid;
+  if (!start.predicted && options_.predict_with_last_motion) {
+    stats->predicted_from_first_matches =
+        predictFromFirstMatches(prev_pyramid, left_pyramid, &start);
+  }
   std::vector<cv::Point2f>& prev = start.prev;
   std::vector<cv::Point2f>& cur = start.cur;
-  followTracks(start.exposed_prev_pyramid.empty() ? prev_left_pyramid_ : start.exposed_prev_pyramid,
-               left_pyramid, start.predicted, &prev, &cur, stats);
+  followTracks(prev_pyramid, left_pyramid, start.predicted, &prev, &cur, stats);
   stats->ms_temporal += msSince(t);
   if (options_.refine) {
     const auto t_refine = Clock::now();
@@ -291,30 +340,39 @@ void StereoTracker::followTracks(const std::vector<cv::Mat>& prev_pyramid,
                                  const std::vector<cv::Mat>& left_pyramid, bool predicted,
                                  std::vector<cv::Point2f>* prev, std::vector<cv::Point2f>* cur,
                                  TrackerFrameStats* stats) {
-  const KltSettings klt{cv::Size(options_.window_size, options_.window_size),
-                        options_.pyramid_levels + (predicted ? 0 : 1),
-                        cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
-                                         options_.max_iterations, options_.epsilon)};
-  std::vector<uint8_t> status;
-  std::vector<float> error;
-  cv::calcOpticalFlowPyrLK(prev_pyramid, left_pyramid, *prev, *cur, status, error, klt.window,
-                           klt.levels, klt.criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
-  const cv::Size size = left_pyramid[0].size();
-  std::vector<size_t> candidates;
-  candidates.reserve(tracks_.size());
-  for (size_t i = 0; i < tracks_.size(); ++i) {
-    if (!status[i] || !insideImage((*cur)[i], size, options_.border_px)) {
-      ++stats->klt_lost;
-    } else {
-      candidates.push_back(i);
-    }
+  const TemporalKltResult result =
+      temporalKlt(prev_pyramid, left_pyramid, predicted, *prev, cur, options_);
+  stats->klt_lost += result.lost;
+  stats->forward_backward_rejected += result.back_check_failed;
+  keepTracks(result.passed, prev, cur);
+}
+
+bool StereoTracker::predictFromFirstMatches(const std::vector<cv::Mat>& prev_pyramid,
+                                            const std::vector<cv::Mat>& left_pyramid,
+                                            TemporalStart* start) const {
+  const size_t n = tracks_.size();
+  const size_t count = std::min(n, kFirstMatchTracks);
+  std::vector<cv::Point3f> points(count);
+  std::vector<cv::Point2f> prev(count);
+  for (size_t k = 0; k < count; ++k) {
+    const size_t i = k * n / count;  // spread over the tracks, which were made cell by cell
+    points[k] = pointOf(tracks_[i]);
+    prev[k] = start->prev[i];
   }
-  const std::vector<uint8_t> passed =
-      backCheck(left_pyramid, prev_pyramid, *cur, *prev, candidates,
-                backCheckSettings(klt, options_.back_check_levels), options_.forward_backward_px);
-  stats->forward_backward_rejected += static_cast<int>(candidates.size()) -
-                                      static_cast<int>(std::count(passed.begin(), passed.end(), 1));
-  keepTracks(passed, prev, cur);
+  std::vector<cv::Point2f> cur = prev;
+  const TemporalKltResult klt =
+      temporalKlt(prev_pyramid, left_pyramid, false, prev, &cur, options_);
+  keepSelected(klt.passed, &points);
+  keepSelected(klt.passed, &prev);
+  keepSelected(klt.passed, &cur);
+  const MotionCheckResult check = checkTemporalMatches(points, prev, cur, calibration_, options_);
+  if (!check.has_motion) return false;
+  CameraMotionPrior motion;
+  motion.cur_R_prev = check.cur_R_prev;
+  motion.cur_t_prev = check.cur_t_prev;
+  motion.has_translation = true;
+  start->predicted = predictLeft(&motion, 0, &start->prediction, &start->cur);
+  return start->predicted;
 }
 
 void StereoTracker::keepTracks(const std::vector<uint8_t>& keep, std::vector<cv::Point2f>* prev,

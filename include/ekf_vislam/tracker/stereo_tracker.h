@@ -85,6 +85,14 @@ class StereoTracker {
                     const std::vector<cv::Mat>& left_pyramid, bool predicted,
                     std::vector<cv::Point2f>* prev, std::vector<cv::Point2f>* cur,
                     TrackerFrameStats* stats);
+  // Without a prior or a last motion (the second pair without a twist) every KLT would start
+  // where its track was, and a fast or turning camera loses many tracks there. So up to 100 tracks
+  // spread over the list are tracked first (KLT and back-check), their motion fitted by the
+  // RANSAC, and every start point predicted from it. Returns false (start unchanged) when no
+  // motion was found.
+  bool predictFromFirstMatches(const std::vector<cv::Mat>& prev_pyramid,
+                               const std::vector<cv::Mat>& left_pyramid,
+                               TemporalStart* start) const;
   // Ends the tracks whose `keep` is 0, with their points in *prev and *cur.
   void keepTracks(const std::vector<uint8_t>& keep, std::vector<cv::Point2f>* prev,
                   std::vector<cv::Point2f>* cur);

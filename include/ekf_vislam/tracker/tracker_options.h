@@ -48,7 +48,8 @@ struct TrackerOptions {
   int back_check_levels = 0;  ///< pyramid levels above the full image of the backward KLT of both
                               ///< back-checks (temporal and left-right; at most the forward's)
   bool predict_with_last_motion = true;  ///< KLT initial guess from the last frame's estimated
-                                         ///< motion (for points with a stereo depth)
+                                         ///< motion (for points with a stereo depth); without
+                                         ///< one, from a motion fitted first on 100 tracks
   bool exposure_compensation = true;     ///< both KLT steps compare images brought to the same gain
                                          ///< and offset (fitted on the tracks)
 

@@ -51,11 +51,14 @@ struct TrackerFrameStats {
   int stereo_negative_disparity = 0;  ///< of them, the right point right of the left one
   float stereo_row_offset_px = std::numeric_limits<float>::quiet_NaN();  ///< median v_R - v_L
   int detected = 0;                                                      ///< new corners found
-  int new_tracks = 0;                 ///< of them, matched in the right image (new ids)
-  int published = 0;                  ///< features of the frame
-  int refined = 0;                    ///< tracks aligned to their reference patch (refine/enabled)
-  int refine_failed = 0;              ///< alignments refused (the KLT position stands)
-  bool motion_estimated = false;      ///< PnP gave the camera motion of this frame
+  int new_tracks = 0;             ///< of them, matched in the right image (new ids)
+  int published = 0;              ///< features of the frame
+  int refined = 0;                ///< tracks aligned to their reference patch (refine/enabled)
+  int refine_failed = 0;          ///< alignments refused (the KLT position stands)
+  bool motion_estimated = false;  ///< PnP gave the camera motion of this frame
+  /// Without a prior or a last motion, the KLT start points came from a motion fitted first on a
+  /// subset of the tracks (StereoTracker::predictFromFirstMatches).
+  bool predicted_from_first_matches = false;
   double exposure_gain_temporal = 1;  ///< klt/exposure_compensation: previous to this left image
   double exposure_gain_stereo = 1;    ///< and right image to left
   /// Wall times of the stages on the tracking thread. The new left image's pyramid and FAST

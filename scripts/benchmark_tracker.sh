@@ -39,11 +39,12 @@ import numpy as np
 rows = list(csv.DictReader(open(sys.argv[1])))
 ms = np.array([float(r['ms_total']) for r in rows])
 features = np.array([int(r['published']) for r in rows])
-print('run %s: %d pairs of %s: ms per pair median %.2f, p99 %.2f, max %.2f -> %.1f fps at the '
-      'median, %.1f at p99; features per frame mean %.1f'
+print('run %s: %d pairs of %s: ms per pair median %.2f, p99 %.2f, max %.2f (pair %d; the first, '
+      'which starts every track, %.2f) -> %.1f fps at the median, %.1f at p99; features per frame '
+      'mean %.1f'
       % (sys.argv[2], len(ms), sys.argv[3].rstrip('/').split('/')[-1], np.median(ms),
-         np.percentile(ms, 99), ms.max(), 1000 / np.median(ms), 1000 / np.percentile(ms, 99),
-         features.mean()))
+         np.percentile(ms, 99), ms.max(), ms.argmax(), ms[0], 1000 / np.median(ms),
+         1000 / np.percentile(ms, 99), features.mean()))
 stages = ('pyramids', 'temporal', 'refine', 'ransac', 'stereo', 'detect')
 print('  stage medians, ms: ' + ', '.join(
     '%s %.2f' % (s, np.median([float(r['ms_' + s]) for r in rows])) for s in stages))

@@ -19,6 +19,9 @@ import sys
 import cv2
 import numpy as np
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'src'))
+from ekf_vislam_tools import stereo_images  # noqa: E402
+
 PROG = 'render_stereo_drive.py'
 CAMERA_HEIGHT = 1.65
 WALL_LEFT_Y, WALL_RIGHT_Y, WALL_HEIGHT = 8.0, -9.0, 6.0
@@ -115,7 +118,6 @@ def main(argv):
     atlas = make_atlas(args.seed)
     times = 0.1 * np.arange(args.frames)
     first_inv = np.linalg.inv(pose_at(0.0, args))
-    poses = []
     for k, t in enumerate(times):
         world_T_left = pose_at(t, args)
         world_T_right = world_T_left.copy()
@@ -125,15 +127,8 @@ def main(argv):
         cv2.imwrite(os.path.join(args.out, 'image_left', '%06d.png' % k), left)
         cv2.imwrite(os.path.join(args.out, 'image_right', '%06d.png' % k), right)
         np.save(os.path.join(args.out, 'depth_left', '%06d.npy' % k), depth)
-        poses.append((first_inv @ world_T_left)[:3, :].reshape(-1))
-    P0 = np.hstack([K, np.zeros((3, 1))])
-    P1 = P0.copy()
-    P1[0, 3] = -args.focal * args.baseline
-    with open(os.path.join(args.out, 'calib.txt'), 'w') as f:
-        f.write('P0: %s\nP1: %s\n' % (' '.join('%.12e' % x for x in P0.reshape(-1)),
-                                      ' '.join('%.12e' % x for x in P1.reshape(-1))))
-    np.savetxt(os.path.join(args.out, 'times.txt'), times, fmt='%.6f')
-    np.savetxt(os.path.join(args.out, 'poses.txt'), np.array(poses), fmt='%.9e')
+    stereo_images.write_metadata(args.out, K, args.baseline, times,
+                                 [first_inv @ pose_at(t, args) for t in times])
     print('%s: %d frames, %.1f m -> %s' % (PROG, args.frames,
                                             args.speed * times[-1], args.out))
     return 0

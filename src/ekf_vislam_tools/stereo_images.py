@@ -105,6 +105,21 @@ def load_folder(folder=None, left=None, right=None, calib=None, times=None, pose
     return StereoFolder(lefts, rights, t, K, b, world_T_cam)
 
 
+def write_metadata(folder, K, b, times, world_T_cam=None):
+    """calib.txt (P0, P1 of a rectified pair: K, the right camera b m along the left's x),
+    times.txt and, given world_T_cam (N, 4, 4), poses.txt: what load_folder reads back."""
+    P0 = np.hstack([K, np.zeros((3, 1))])
+    P1 = P0.copy()
+    P1[0, 3] = -K[0, 0] * b
+    with open(os.path.join(folder, 'calib.txt'), 'w') as f:
+        f.write('P0: %s\nP1: %s\n' % (' '.join('%.12e' % x for x in P0.reshape(-1)),
+                                      ' '.join('%.12e' % x for x in P1.reshape(-1))))
+    np.savetxt(os.path.join(folder, 'times.txt'), times, fmt='%.9f')
+    if world_T_cam is not None:
+        rows = np.asarray(world_T_cam)[:, :3, :].reshape(len(world_T_cam), -1)
+        np.savetxt(os.path.join(folder, 'poses.txt'), rows, fmt='%.9e')
+
+
 def se3_log(T):
     """4x4 -> xi = [rho; phi] with T = exp(hat(xi))."""
     phi = se3.so3_log(T[:3, :3])

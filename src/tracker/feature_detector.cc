@@ -5,8 +5,47 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <utility>
 
 namespace ekf_vislam {
+
+std::vector<uint8_t> keepApart(const std::vector<cv::Point2f>& points, double min_distance) {
+  std::vector<uint8_t> keep(points.size(), 1);
+  if (!(min_distance > 0) || points.size() < 2) return keep;
+  // Kept points by square cell of side min_distance: a point closer than that to a kept one lies
+  // in its cell or one of the eight around it.
+  const auto key = [min_distance](float x, float y) {
+    return std::make_pair(static_cast<long>(std::floor(x / min_distance)),
+                          static_cast<long>(std::floor(y / min_distance)));
+  };
+  std::map<std::pair<long, long>, std::vector<cv::Point2f>> kept;
+  const double min_squared = min_distance * min_distance;
+  for (size_t i = 0; i < points.size(); ++i) {
+    const cv::Point2f& p = points[i];
+    const auto [cx, cy] = key(p.x, p.y);
+    bool crowded = false;
+    for (long dx = -1; dx <= 1 && !crowded; ++dx) {
+      for (long dy = -1; dy <= 1 && !crowded; ++dy) {
+        const auto cell = kept.find({cx + dx, cy + dy});
+        if (cell == kept.end()) continue;
+        for (const cv::Point2f& q : cell->second) {
+          const double ex = p.x - q.x, ey = p.y - q.y;
+          if (ex * ex + ey * ey < min_squared) {
+            crowded = true;
+            break;
+          }
+        }
+      }
+    }
+    if (crowded) {
+      keep[i] = 0;
+    } else {
+      kept[{cx, cy}].push_back(p);
+    }
+  }
+  return keep;
+}
 
 int GridFeatureDetector::cellOf(const cv::Point2f& point, const cv::Size& size) const {
   if (point.x < 0 || point.y < 0 || point.x >= size.width || point.y >= size.height) return -1;

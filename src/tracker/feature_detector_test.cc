@@ -100,5 +100,37 @@ TEST(GridFeatureDetector, FlatImageGivesNothing) {
   EXPECT_TRUE(detector.detect(cv::Mat(200, 400, CV_8UC1, cv::Scalar(90)), {}).empty());
 }
 
+TEST(KeepApart, KeepsEarlierPointsAndEndsThoseTooNearThem) {
+  const std::vector<cv::Point2f> points = {
+      {100, 100},  // kept
+      {105, 100},  // 5 px from the first: ended
+      {110, 100},  // exactly 10 px from the first, 5 from the ended one: kept
+      {50, 50},    // alone: kept
+      {57, 57},    // 9.9 px from (50, 50), in the next cell of the grid: ended
+      {-3, -3},    // negative coordinates hash like the others: kept
+      {-3, 4},     // 7 px from it: ended
+  };
+  const std::vector<uint8_t> keep = keepApart(points, 10.0);
+  EXPECT_EQ(keep, (std::vector<uint8_t>{1, 0, 1, 1, 0, 1, 0}));
+  EXPECT_EQ(keepApart(points, 0.0), std::vector<uint8_t>(points.size(), 1));
+}
+
+TEST(KeepApart, AgreesWithAllPairsOnRandomPoints) {
+  cv::RNG rng(3);
+  std::vector<cv::Point2f> points(800);
+  for (cv::Point2f& p : points) p = cv::Point2f(rng.uniform(0.f, 400.f), rng.uniform(0.f, 200.f));
+  const double min_distance = 7.5;
+  const std::vector<uint8_t> keep = keepApart(points, min_distance);
+  std::vector<cv::Point2f> kept;
+  for (size_t i = 0; i < points.size(); ++i) {
+    bool near_kept = false;
+    for (const cv::Point2f& q : kept) near_kept |= cv::norm(points[i] - q) < min_distance;
+    EXPECT_EQ(keep[i], near_kept ? 0 : 1) << i;
+    if (!near_kept) kept.push_back(points[i]);
+  }
+  EXPECT_GT(kept.size(), 200u);
+  EXPECT_LT(kept.size(), 700u);
+}
+
 }  // namespace
 }  // namespace ekf_vislam

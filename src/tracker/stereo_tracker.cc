@@ -64,6 +64,12 @@ void keepSelected(const std::vector<uint8_t>& keep, std::vector<T>* items) {
   items->resize(out);
 }
 
+// A track nearer than this fraction of detector/min_feature_distance to an older one ends
+// (endCrowdedTracks). Below 1, so that new corners placed at that distance from their neighbours
+// do not end as soon as the image contracts a little: tracks may come twice as near as corners
+// are placed.
+constexpr double kCrowdedFraction = 0.5;
+
 // Tracks the motion is first fitted on when there is no prediction (predictFromFirstMatches).
 constexpr size_t kFirstMatchTracks = 100;
 
@@ -236,6 +242,7 @@ bool StereoTracker::process(const cv::Mat& left, const cv::Mat& right, double st
   std::vector<float> predicted_disparity;
   if (temporal) {
     predicted_disparity = trackTemporal(std::move(*temporal), left_pyramid, &stats);
+    endCrowdedTracks(&predicted_disparity, &stats);
   } else {
     tracks_.clear();
     has_last_motion_ = false;
@@ -423,6 +430,17 @@ std::vector<float> StereoTracker::checkMotion(const std::vector<cv::Point2f>& pr
   keepSelected(check.inlier, &predicted_disparity);
   stats->ms_ransac = msSince(t);
   return predicted_disparity;
+}
+
+void StereoTracker::endCrowdedTracks(std::vector<float>* predicted_disparity,
+                                     TrackerFrameStats* stats) {
+  std::vector<cv::Point2f> left(tracks_.size());
+  for (size_t i = 0; i < tracks_.size(); ++i) left[i] = tracks_[i].left;
+  const std::vector<uint8_t> keep =
+      keepApart(left, kCrowdedFraction * options_.min_feature_distance);
+  stats->crowded = static_cast<int>(std::count(keep.begin(), keep.end(), 0));
+  keepSelected(keep, &tracks_);
+  keepSelected(keep, predicted_disparity);
 }
 
 void StereoTracker::updateStereoExposure(const cv::Mat& left, const cv::Mat& right,

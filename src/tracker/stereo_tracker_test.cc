@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <map>
 #include <random>
+#include <set>
 #include <utility>
 
 namespace ekf_vislam {
@@ -479,6 +480,52 @@ TEST(StereoTracker, AnUnpredictedPairIsPredictedFromAFirstFit) {
   EXPECT_GE(with, 380);
   EXPECT_LT(without, 330);
   EXPECT_LT(with_error, 0.25);
+}
+
+constexpr int kBackingFrames = 20;
+constexpr double kBackingStep = 0.5;
+
+// The camera backs away from the plane, 0.5 m per pair from 8 m: the image contracts to 0.46 in
+// 20 pairs and the tracks come together, as when a robot reverses. Returns the smallest distance
+// between two features of one frame and the tracks ended for crowding; *from_first: features of the
+// first frame still tracked at the end.
+double closestFeaturesBackingAway(int* crowded, int* from_first) {
+  SlantedPlaneScene scene;
+  StereoTracker tracker(TrackerOptions(), scene.calibration());
+  double closest = 1e9;
+  *crowded = 0;
+  std::set<uint32_t> first_ids;
+  StereoFrame frame;
+  for (int k = 0; k < kBackingFrames; ++k) {
+    const cv::Vec3d c(0.02 * k, 0, -kBackingStep * k);
+    std::string why;
+    EXPECT_TRUE(
+        tracker.process(scene.render(c, 0), scene.render(c, 0.5), 0.1 * k, nullptr, &frame, &why));
+    *crowded += frame.stats.crowded;
+    for (size_t i = 0; i < frame.features.size(); ++i) {
+      if (k == 0) first_ids.insert(frame.features[i].id);
+      for (size_t j = 0; j < i; ++j) {
+        closest = std::min(closest, cv::norm(frame.features[i].left - frame.features[j].left));
+      }
+    }
+  }
+  *from_first = 0;
+  for (const TrackedFeature& f : frame.features) *from_first += first_ids.count(f.id);
+  return closest;
+}
+
+TEST(StereoTracker, TracksComingTogetherKeepTheOldest) {
+  int crowded = 0, from_first = 0;
+  const double closest = closestFeaturesBackingAway(&crowded, &from_first);
+  std::printf(
+      "backing away: closest features %.2f px, %d tracks ended crowded, %d of the first "
+      "frame's still tracked\n",
+      closest, crowded, from_first);
+  // Measured: 5.00 px, 57 ended, 388 of the first frame's tracks go on (424 without the check,
+  // which gave 3.98 px). Tracks end at half of min_feature_distance (new corners keep all of it).
+  EXPECT_GE(closest, 0.5 * TrackerOptions().min_feature_distance - 0.01);
+  EXPECT_GT(crowded, 20);
+  EXPECT_GT(from_first, 300);
 }
 
 }  // namespace

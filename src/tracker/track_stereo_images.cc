@@ -238,7 +238,7 @@ bool writeStats(const std::string& path, const std::vector<StereoFrame>& frames,
          "disparity_rejected,detected,new_tracks,published,motion_estimated,ms_pyramids,"
          "ms_temporal,ms_ransac,ms_stereo,ms_detect,ms_total,refined,refine_failed,ms_refine,"
          "exposure_gain_temporal,exposure_gain_stereo,stereo_converged,stereo_row_failed,"
-         "stereo_negative_disparity,stereo_row_offset_px,predicted_from_first_matches\n";
+         "stereo_negative_disparity,stereo_row_offset_px,predicted_from_first_matches,crowded\n";
   out.precision(10);
   for (size_t k = 0; k < frames.size(); ++k) {
     const TrackerFrameStats& s = frames[k].stats;
@@ -250,7 +250,8 @@ bool writeStats(const std::string& path, const std::vector<StereoFrame>& frames,
         << s.refined << "," << s.refine_failed << "," << s.ms_refine << ","
         << s.exposure_gain_temporal << "," << s.exposure_gain_stereo << "," << s.stereo_converged
         << "," << s.stereo_row_failed << "," << s.stereo_negative_disparity << ","
-        << s.stereo_row_offset_px << "," << s.predicted_from_first_matches << "\n";
+        << s.stereo_row_offset_px << "," << s.predicted_from_first_matches << "," << s.crowded
+        << "\n";
   }
   if (!out) *error = path + ": cannot write";
   return static_cast<bool>(out);

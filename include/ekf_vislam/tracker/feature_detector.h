@@ -6,9 +6,16 @@
 
 #include <opencv2/core.hpp>
 
+#include <cstdint>
 #include <vector>
 
 namespace ekf_vislam {
+
+/// Which of `points` to keep so that no two kept ones lie closer than `min_distance` px: each
+/// point in turn is kept unless an earlier kept one is that close. The tracker passes its tracks
+/// oldest first, so of tracks that have come together (the camera backing away, a near object
+/// passing a far point) the oldest goes on. All kept when min_distance <= 0.
+std::vector<uint8_t> keepApart(const std::vector<cv::Point2f>& points, double min_distance);
 
 class GridFeatureDetector {
  public:

@@ -102,6 +102,9 @@ class StereoTracker {
   std::vector<float> checkMotion(const std::vector<cv::Point2f>& prev,
                                  const std::vector<cv::Point2f>& cur,
                                  const CameraMotionPrior& prediction, TrackerFrameStats* stats);
+  // Ends each track that has come within half of detector/min_feature_distance of an older one
+  // (the tracks are kept oldest first), with its predicted disparity.
+  void endCrowdedTracks(std::vector<float>* predicted_disparity, TrackerFrameStats* stats);
   // Aligns each track's reference patch to `left` from its KLT position in *cur and moves it
   // there. Where that fails, the KLT position stands and the reference is taken anew (also when
   // the warp scaled it too much), or with refine/end_failed_tracks the track is to end: returns

@@ -31,7 +31,8 @@ struct TrackerOptions {
   int grid_cols = 20;  ///< detection grid over the left image
   int grid_rows = 8;
   int max_features_per_cell = 4;      ///< new features only in cells below this count
-  double min_feature_distance = 10;   ///< px between two features (new ones keep this from all)
+  double min_feature_distance = 10;   ///< px between two features (new ones keep this from all;
+                                      ///< a track half this near an older one ends)
   int fast_threshold = 12;            ///< FAST intensity threshold
   double shi_tomasi_quality = 0.005;  ///< goodFeaturesToTrack qualityLevel (relative)
   int border_px = 8;                  ///< no feature closer than this to the image border

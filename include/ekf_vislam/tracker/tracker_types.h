@@ -42,6 +42,7 @@ struct TrackerFrameStats {
   int klt_lost = 0;   ///< KLT failed, or left the image or its mask
   int forward_backward_rejected = 0;
   int ransac_rejected = 0;     ///< temporal outliers
+  int crowded = 0;             ///< within half of detector/min_feature_distance of an older track
   int stereo_lost = 0;         ///< tracked, but no left-right match in this frame (none
                                ///< found, or on the right mask)
   int disparity_rejected = 0;  ///< left-right match disagrees with the predicted disparity

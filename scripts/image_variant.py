@@ -1,0 +1,144 @@
+#!/usr/bin/python3
+"""Copy a stereo image folder (KITTI odometry layout) as another regime of the same scene, with
+its calibration, times and poses made to match, so that track_stereo_images and
+images_end_to_end.sh take the copy as they take the folder. For checking that the tracker and
+its settings hold beyond the clips they were measured on.
+
+    image_variant.py FOLDER OUT_FOLDER [--step N] [--reverse] [--mirror] [--scale S]
+                     [--noise SIGMA] [--seed 0]
+
+--step N     every Nth frame only (times kept): a slower frame rate, N times the motion per
+             pair (2: KITTI at 5 Hz).
+--reverse    the frames in reverse order, times counted from the new first frame: the camera
+             drives backwards, points come from the image's middle instead of leaving by its
+             borders.
+--mirror     both images flipped left to right and exchanged (the flipped right image becomes the
+             left one): the scene mirrored, a valid rectified rig with the same baseline;
+             cx becomes width - 1 - cx and the poses are mirrored too (turns go the other way).
+--scale S    both images resized by S (cv2.INTER_AREA below 1, INTER_LINEAR above), K scaled
+             about the pixel centres: fx' = S fx, cx' = S (cx + 0.5) - 0.5.
+--noise S    Gaussian noise of S gray levels added to every pixel, drawn anew for each image
+             (--seed), saturated at 0 and 255.
+
+The options combine (applied in the order above). The poses stay world_T_cam0 with the world at
+the new first frame's left camera. The images are written as 8-bit PNG, colour kept.
+"""
+import argparse
+import os
+import sys
+
+import cv2
+import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'src'))
+from ekf_vislam_tools import se3, stereo_images  # noqa: E402
+
+PROG = 'image_variant.py'
+#: x -> -x: a mirror of the world and of each camera frame (M T M is again a rigid motion).
+MIRROR = np.diag([-1.0, 1.0, 1.0, 1.0])
+
+
+def parse_args(argv):
+    p = argparse.ArgumentParser(prog=PROG, description=__doc__.split('\n\n')[0])
+    p.add_argument('folder')
+    p.add_argument('out_folder')
+    p.add_argument('--step', type=int, default=1, help='keep every Nth frame')
+    p.add_argument('--reverse', action='store_true', help='frames in reverse order')
+    p.add_argument('--mirror', action='store_true', help='mirror the scene (flip and exchange)')
+    p.add_argument('--scale', type=float, default=1.0, help='image scale factor')
+    p.add_argument('--noise', type=float, default=0.0, help='pixel noise std, gray levels')
+    p.add_argument('--seed', type=int, default=0)
+    return p.parse_args(argv)
+
+
+def frame_order(n, step, reverse):
+    """Indices of the source frames, in the variant's order."""
+    order = np.arange(0, n, step)
+    return order[::-1] if reverse else order
+
+
+def variant_times(times, order):
+    """The source frames' times in the variant's order, made increasing: differences kept."""
+    t = times[order]
+    return t[0] + np.abs(t - t[0])
+
+
+def mirrored_calibration(K, width):
+    K = K.copy()
+    K[0, 2] = width - 1 - K[0, 2]
+    return K
+
+
+def scaled_calibration(K, scale):
+    K = K.copy()
+    K[0, 0] *= scale
+    K[1, 1] *= scale
+    K[0, 2] = scale * (K[0, 2] + 0.5) - 0.5
+    K[1, 2] = scale * (K[1, 2] + 0.5) - 0.5
+    return K
+
+
+def variant_poses(world_T_cam, order, mirror, baseline):
+    """world_T_cam0 of the variant's left camera, with the world at its first frame. Mirrored,
+    that camera is the source's right one (world_T_cam0 * [I, (b, 0, 0)]), seen in a mirror."""
+    poses = world_T_cam[order].copy()
+    if mirror:
+        cam0_T_cam1 = np.eye(4)
+        cam0_T_cam1[0, 3] = baseline
+        poses = np.array([MIRROR @ T @ cam0_T_cam1 @ MIRROR for T in poses])
+    first_inv = se3.inverse(poses[0])
+    return np.array([first_inv @ T for T in poses])
+
+
+def variant_image(path, flip, scale, noise, rng):
+    image = cv2.imread(path, cv2.IMREAD_UNCHANGED)
+    if image is None:
+        sys.exit('%s: cannot read %s' % (PROG, path))
+    if flip:
+        image = cv2.flip(image, 1)
+    if scale != 1.0:
+        size = (int(round(image.shape[1] * scale)), int(round(image.shape[0] * scale)))
+        image = cv2.resize(image, size,
+                           interpolation=cv2.INTER_AREA if scale < 1 else cv2.INTER_LINEAR)
+    if noise > 0:
+        image = np.clip(image.astype(np.float32) + rng.normal(0.0, noise, image.shape), 0, 255)
+    return image.astype(np.uint8)
+
+
+def main(argv):
+    args = parse_args(argv)
+    if args.step < 1 or not args.scale > 0 or args.noise < 0:
+        print('%s: --step >= 1, --scale > 0, --noise >= 0' % PROG, file=sys.stderr)
+        return 2
+    try:
+        source = stereo_images.load_folder(args.folder)
+    except (OSError, ValueError) as e:
+        print('%s: %s' % (PROG, e), file=sys.stderr)
+        return 2
+    order = frame_order(len(source.left), args.step, args.reverse)
+    if len(order) < 2:
+        print('%s: fewer than 2 frames left' % PROG, file=sys.stderr)
+        return 2
+    width = cv2.imread(source.left[0], cv2.IMREAD_UNCHANGED).shape[1]
+    K = mirrored_calibration(source.K, width) if args.mirror else source.K
+    K = scaled_calibration(K, args.scale)
+    lefts, rights = source.left, source.right
+    if args.mirror:
+        lefts, rights = rights, lefts
+    rng = np.random.default_rng(args.seed)
+    for side, paths in (('image_left', lefts), ('image_right', rights)):
+        os.makedirs(os.path.join(args.out_folder, side), exist_ok=True)
+    for k, i in enumerate(order):
+        for side, paths in (('image_left', lefts), ('image_right', rights)):
+            image = variant_image(paths[i], args.mirror, args.scale, args.noise, rng)
+            cv2.imwrite(os.path.join(args.out_folder, side, '%06d.png' % k), image)
+    poses = (None if source.world_T_cam is None
+             else variant_poses(source.world_T_cam, order, args.mirror, source.b))
+    stereo_images.write_metadata(args.out_folder, K, source.b, variant_times(source.times, order),
+                                 poses)
+    print('%s: %d pairs written to %s' % (PROG, len(order), args.out_folder))
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main(sys.argv[1:]))

@@ -4,14 +4,17 @@ its calibration, times and poses made to match, so that track_stereo_images and
 images_end_to_end.sh take the copy as they take the folder. For checking that the tracker and
 its settings hold beyond the clips they were measured on.
 
-    image_variant.py FOLDER OUT_FOLDER [--step N] [--reverse] [--mirror] [--scale S]
-                     [--noise SIGMA] [--seed 0]
+    image_variant.py FOLDER OUT_FOLDER [--step N] [--reverse] [--hold K:N] [--mirror]
+                     [--scale S] [--noise SIGMA] [--seed 0]
 
 --step N     every Nth frame only (times kept): a slower frame rate, N times the motion per
              pair (2: KITTI at 5 Hz).
 --reverse    the frames in reverse order, times counted from the new first frame: the camera
              drives backwards, points come from the image's middle instead of leaving by its
              borders.
+--hold K:N   the variant's frame K shown N more times, the interval between them the median
+             one: a stop (with --noise each copy gets its own noise; without, they are the same
+             bytes, as from a driver that repeats a frame).
 --mirror     both images flipped left to right and exchanged (the flipped right image becomes the
              left one): the scene mirrored, a valid rectified rig with the same baseline;
              cx becomes width - 1 - cx and the poses are mirrored too (turns go the other way).
@@ -44,6 +47,8 @@ def parse_args(argv):
     p.add_argument('out_folder')
     p.add_argument('--step', type=int, default=1, help='keep every Nth frame')
     p.add_argument('--reverse', action='store_true', help='frames in reverse order')
+    p.add_argument('--hold', default=None, metavar='K:N',
+                   help='repeat the variant\'s frame K N more times (a stop)')
     p.add_argument('--mirror', action='store_true', help='mirror the scene (flip and exchange)')
     p.add_argument('--scale', type=float, default=1.0, help='image scale factor')
     p.add_argument('--noise', type=float, default=0.0, help='pixel noise std, gray levels')
@@ -51,16 +56,39 @@ def parse_args(argv):
     return p.parse_args(argv)
 
 
-def frame_order(n, step, reverse):
-    """Indices of the source frames, in the variant's order."""
+def frame_order(n, step, reverse, hold=None):
+    """Indices of the source frames, in the variant's order; hold = (K, N): its frame K N more
+    times."""
     order = np.arange(0, n, step)
-    return order[::-1] if reverse else order
+    if reverse:
+        order = order[::-1]
+    if hold is not None:
+        k, count = hold
+        order = np.insert(order, k + 1, np.full(count, order[k]))
+    return order
 
 
 def variant_times(times, order):
-    """The source frames' times in the variant's order, made increasing: differences kept."""
+    """The source frames' times in the variant's order, made increasing: each interval kept as
+    it was (reversed: the same length), a held frame's the median interval."""
     t = times[order]
-    return t[0] + np.abs(t - t[0])
+    steps = np.abs(np.diff(t))
+    moving = steps[steps > 0]
+    steps[steps == 0] = np.median(moving) if len(moving) else 0.1
+    return t[0] + np.concatenate([[0.0], np.cumsum(steps)])
+
+
+def parse_hold(text, n):
+    """'K:N' -> (K, N), K a frame of the variant (0..n-1), N >= 1; None for None."""
+    if text is None:
+        return None
+    try:
+        k, count = (int(x) for x in text.split(':'))
+    except ValueError:
+        k, count = -1, 0
+    if not 0 <= k < n or count < 1:
+        raise ValueError('--hold K:N needs 0 <= K < %d and N >= 1' % n)
+    return k, count
 
 
 def mirrored_calibration(K, width):
@@ -115,7 +143,12 @@ def main(argv):
     except (OSError, ValueError) as e:
         print('%s: %s' % (PROG, e), file=sys.stderr)
         return 2
-    order = frame_order(len(source.left), args.step, args.reverse)
+    try:
+        hold = parse_hold(args.hold, len(frame_order(len(source.left), args.step, args.reverse)))
+    except ValueError as e:
+        print('%s: %s' % (PROG, e), file=sys.stderr)
+        return 2
+    order = frame_order(len(source.left), args.step, args.reverse, hold)
     if len(order) < 2:
         print('%s: fewer than 2 frames left' % PROG, file=sys.stderr)
         return 2

@@ -171,21 +171,24 @@ class TrackStereoImagesTest(unittest.TestCase):
 
     def test_image_variants(self):
         """image_variant.py makes other regimes of the drive with calibration, times and poses to
-        match, so the tracks hold against the exact poses as on the drive itself. Measured at
-        ages 1 / 5: mirrored (images flipped and exchanged) 0.075 / 0.190 px; reversed at half
-        the frame rate and scaled by 0.75, 0.039 / 0.114; reversed, 0.036 / 0.062; the drive
-        itself 0.075 / 0.185. Mirrored with the poses left as they were: 2.31 px at age 1; with
-        cx off by a pixel: 0.101 px. Reversed, the image contracts and the tracks come together:
-        662.33 observations per frame against the forward drive's 340.70, and 916.87 without
-        ending the tracks that come near older ones."""
+        match, so the tracks hold against the exact poses as on the drive itself. Measured at ages 1
+        / 5: mirrored (images flipped and exchanged) 0.075 / 0.190 px; reversed at half the frame
+        rate and scaled by 0.75, 0.039 / 0.114; reversed, 0.036 / 0.062; the drive itself 0.075 /
+        0.185; stopped 5 frames at its frame 10, 0.053 / 0.140. Mirrored with the poses left as they
+        were: 2.31 px at age 1; with cx off by a pixel: 0.101 px. Reversed, the image contracts and
+        the tracks come together: 662.33 observations per frame against the forward drive's 340.70,
+        and 916.87 without ending the tracks that come near older ones."""
         for name, options in (('mirror', ['--mirror']),
                               ('reverse', ['--reverse', '--step', '2', '--scale', '0.75']),
-                              ('backwards', ['--reverse'])):
+                              ('backwards', ['--reverse']),
+                              ('stop', ['--hold', '10:5'])):
             varied = os.path.join(self.tmp, name)
             result = paths.run_script('image_variant.py', self.folder, varied, *options)
             self.assertEqual(result.returncode, 0, result.stderr)
             times = np.loadtxt(os.path.join(varied, 'times.txt'))
             self.assertTrue(np.all(np.diff(times) > 0), name)
+            expected = {'reverse': FRAMES // 2, 'stop': FRAMES + 5}.get(name, FRAMES)
+            self.assertEqual(len(times), expected, name)
             report = subprocess.run(
                 track_args(varied, os.path.join(self.tmp, name + '.npz')) +
                 ['--poses', varied + '/poses.txt'],

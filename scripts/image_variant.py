@@ -9,7 +9,7 @@ its settings hold beyond the clips they were measured on.
 
 --step N     every Nth frame only (times kept): a slower frame rate, N times the motion per
              pair (2: KITTI at 5 Hz).
---reverse    the frames in reverse order, times counted from the new first frame: the camera
+--reverse    the frames in reverse order, times from the source's first on: the camera
              drives backwards, points come from the image's middle instead of leaving by its
              borders.
 --hold K:N   the variant's frame K shown N more times, the interval between them the median
@@ -34,11 +34,12 @@ import cv2
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'src'))
-from ekf_vislam_tools import se3, stereo_images  # noqa: E402
+from ekf_vislam_tools import stereo_images  # noqa: E402
+from ekf_vislam_tools.image_variants import (frame_order, mirrored_calibration,  # noqa: E402
+                                             parse_hold, scaled_calibration, variant_poses,
+                                             variant_times)
 
 PROG = 'image_variant.py'
-#: x -> -x: a mirror of the world and of each camera frame (M T M is again a rigid motion).
-MIRROR = np.diag([-1.0, 1.0, 1.0, 1.0])
 
 
 def parse_args(argv):
@@ -54,68 +55,6 @@ def parse_args(argv):
     p.add_argument('--noise', type=float, default=0.0, help='pixel noise std, gray levels')
     p.add_argument('--seed', type=int, default=0)
     return p.parse_args(argv)
-
-
-def frame_order(n, step, reverse, hold=None):
-    """Indices of the source frames, in the variant's order; hold = (K, N): its frame K N more
-    times."""
-    order = np.arange(0, n, step)
-    if reverse:
-        order = order[::-1]
-    if hold is not None:
-        k, count = hold
-        order = np.insert(order, k + 1, np.full(count, order[k]))
-    return order
-
-
-def variant_times(times, order):
-    """The source frames' times in the variant's order, made increasing: each interval kept as
-    it was (reversed: the same length), a held frame's the median interval."""
-    t = times[order]
-    steps = np.abs(np.diff(t))
-    moving = steps[steps > 0]
-    steps[steps == 0] = np.median(moving) if len(moving) else 0.1
-    return t[0] + np.concatenate([[0.0], np.cumsum(steps)])
-
-
-def parse_hold(text, n):
-    """'K:N' -> (K, N), K a frame of the variant (0..n-1), N >= 1; None for None."""
-    if text is None:
-        return None
-    try:
-        k, count = (int(x) for x in text.split(':'))
-    except ValueError:
-        k, count = -1, 0
-    if not 0 <= k < n or count < 1:
-        raise ValueError('--hold K:N needs 0 <= K < %d and N >= 1' % n)
-    return k, count
-
-
-def mirrored_calibration(K, width):
-    K = K.copy()
-    K[0, 2] = width - 1 - K[0, 2]
-    return K
-
-
-def scaled_calibration(K, scale):
-    K = K.copy()
-    K[0, 0] *= scale
-    K[1, 1] *= scale
-    K[0, 2] = scale * (K[0, 2] + 0.5) - 0.5
-    K[1, 2] = scale * (K[1, 2] + 0.5) - 0.5
-    return K
-
-
-def variant_poses(world_T_cam, order, mirror, baseline):
-    """world_T_cam0 of the variant's left camera, with the world at its first frame. Mirrored,
-    that camera is the source's right one (world_T_cam0 * [I, (b, 0, 0)]), seen in a mirror."""
-    poses = world_T_cam[order].copy()
-    if mirror:
-        cam0_T_cam1 = np.eye(4)
-        cam0_T_cam1[0, 3] = baseline
-        poses = np.array([MIRROR @ T @ cam0_T_cam1 @ MIRROR for T in poses])
-    first_inv = se3.inverse(poses[0])
-    return np.array([first_inv @ T for T in poses])
 
 
 def variant_image(path, flip, scale, noise, rng):

@@ -106,7 +106,7 @@ TEST(KeepApart, KeepsEarlierPointsAndEndsThoseTooNearThem) {
       {105, 100},  // 5 px from the first: ended
       {110, 100},  // exactly 10 px from the first, 5 from the ended one: kept
       {50, 50},    // alone: kept
-      {57, 57},    // 9.9 px from (50, 50), in the next cell of the grid: ended
+      {43, 43},    // 9.9 px from (50, 50), in the grid cell diagonally before it: ended
       {-3, -3},    // negative coordinates hash like the others: kept
       {-3, 4},     // 7 px from it: ended
   };

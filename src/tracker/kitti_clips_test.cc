@@ -39,8 +39,9 @@ struct ClipBounds {
   int min_observations;      // measured 172 (06), 153 (01, its second pair: 142 before that
                              // pair's motion was fitted first)
   double mean_track_length;  // measured 3.91 (06), 5.47 (01). The 01 length moves with any
-                             // change to the set of tracks: 5.33-5.99 over the variants
-                             // measured; two tracks ended as crowded took it from 5.54 to 5.47
+                             // change to the set of tracks: 5.33-5.99 over the tracker
+                             // changes measured; two tracks ended as crowded took it from
+                             // 5.54 to 5.47
 };
 
 const ClipBounds kClips[] = {

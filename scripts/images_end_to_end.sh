@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
 # Stereo images to trajectory, offline: the tracker over a KITTI-layout folder (image_left/,
 # image_right/, calib.txt, times.txt, poses.txt), its features with the poses' accurate twist
-# (0.05 m/s and 0.005 rad/s white noise, 0.001 rad/s gyro offset, seeded) as a bag, SLAM and dead
-# reckoning through vislam_offline, and evaluate.py against the poses. Prints one line per mode:
-# ATE (m, after SE(3) alignment), RPE (%), mean position NEES, and the path length.
+# (0.05 m/s and 0.005 rad/s white noise, 0.001 rad/s gyro offset, seeded; --twist-noise V W and
+# --gyro-offset B choose others) as a bag, SLAM and dead reckoning through vislam_offline, and
+# evaluate.py against the poses. Prints one line per mode: ATE (m, after SE(3) alignment), RPE (%),
+# mean position NEES, and the path length.
 #   scripts/images_end_to_end.sh FOLDER [--out DIR] [--config estimator.yaml]
 #                                [--tracker-config tracker.yaml] [--seed N] [--first-frame N]
+#                                [--twist-noise V W] [--gyro-offset B]
 set -eo pipefail
 export PATH=/usr/bin:/bin:${PATH}
 REPO=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -15,6 +17,7 @@ SEED=0
 ESTIMATOR=()
 TRACKER=()
 FIRST=()
+TWIST=()
 while (($#)); do
   case "$1" in
     --out) OUT=$2; shift 2 ;;
@@ -22,7 +25,9 @@ while (($#)); do
     --tracker-config) TRACKER=(--config "$(readlink -f "$2")"); shift 2 ;;
     --seed) SEED=$2; shift 2 ;;
     --first-frame) FIRST=(--first-frame "$2"); shift 2 ;;
-    -h|--help) sed -n 2,8p "$0"; exit 0 ;;
+    --twist-noise) TWIST+=(--twist-noise "$2" "$3"); shift 3 ;;
+    --gyro-offset) TWIST+=(--gyro-offset "$2"); shift 2 ;;
+    -h|--help) sed -n 2,10p "$0"; exit 0 ;;
     *) FOLDER=$1; shift ;;
   esac
 done
@@ -34,6 +39,7 @@ mkdir -p "${OUT}"
 "${LIB}/track_stereo_images" --left "${FOLDER}/image_left" --right "${FOLDER}/image_right" \
   --calib "${FOLDER}/calib.txt" --times "${FOLDER}/times.txt" --poses "${FOLDER}/poses.txt" \
   --out "${OUT}/tracks.npz" --time-offset 1000 --seed "${SEED}" --quiet "${TRACKER[@]}" "${FIRST[@]}" \
+  "${TWIST[@]}" \
   >"${OUT}/tracker.log"
 /usr/bin/python3 "${REPO}/scripts/dataset_to_bag.py" "${OUT}/tracks.npz" "${OUT}/tracks.bag" >/dev/null
 for mode in slam deadreckoning; do

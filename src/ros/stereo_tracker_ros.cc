@@ -416,6 +416,7 @@ void StereoTrackerRos::trackPair(const ImagePair& pair) {
   prev_stamp_ = stamp;
   ++pairs_tracked_;
   if (frame.stats.predicted_from_first_matches) ++first_fit_predictions_;
+  tracks_crowded_ += static_cast<uint64_t>(frame.stats.crowded);
   last_stats_ = frame.stats;
   rig_check_.add(frame.stats);
   if (const std::string hint = rig_check_.hint(); !hint.empty()) {
@@ -517,6 +518,7 @@ void StereoTrackerRos::fillDiagnostics(uint64_t dropped_from_backlog,
   status.add("pairs_waiting", waiting_pairs_.size());
   status.add("twist_predictions", twist_used_);
   status.add("first_fit_predictions", first_fit_predictions_);
+  status.add("tracks_crowded", tracks_crowded_);
   status.add("features_last", last_stats_.published);
   status.add("track_ms_last", last_stats_.ms_total);
   status.add("exposure_gain_last", last_stats_.exposure_gain_temporal);

@@ -58,10 +58,12 @@ class StereoTrackerBacklogTest(NewestStatuses, unittest.TestCase):
         wait_until(lambda: len(cls.features) >= FRAMES - 1, 10.0)
         folder = os.path.join(cls.tmp, 'drive')
         cls.offline = os.path.join(cls.tmp, 'offline.npz')
+        cls.offline_stats = os.path.join(cls.tmp, 'offline.csv')
         run(['rosrun', PKG, 'track_stereo_images', '--left', os.path.join(folder, 'image_left'),
              '--right', os.path.join(folder, 'image_right'), '--calib',
              os.path.join(folder, 'calib.txt'), '--times', os.path.join(folder, 'times.txt'),
-             '--time-offset', str(START_TIME), '--out', cls.offline, '--quiet'])
+             '--time-offset', str(START_TIME), '--out', cls.offline, '--quiet', '--stats',
+             cls.offline_stats])
 
     @classmethod
     def tearDownClass(cls):
@@ -88,6 +90,12 @@ class StereoTrackerBacklogTest(NewestStatuses, unittest.TestCase):
         self.assertEqual(self.value('pairs_dropped_waiting'), 0)
         # Without a twist the second pair has no motion to start from: it is fitted first.
         self.assertGreaterEqual(self.value('first_fit_predictions'), 1)
+        # Tracks ended near older ones: the offline tool's count over the same pairs (0 on this
+        # forward drive, so this checks that the counter is published and agrees).
+        crowded = np.genfromtxt(self.offline_stats, delimiter=',', names=True)['crowded']
+        tracked = int(self.value('pairs_tracked'))
+        self.assertIn('tracks_crowded', self.latest_status(MAIN)[1])
+        self.assertEqual(self.value('tracks_crowded'), crowded[:tracked].sum())
         self.assertGreaterEqual(len(stamps), FRAMES - 1)
         self.assertEqual(len(stamps), len(set(stamps)))  # each pair once
         # The test means something only if tracking fell behind by more than the ROS queues hold.

@@ -98,7 +98,7 @@ def main(argv):
     if args.mirror:
         lefts, rights = rights, lefts
     rng = np.random.default_rng(args.seed)
-    for side, paths in (('image_left', lefts), ('image_right', rights)):
+    for side in ('image_left', 'image_right'):
         os.makedirs(os.path.join(args.out_folder, side), exist_ok=True)
     for k, i in enumerate(order):
         for side, paths in (('image_left', lefts), ('image_right', rights)):

@@ -118,8 +118,10 @@ def main(argv):
     atlas = make_atlas(args.seed)
     times = 0.1 * np.arange(args.frames)
     first_inv = np.linalg.inv(pose_at(0.0, args))
+    poses = []
     for k, t in enumerate(times):
         world_T_left = pose_at(t, args)
+        poses.append(first_inv @ world_T_left)
         world_T_right = world_T_left.copy()
         world_T_right[:3, 3] += args.baseline * world_T_left[:3, 0]
         left, depth = render(world_T_left, K, (args.width, args.height), atlas)
@@ -127,8 +129,7 @@ def main(argv):
         cv2.imwrite(os.path.join(args.out, 'image_left', '%06d.png' % k), left)
         cv2.imwrite(os.path.join(args.out, 'image_right', '%06d.png' % k), right)
         np.save(os.path.join(args.out, 'depth_left', '%06d.npy' % k), depth)
-    stereo_images.write_metadata(args.out, K, args.baseline, times,
-                                 [first_inv @ pose_at(t, args) for t in times])
+    stereo_images.write_metadata(args.out, K, args.baseline, times, poses)
     print('%s: %d frames, %.1f m -> %s' % (PROG, args.frames,
                                             args.speed * times[-1], args.out))
     return 0

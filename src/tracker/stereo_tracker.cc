@@ -114,6 +114,15 @@ TemporalKltResult temporalKlt(const std::vector<cv::Mat>& prev_pyramid,
   return result;
 }
 
+// The motion a RANSAC found (check.has_motion), as a prediction of the next start points.
+CameraMotionPrior motionPriorOf(const MotionCheckResult& check) {
+  CameraMotionPrior motion;
+  motion.cur_R_prev = check.cur_R_prev;
+  motion.cur_t_prev = check.cur_t_prev;
+  motion.has_translation = true;
+  return motion;
+}
+
 // The frame's left-right matches in the figures the rig check reads (stereo_rig_check.h).
 void summarizeStereoMatches(StereoMatchCounts counts, TrackerFrameStats* stats) {
   stats->stereo_converged = counts.converged();
@@ -374,10 +383,7 @@ bool StereoTracker::predictFromFirstMatches(const std::vector<cv::Mat>& prev_pyr
   keepSelected(klt.passed, &cur);
   const MotionCheckResult check = checkTemporalMatches(points, prev, cur, calibration_, options_);
   if (!check.has_motion) return false;
-  CameraMotionPrior motion;
-  motion.cur_R_prev = check.cur_R_prev;
-  motion.cur_t_prev = check.cur_t_prev;
-  motion.has_translation = true;
+  const CameraMotionPrior motion = motionPriorOf(check);
   start->predicted = predictLeft(&motion, 0, &start->prediction, &start->cur);
   return start->predicted;
 }
@@ -401,11 +407,7 @@ std::vector<float> StereoTracker::checkMotion(const std::vector<cv::Point2f>& pr
       checkTemporalMatches(prev_points, prev, cur, calibration_, options_);
   has_last_motion_ = check.has_motion;
   stats->motion_estimated = check.has_motion;
-  if (check.has_motion) {
-    last_motion_.cur_R_prev = check.cur_R_prev;
-    last_motion_.cur_t_prev = check.cur_t_prev;
-    last_motion_.has_translation = true;
-  }
+  if (check.has_motion) last_motion_ = motionPriorOf(check);
   const CameraMotionPrior& motion = check.has_motion ? last_motion_ : prediction;
   std::vector<float> predicted_disparity(tracks_.size());
   for (size_t i = 0; i < tracks_.size(); ++i) {

@@ -20,6 +20,7 @@ add_library(ekf_vislam_tracker
   src/tracker/rectified_stereo.cc
   src/tracker/pnp_ransac.cc
   src/tracker/motion_check.cc
+  src/tracker/disparity_offset_fit.cc
   src/tracker/stereo_tracker.cc
   src/tracker/debug_drawing.cc
   src/tracker/kitti_sequence.cc
@@ -50,6 +51,7 @@ if(CATKIN_ENABLE_TESTING)
     src/tracker/twist_motion_prior_test.cc
     src/tracker/klt_back_check_test.cc
     src/tracker/pnp_ransac_test.cc
+    src/tracker/disparity_offset_fit_test.cc
     src/tracker/exposure_compensation_test.cc
     src/tracker/stereo_tracker_test.cc
     src/tracker/stereo_rig_check_test.cc

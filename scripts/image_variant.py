@@ -5,7 +5,7 @@ images_end_to_end.sh take the copy as they take the folder. For checking that th
 its settings hold beyond the clips they were measured on.
 
     image_variant.py FOLDER OUT_FOLDER [--step N] [--reverse] [--hold K:N] [--mirror]
-                     [--scale S] [--noise SIGMA] [--seed 0]
+                     [--scale S] [--right-shift DX] [--noise SIGMA] [--seed 0]
 
 --step N     every Nth frame only (times kept): a slower frame rate, N times the motion per
              pair (2: KITTI at 5 Hz).
@@ -20,6 +20,12 @@ its settings hold beyond the clips they were measured on.
              cx becomes width - 1 - cx and the poses are mirrored too (turns go the other way).
 --scale S    both images resized by S (cv2.INTER_AREA below 1, INTER_LINEAR above), K scaled
              about the pixel centres: fx' = S fx, cx' = S (cx + 0.5) - 0.5.
+--right-shift DX
+             the right image moved right by DX px (cv2.warpAffine, bilinear, border reflected),
+             the calibration kept: every measured disparity DX px smaller than the true one, as
+             from a rig whose right camera's cx disagrees with its images (the tracker's rig
+             check reports a disparity offset of -DX). Whole pixels move the image without
+             resampling it.
 --noise S    Gaussian noise of S gray levels added to every pixel, drawn anew for each image
              (--seed), saturated at 0 and 255.
 
@@ -52,12 +58,14 @@ def parse_args(argv):
                    help='repeat the variant\'s frame K N more times (a stop)')
     p.add_argument('--mirror', action='store_true', help='mirror the scene (flip and exchange)')
     p.add_argument('--scale', type=float, default=1.0, help='image scale factor')
+    p.add_argument('--right-shift', type=float, default=0.0,
+                   help='move the right image right by this many px')
     p.add_argument('--noise', type=float, default=0.0, help='pixel noise std, gray levels')
     p.add_argument('--seed', type=int, default=0)
     return p.parse_args(argv)
 
 
-def variant_image(path, flip, scale, noise, rng):
+def variant_image(path, flip, scale, shift, noise, rng):
     image = cv2.imread(path, cv2.IMREAD_UNCHANGED)
     if image is None:
         sys.exit('%s: cannot read %s' % (PROG, path))
@@ -67,6 +75,10 @@ def variant_image(path, flip, scale, noise, rng):
         size = (int(round(image.shape[1] * scale)), int(round(image.shape[0] * scale)))
         image = cv2.resize(image, size,
                            interpolation=cv2.INTER_AREA if scale < 1 else cv2.INTER_LINEAR)
+    if shift != 0.0:
+        move = np.float32([[1, 0, shift], [0, 1, 0]])
+        image = cv2.warpAffine(image, move, (image.shape[1], image.shape[0]),
+                               flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
     if noise > 0:
         image = np.clip(image.astype(np.float32) + rng.normal(0.0, noise, image.shape), 0, 255)
     return image.astype(np.uint8)
@@ -101,8 +113,9 @@ def main(argv):
     for side in ('image_left', 'image_right'):
         os.makedirs(os.path.join(args.out_folder, side), exist_ok=True)
     for k, i in enumerate(order):
-        for side, paths in (('image_left', lefts), ('image_right', rights)):
-            image = variant_image(paths[i], args.mirror, args.scale, args.noise, rng)
+        for side, paths, shift in (('image_left', lefts, 0.0),
+                                   ('image_right', rights, args.right_shift)):
+            image = variant_image(paths[i], args.mirror, args.scale, shift, args.noise, rng)
             cv2.imwrite(os.path.join(args.out_folder, side, '%06d.png' % k), image)
     poses = (None if source.world_T_cam is None
              else variant_poses(source.world_T_cam, order, args.mirror, source.b))

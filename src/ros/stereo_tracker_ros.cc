@@ -526,6 +526,8 @@ void StereoTrackerRos::fillDiagnostics(uint64_t dropped_from_backlog,
   status.add("stereo_row_offset_px", rig_check_.medianRowOffsetPx());
   status.add("stereo_row_failed_fraction", rig_check_.rowFailedFraction());
   status.add("stereo_negative_disparity_fraction", rig_check_.negativeDisparityFraction());
+  status.add("disparity_offset_px", rig_check_.medianDisparityOffsetPx());
+  status.add("disparity_offset_pairs", rig_check_.disparityOffsetPairs());
 }
 
 }  // namespace ekf_vislam

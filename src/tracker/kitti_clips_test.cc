@@ -6,15 +6,18 @@
 // "Track quality"): where not, the bounds below are today's figures plus a small margin, so that
 // a regression fails. The 06 ground truth disagrees with its images in its first second (frames
 // 0-10, up to 0.17 degrees of yaw per frame); from frame 12 on, the error targets themselves are
-// asserted.
+// asserted. The stereo rig check must name the 01 clip's disparity offset (1.18 px by the
+// tracker's fit, 1.39 px by the ground truth) and not the 06 clip's (0.30 px; 0.23).
 #include "ekf_vislam/core/yaml_parameter_source.h"
 #include "ekf_vislam/tracker/kitti_sequence.h"
+#include "ekf_vislam/tracker/stereo_rig_check.h"
 #include "ekf_vislam/tracker/stereo_tracker.h"
 #include "ekf_vislam/tracker/track_quality.h"
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 
@@ -36,19 +39,21 @@ struct ClipBounds {
   size_t first_frame;  // frames before it are left out
   // Measured ages 1 / 2 / 5: 0.656 / 1.178 / 2.702 px (06), 0.980 / 1.843 / 4.405 px (01).
   double age1_px, age2_px, age5_px;
-  int min_observations;      // measured 172 (06), 153 (01, its second pair: 142 before that
-                             // pair's motion was fitted first)
-  double mean_track_length;  // measured 3.91 (06), 5.47 (01). The 01 length moves with any
-                             // change to the set of tracks: 5.33-5.99 over the tracker
-                             // changes measured; two tracks ended as crowded took it from
-                             // 5.54 to 5.47
+  int min_observations;        // measured 172 (06), 153 (01, its second pair: 142 before that
+                               // pair's motion was fitted first)
+  double mean_track_length;    // measured 3.91 (06), 5.47 (01). The 01 length moves with any
+                               // change to the set of tracks: 5.33-5.99 over the tracker
+                               // changes measured; two tracks ended as crowded took it from
+                               // 5.54 to 5.47
+  bool disparity_offset_hint;  // the rig check's median offset: measured -0.300 px (06), -1.178
+                               // (01), -0.288 (06 from frame 12)
 };
 
 const ClipBounds kClips[] = {
-    {"odometry_06_000000-000050", 0, 0.75, 1.35, 3.05, 150, 3.7},
-    {"odometry_01_000000-000050", 0, 1.05, 2.00, 4.80, 145, 5.3},
+    {"odometry_06_000000-000050", 0, 0.75, 1.35, 3.05, 150, 3.7, false},
+    {"odometry_01_000000-000050", 0, 1.05, 2.00, 4.80, 145, 5.3, true},
     // Measured 0.439 / 0.732 / 1.466 px, at least 173 observations, 3.79 frames.
-    {"odometry_06_000000-000050", 12, 0.5, 0.8, 1.5, 150, 3.5},
+    {"odometry_06_000000-000050", 12, 0.5, 0.8, 1.5, 150, 3.5, false},
 };
 
 class KittiClips : public ::testing::TestWithParam<ClipBounds> {};
@@ -70,12 +75,14 @@ TEST_P(KittiClips, TrackQualityAgainstGroundTruth) {
   YamlParameterSource source(std::string(EKF_VISLAM_SOURCE_DIR) + "/config/tracker.yaml");
   ASSERT_TRUE(source.ok() && parseTrackerOptions(source, &options, &error)) << error;
   StereoTracker tracker(options, sequence.calibration);
+  StereoRigCheck rig_check(options.row_tolerance_px);
   std::vector<StereoFrame> frames(sequence.size());
   for (size_t k = 0; k < sequence.size(); ++k) {
     const cv::Mat left = cv::imread(sequence.left_images[k], cv::IMREAD_GRAYSCALE);
     const cv::Mat right = cv::imread(sequence.right_images[k], cv::IMREAD_GRAYSCALE);
     ASSERT_TRUE(tracker.process(left, right, sequence.times[k], nullptr, &frames[k], &error))
         << error;
+    rig_check.add(frames[k].stats);
   }
   const TrackQuality quality =
       evaluateTrackQuality(frames, sequence.world_T_cam, sequence.calibration, 5);
@@ -87,6 +94,12 @@ TEST_P(KittiClips, TrackQualityAgainstGroundTruth) {
   EXPECT_GE(quality.min_observations_per_frame, bounds.min_observations);
   EXPECT_GE(quality.mean_track_length, bounds.mean_track_length);
   EXPECT_GE(quality.mean_observations_per_frame, 150.0);
+  std::printf("disparity offset %.3f px (median of %d fits)\n", rig_check.medianDisparityOffsetPx(),
+              rig_check.disparityOffsetPairs());
+  EXPECT_GE(rig_check.disparityOffsetPairs(), 30);
+  EXPECT_EQ(std::abs(rig_check.medianDisparityOffsetPx()) > StereoRigCheck::kOffsetHintPx,
+            bounds.disparity_offset_hint);
+  EXPECT_EQ(rig_check.hint().empty(), !bounds.disparity_offset_hint) << rig_check.hint();
 }
 
 INSTANTIATE_TEST_SUITE_P(Real, KittiClips, ::testing::ValuesIn(kClips));

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <vector>
 
 namespace ekf_vislam {
@@ -12,8 +13,11 @@ namespace ekf_vislam {
 StereoRigCheck::StereoRigCheck(double row_tolerance_px) : row_tolerance_px_(row_tolerance_px) {}
 
 void StereoRigCheck::add(const TrackerFrameStats& stats) {
-  pairs_.push_back({stats.stereo_converged, stats.stereo_row_failed,
-                    stats.stereo_negative_disparity, stats.stereo_row_offset_px});
+  const bool offset_told = stats.disparity_offset_sigma_px <= kMaxOffsetSigmaPx;
+  pairs_.push_back(
+      {stats.stereo_converged, stats.stereo_row_failed, stats.stereo_negative_disparity,
+       stats.stereo_row_offset_px,
+       offset_told ? stats.disparity_offset_px : std::numeric_limits<float>::quiet_NaN()});
   if (pairs_.size() > static_cast<size_t>(kWindowPairs)) pairs_.pop_front();
 }
 
@@ -47,9 +51,23 @@ double StereoRigCheck::medianRowOffsetPx() const {
   return offsets.empty() ? 0.0 : upperMedian(&offsets);
 }
 
+double StereoRigCheck::medianDisparityOffsetPx() const {
+  std::vector<float> offsets;
+  for (const Pair& pair : pairs_) {
+    if (std::isfinite(pair.disparity_offset_px)) offsets.push_back(pair.disparity_offset_px);
+  }
+  return offsets.empty() ? 0.0 : upperMedian(&offsets);
+}
+
+int StereoRigCheck::disparityOffsetPairs() const {
+  return static_cast<int>(std::count_if(pairs_.begin(), pairs_.end(), [](const Pair& pair) {
+    return std::isfinite(pair.disparity_offset_px);
+  }));
+}
+
 std::string StereoRigCheck::hint() const {
   if (matchesHeld() < kMinMatches) return "";
-  char text[400];
+  char text[640];
   if (rowFailedFraction() > 0.5) {
     std::snprintf(text, sizeof(text),
                   "%.0f %% of the left-right matches lie further apart in rows than "
@@ -63,6 +81,19 @@ std::string StereoRigCheck::hint() const {
                   "%.0f %% of the left-right matches have negative disparity (the right image's "
                   "point right of the left one's): are the left and right images swapped?",
                   100.0 * negativeDisparityFraction());
+    return text;
+  }
+  if (disparityOffsetPairs() >= kMinOffsetPairs &&
+      std::abs(medianDisparityOffsetPx()) > kOffsetHintPx) {
+    std::snprintf(
+        text, sizeof(text),
+        "the tracks' motion fits best with every measured disparity %.2f px %s the "
+        "true one (median over %d pairs): the rectification or the right camera's principal "
+        "point (cx in P of its camera_info) disagrees with its images, and every stereo depth "
+        "is too %s. Recalibrate the rig, or set intrinsic/estimate_disparity_offset: "
+        "true in the estimator's configuration",
+        std::abs(medianDisparityOffsetPx()), medianDisparityOffsetPx() < 0 ? "below" : "above",
+        disparityOffsetPairs(), medianDisparityOffsetPx() < 0 ? "large" : "small");
     return text;
   }
   return "";

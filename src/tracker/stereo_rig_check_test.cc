@@ -64,5 +64,42 @@ TEST(StereoRigCheck, OnlyTheLastPairsCount) {
   EXPECT_NEAR(check.rowFailedFraction(), 0.01, 1e-12);
 }
 
+TrackerFrameStats offsetPair(float offset_px, float sigma_px) {
+  TrackerFrameStats stats = pair(300, 12, 3, 0.05f);
+  stats.disparity_offset_px = offset_px;
+  stats.disparity_offset_sigma_px = sigma_px;
+  return stats;
+}
+
+TEST(StereoRigCheck, ADisparityOffsetAsksForTheRightCamerasCalibration) {
+  StereoRigCheck check(1.0);
+  for (int k = 0; k < StereoRigCheck::kMinOffsetPairs - 1; ++k) {
+    check.add(offsetPair(k % 2 ? -1.1f : -1.2f, 0.04f));
+  }
+  EXPECT_EQ(check.hint(), "");  // too few pairs yet
+  check.add(offsetPair(-1.3f, 0.04f));
+  EXPECT_NEAR(check.medianDisparityOffsetPx(), -1.2, 1e-6);
+  const std::string hint = check.hint();
+  EXPECT_NE(hint.find("1.20 px below the true one (median over 10 pairs)"), std::string::npos)
+      << hint;
+  EXPECT_NE(hint.find("too large"), std::string::npos) << hint;
+  EXPECT_NE(hint.find("estimate_disparity_offset"), std::string::npos) << hint;
+}
+
+TEST(StereoRigCheck, OffsetsWithinHalfAPixelOrNotToldApartGiveNoHint) {
+  StereoRigCheck check(1.0);
+  // An ordinary rig: 0.2-0.4 px.
+  for (int k = 0; k < 20; ++k) check.add(offsetPair(-0.2f - 0.01f * k, 0.04f));
+  EXPECT_EQ(check.hint(), "");
+  // Pairs at rest: their fits tell nothing (large errors) and are left out.
+  for (int k = 0; k < 20; ++k) check.add(offsetPair(-200.f, 80.f));
+  EXPECT_EQ(check.disparityOffsetPairs(), 20);
+  EXPECT_EQ(check.hint(), "");
+  // A positive offset (depths too small) past the limit.
+  for (int k = 0; k < 30; ++k) check.add(offsetPair(0.8f, 0.05f));
+  EXPECT_NE(check.hint().find("0.80 px above"), std::string::npos) << check.hint();
+  EXPECT_NE(check.hint().find("too small"), std::string::npos) << check.hint();
+}
+
 }  // namespace
 }  // namespace ekf_vislam

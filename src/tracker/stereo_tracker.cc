@@ -1,6 +1,7 @@
 #include "ekf_vislam/tracker/stereo_tracker.h"
 
 #include "ekf_vislam/core/median.h"
+#include "ekf_vislam/tracker/disparity_offset_fit.h"
 #include "ekf_vislam/tracker/exposure_compensation.h"
 #include "ekf_vislam/tracker/klt_back_check.h"
 #include "ekf_vislam/tracker/motion_check.h"
@@ -407,7 +408,10 @@ std::vector<float> StereoTracker::checkMotion(const std::vector<cv::Point2f>& pr
       checkTemporalMatches(prev_points, prev, cur, calibration_, options_);
   has_last_motion_ = check.has_motion;
   stats->motion_estimated = check.has_motion;
-  if (check.has_motion) last_motion_ = motionPriorOf(check);
+  if (check.has_motion) {
+    last_motion_ = motionPriorOf(check);
+    fitRigDisparityOffset(cur, check, stats);
+  }
   const CameraMotionPrior& motion = check.has_motion ? last_motion_ : prediction;
   std::vector<float> predicted_disparity(tracks_.size());
   for (size_t i = 0; i < tracks_.size(); ++i) {
@@ -432,6 +436,24 @@ std::vector<float> StereoTracker::checkMotion(const std::vector<cv::Point2f>& pr
   keepSelected(check.inlier, &predicted_disparity);
   stats->ms_ransac = msSince(t);
   return predicted_disparity;
+}
+
+void StereoTracker::fitRigDisparityOffset(const std::vector<cv::Point2f>& cur,
+                                          const MotionCheckResult& check,
+                                          TrackerFrameStats* stats) const {
+  std::vector<DisparityOffsetMatch> matches;
+  matches.reserve(tracks_.size());
+  for (size_t i = 0; i < tracks_.size(); ++i) {
+    const Track& track = tracks_[i];
+    // The previous pixel as pointOf places it: the mean of both images' rows.
+    matches.push_back({cv::Point2f(track.left.x, 0.5f * (track.left.y + track.right.y)),
+                       track.left.x - track.right.x, cur[i]});
+  }
+  const DisparityOffsetFit fit = fitDisparityOffset(matches, check.cur_R_prev, check.cur_t_prev,
+                                                    calibration_, options_.ransac_threshold_px);
+  if (!fit.fitted) return;
+  stats->disparity_offset_px = static_cast<float>(fit.offset_px);
+  stats->disparity_offset_sigma_px = static_cast<float>(fit.offset_sigma_px);
 }
 
 void StereoTracker::endCrowdedTracks(std::vector<float>* predicted_disparity,

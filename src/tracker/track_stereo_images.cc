@@ -238,7 +238,9 @@ bool writeStats(const std::string& path, const std::vector<StereoFrame>& frames,
          "disparity_rejected,detected,new_tracks,published,motion_estimated,ms_pyramids,"
          "ms_temporal,ms_ransac,ms_stereo,ms_detect,ms_total,refined,refine_failed,ms_refine,"
          "exposure_gain_temporal,exposure_gain_stereo,stereo_converged,stereo_row_failed,"
-         "stereo_negative_disparity,stereo_row_offset_px,predicted_from_first_matches,crowded\n";
+         "stereo_negative_disparity,stereo_row_offset_px,predicted_from_first_matches,crowded,"
+         "disparity_offset_px,"
+         "disparity_offset_sigma_px\n";
   out.precision(10);
   for (size_t k = 0; k < frames.size(); ++k) {
     const TrackerFrameStats& s = frames[k].stats;
@@ -251,7 +253,7 @@ bool writeStats(const std::string& path, const std::vector<StereoFrame>& frames,
         << s.exposure_gain_temporal << "," << s.exposure_gain_stereo << "," << s.stereo_converged
         << "," << s.stereo_row_failed << "," << s.stereo_negative_disparity << ","
         << s.stereo_row_offset_px << "," << s.predicted_from_first_matches << "," << s.crowded
-        << "\n";
+        << "," << s.disparity_offset_px << "," << s.disparity_offset_sigma_px << "\n";
   }
   if (!out) *error = path + ": cannot write";
   return static_cast<bool>(out);
@@ -272,16 +274,20 @@ PoseTwist poseTwist(const Arguments& args, const KittiSequence& sequence,
   return result;
 }
 
-// The stereo rig check (stereo_rig_check.h) over the run: its first hint, on stderr.
-void warnAboutTheRig(const std::vector<StereoFrame>& frames, const TrackerOptions& options) {
+// The stereo rig check (stereo_rig_check.h) over the run: its first hint, on stderr. Returns the
+// check as it stands after the last pair.
+StereoRigCheck checkTheRig(const std::vector<StereoFrame>& frames, const TrackerOptions& options) {
   StereoRigCheck check(options.row_tolerance_px);
+  bool warned = false;
   for (size_t k = 0; k < frames.size(); ++k) {
     check.add(frames[k].stats);
+    if (warned) continue;
     const std::string hint = check.hint();
     if (hint.empty()) continue;
     std::cerr << "track_stereo_images: warning from frame " << k << ": " << hint << "\n";
-    return;
+    warned = true;
   }
+  return check;
 }
 
 int run(int argc, char** argv) {
@@ -343,7 +349,7 @@ int run(int argc, char** argv) {
     }
     frames.push_back(std::move(frame));
   }
-  warnAboutTheRig(frames, options);
+  const StereoRigCheck rig_check = checkTheRig(frames, options);
   if (!writeDataset(args, sequence, frames, pose_twist, image_size, &error) ||
       (!args.stats.empty() && !writeStats(args.stats, frames, &error))) {
     std::cerr << "track_stereo_images: " << error << "\n";
@@ -354,6 +360,12 @@ int run(int argc, char** argv) {
         "track_stereo_images: %zu frames -> %s; tracker ms per frame: median %.2f, p99 "
         "%.2f, max %.2f\n",
         T, args.out.c_str(), ms.percentile(0.5), ms.percentile(0.99), ms.max());
+    std::printf(
+        "stereo rig, last %d pairs: disparity offset %.3f px (median of %d fits), row offset "
+        "%.3f px\n",
+        std::min<int>(static_cast<int>(T), StereoRigCheck::kWindowPairs),
+        rig_check.medianDisparityOffsetPx(), rig_check.disparityOffsetPairs(),
+        rig_check.medianRowOffsetPx());
     if (!sequence.world_T_cam.empty()) {
       std::vector<Eigen::Matrix4d> poses(sequence.world_T_cam.begin(),
                                          sequence.world_T_cam.begin() + T);

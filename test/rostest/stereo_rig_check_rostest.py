@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """rostest of the tracker's stereo rig check (see stereo_rig_check.test): a short rendered drive
-played into a tracker that gets its images as recorded and one that gets them swapped; only the
-second's diagnostics name the swap."""
+played into a tracker that gets its images as recorded, one that gets them swapped and one that
+gets its right images moved by a pixel; only the second's diagnostics name the swap, only the
+third's the disparity offset."""
 import os
 import shutil
 import sys
@@ -9,19 +10,38 @@ import tempfile
 import threading
 import unittest
 
+import rosbag
+import rospkg
 import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticStatus
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import (NewestStatuses, log, rendered_drive_bag,  # noqa: E402
-                            stereo_inputs_required)
+from vislam_rostest import (STEREO_INPUTS, NewestStatuses, log,  # noqa: E402
+                            rendered_drive_bag, run, stereo_inputs_required)
 
 from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
 
 PKG = 'ekf_vislam'
 FRAMES = 20
 PLAY_RATE = 1.0
+RIGHT_SHIFT_PX = 1.0
+OFFSET_NS = '/offset'
+
+
+def shifted_bag(tmp):
+    """The rendered drive in TMP/drive with its right images moved RIGHT_SHIFT_PX to the right
+    (image_variant.py), as a bag whose stereo topics lie under OFFSET_NS: TMP/offset.bag."""
+    scripts = os.path.join(rospkg.RosPack().get_path(PKG), 'scripts')
+    folder = os.path.join(tmp, 'shifted')
+    bag, renamed = os.path.join(tmp, 'shifted.bag'), os.path.join(tmp, 'offset.bag')
+    run(['/usr/bin/python3', os.path.join(scripts, 'image_variant.py'),
+         os.path.join(tmp, 'drive'), folder, '--right-shift', str(RIGHT_SHIFT_PX)])
+    run(['/usr/bin/python3', os.path.join(scripts, 'play_stereo_images.py'), folder, '--bag', bag])
+    with rosbag.Bag(bag) as source, rosbag.Bag(renamed, 'w') as out:
+        for topic, msg, stamp in source.read_messages(topics=list(STEREO_INPUTS)):
+            out.write(OFFSET_NS + topic, msg, stamp)
+    return renamed
 
 
 class StereoRigCheckTest(NewestStatuses, unittest.TestCase):
@@ -31,16 +51,21 @@ class StereoRigCheckTest(NewestStatuses, unittest.TestCase):
         rospy.init_node('stereo_rig_check_rostest', anonymous=True)
         cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_rig_check_')
         bag = rendered_drive_bag(cls.tmp, FRAMES)
+        offset_bag = shifted_bag(cls.tmp)
         cls.lock = threading.Lock()
         cls.listen_to_diagnostics()
         required = stereo_inputs_required(('/tracker_as_recorded', '/swapped/tracker_swapped'))
-        play_bag(bag, '/stereo_rig_check_player', PLAY_RATE, required)
+        required.update({OFFSET_NS + topic: (OFFSET_NS + '/tracker_offset',)
+                         for topic in STEREO_INPUTS})
+        # Both bags in one player: one clock, their messages in the order of their times.
+        play_bag(bag, '/stereo_rig_check_player', PLAY_RATE, required, extra_args=[offset_bag])
 
         def tracked_everything():
             return all(int(cls.values(name).get('pairs_tracked', 0)) >= FRAMES - 1
-                       for name in ('tracker_as_recorded', 'tracker_swapped'))
+                       for name in ('tracker_as_recorded', 'tracker_swapped', 'tracker_offset'))
         wait_until(tracked_everything, 30.0)
         wait_until(lambda: 'swapped' in cls.message('tracker_swapped'), 5.0)
+        wait_until(lambda: 'disparity' in cls.message('tracker_offset'), 5.0)
 
     @classmethod
     def status(cls, name_part):
@@ -73,6 +98,20 @@ class StereoRigCheckTest(NewestStatuses, unittest.TestCase):
         self.assertLess(float(recorded['stereo_negative_disparity_fraction']), 0.05)
         self.assertLess(float(recorded['stereo_row_failed_fraction']), 0.1)
         self.assertLess(abs(float(recorded['stereo_row_offset_px'])), 0.2)
+
+    def test_a_disparity_offset_is_named(self):
+        offset, recorded = self.values('tracker_offset'), self.values('tracker_as_recorded')
+        log('offset: "%s" %s; as recorded: %s' % (
+            self.message('tracker_offset'),
+            {k: v for k, v in offset.items() if k.startswith('disparity_offset')},
+            {k: v for k, v in recorded.items() if k.startswith('disparity_offset')}))
+        self.assertEqual(self.status('tracker_offset').level, DiagnosticStatus.WARN)
+        self.assertIn('px below the true one', self.message('tracker_offset'))
+        self.assertIn('estimate_disparity_offset', self.message('tracker_offset'))
+        self.assertGreaterEqual(int(offset['disparity_offset_pairs']), 10)
+        self.assertAlmostEqual(float(offset['disparity_offset_px']), -RIGHT_SHIFT_PX, delta=0.15)
+        self.assertGreaterEqual(int(recorded['disparity_offset_pairs']), 10)
+        self.assertLess(abs(float(recorded['disparity_offset_px'])), 0.15)
 
 
 if __name__ == '__main__':

@@ -1,7 +1,9 @@
-// A check of the stereo rig from the tracker's own left-right matches: images that are not
-// rectified (left and right rows apart) or swapped (the right image's points right of the left
-// one's) show in every pair long before the estimator's figures go wrong. Reads the figures of
-// TrackerFrameStats over the last pairs and says what to check. No ROS.
+// A check of the stereo rig from the tracker's own matches: images that are not rectified (left
+// and right rows apart), swapped (the right image's points right of the left one's), or whose
+// disparities are all off by the same amount (a right camera's cx or rectification that
+// disagrees with the images: disparity_offset_fit.h) show in every pair long before the
+// estimator's figures go wrong. Reads the figures of TrackerFrameStats over the last pairs and
+// says what to check. No ROS.
 #pragma once
 
 #include "ekf_vislam/tracker/tracker_types.h"
@@ -29,21 +31,32 @@ class StereoRigCheck {
   double negativeDisparityFraction() const;
   double medianRowOffsetPx() const;
   int matchesHeld() const;
+  /// The median of the held pairs' fitted disparity offsets (measured minus true, px), of those
+  /// fitted within kMaxOffsetSigmaPx (pairs that move forward); 0 without one. And their count.
+  double medianDisparityOffsetPx() const;
+  int disparityOffsetPairs() const;
 
   /// What to check, or "" when the rig looks right or too few matches are held
   /// (kMinMatches): more than half of the matches off their row, or more than half of those on
-  /// their row with negative disparity.
+  /// their row with negative disparity; else, with at least kMinOffsetPairs offsets held, a
+  /// median disparity offset beyond kOffsetHintPx.
   std::string hint() const;
 
   static constexpr int kWindowPairs = 50;
   static constexpr int kMinMatches = 200;
+  static constexpr double kMaxOffsetSigmaPx = 0.2;
+  static constexpr int kMinOffsetPairs = 10;
+  /// Half a pixel: 5 % of the depth at 10 px of disparity (39 m on KITTI's rig). Rigs whose
+  /// images agree with their calibration read 0.4 px at most (doc/tracker.md).
+  static constexpr double kOffsetHintPx = 0.5;
 
  private:
   struct Pair {
     int converged = 0;
     int row_failed = 0;
     int negative_disparity = 0;
-    float row_offset_px = 0;  // NaN without a match
+    float row_offset_px = 0;        // NaN without a match
+    float disparity_offset_px = 0;  // NaN without a fit within kMaxOffsetSigmaPx
   };
   double row_tolerance_px_;
   std::deque<Pair> pairs_;

@@ -6,6 +6,7 @@
 #include "ekf_vislam/tracker/exposure_compensation.h"
 #include "ekf_vislam/tracker/feature_detector.h"
 #include "ekf_vislam/tracker/image_mask.h"
+#include "ekf_vislam/tracker/motion_check.h"
 #include "ekf_vislam/tracker/patch_refiner.h"
 #include "ekf_vislam/tracker/stereo_matcher.h"
 #include "ekf_vislam/tracker/tracker_options.h"
@@ -102,6 +103,10 @@ class StereoTracker {
   std::vector<float> checkMotion(const std::vector<cv::Point2f>& prev,
                                  const std::vector<cv::Point2f>& cur,
                                  const CameraMotionPrior& prediction, TrackerFrameStats* stats);
+  // The rig's disparity offset fitted with the motion the check found (disparity_offset_fit.h),
+  // from every track's previous stereo match and `cur`, into *stats.
+  void fitRigDisparityOffset(const std::vector<cv::Point2f>& cur, const MotionCheckResult& check,
+                             TrackerFrameStats* stats) const;
   // Ends each track that has come within half of detector/min_feature_distance of an older one
   // (the tracks are kept oldest first), with its predicted disparity.
   void endCrowdedTracks(std::vector<float>* predicted_disparity, TrackerFrameStats* stats);

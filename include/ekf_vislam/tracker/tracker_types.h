@@ -51,7 +51,11 @@ struct TrackerFrameStats {
   int stereo_row_failed = 0;          ///< of them, rows further apart than stereo/row_tolerance_px
   int stereo_negative_disparity = 0;  ///< of them, the right point right of the left one
   float stereo_row_offset_px = std::numeric_limits<float>::quiet_NaN();  ///< median v_R - v_L
-  int detected = 0;                                                      ///< new corners found
+  /// The disparity offset (measured minus true, px) and its standard error fitted with this
+  /// pair's motion (disparity_offset_fit.h), for the rig check; NaN without a fit.
+  float disparity_offset_px = std::numeric_limits<float>::quiet_NaN();
+  float disparity_offset_sigma_px = std::numeric_limits<float>::quiet_NaN();
+  int detected = 0;               ///< new corners found
   int new_tracks = 0;             ///< of them, matched in the right image (new ids)
   int published = 0;              ///< features of the frame
   int refined = 0;                ///< tracks aligned to their reference patch (refine/enabled)

@@ -1,6 +1,7 @@
 #include "ekf_vislam/ros/stereo_tracker_ros.h"
 
 #include "ekf_vislam/core/late_stream_wait.h"
+#include "ekf_vislam/ros/conversions.h"
 #include "ekf_vislam/ros/gray_image.h"
 #include "ekf_vislam/ros/ros_parameter_source.h"
 #include "ekf_vislam/tracker/debug_drawing.h"
@@ -300,23 +301,21 @@ bool StereoTrackerRos::calibrationFor(const sensor_msgs::Image& left, RectifiedS
     *why = kNoCameraInfo;
     return false;
   }
-  const auto& pl = left_info_->P;
-  const auto& pr = right_info_->P;
-  RectifiedStereo s;
-  s.fx = pl[0];
-  s.cx = pl[2];
-  s.fy = pl[5];
-  s.cy = pl[6];
-  // Rectified right camera: P[0,3] = -fx * baseline.
-  s.baseline = pr[0] > 0 ? -pr[3] / pr[0] : 0.0;
-  if (!s.valid() || !std::isfinite(s.baseline) || std::abs(pr[0] - pl[0]) > 1e-3 * pl[0] ||
-      std::abs(pr[2] - pl[2]) > 1.0 || std::abs(pr[6] - pl[6]) > 1.0) {
+  // The estimator's rule (calibrationFromCameraInfo): a rectified pair, equal intrinsics.
+  StereoCalibration calibration;
+  std::string error;
+  if (!ros_conversions::calibrationFromCameraInfo(*left_info_, *right_info_, &calibration,
+                                                  &error)) {
     ++bad_camera_info_;
-    *why =
-        "camera_info is not a rectified pair (P: fx, fy > 0, equal in both, right P[0,3] = "
-        "-fx * baseline < 0)";
+    *why = "camera_info refused: " + error;
     return false;
   }
+  RectifiedStereo s;
+  s.fx = calibration.fx;
+  s.fy = calibration.fy;
+  s.cx = calibration.cx;
+  s.cy = calibration.cy;
+  s.baseline = calibration.baseline;
   if ((left_info_->width != 0 && left_info_->width != left.width) ||
       (left_info_->height != 0 && left_info_->height != left.height)) {
     ++size_mismatch_;

@@ -16,7 +16,7 @@ import numpy as np
 import rospy
 import rostest
 from nav_msgs.msg import Odometry
-from sensor_msgs.msg import Image
+from sensor_msgs.msg import CameraInfo, Image
 
 from ekf_vislam.msg import StereoFeatureArray
 
@@ -212,6 +212,33 @@ class StereoTrackerPipelineTest(NewestStatuses, unittest.TestCase):
         self.assertEqual(status.level, 2)  # ERROR: nothing can be tracked
         self.assertEqual(values['pairs_tracked'], '0')
         self.assertEqual(values['pairs_waiting'], '3')
+
+    def test_04b_unrectified_camera_info_is_refused(self):
+        # Then the second tracker gets a camera_info pair whose principal points differ by half a
+        # pixel (not a rectified pair, which the estimator refuses too): its 3 waiting pairs are
+        # refused and counted, and none is tracked.
+        infos = []
+        for side, cx in (('left', 320.0), ('right', 320.5)):
+            info = CameraInfo()
+            info.header.frame_id = 'camera_' + side
+            info.width, info.height = 640, 192
+            tx = -300.0 * 0.5 if side == 'right' else 0.0
+            info.P = [300.0, 0.0, cx, tx, 0.0, 300.0, 96.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+            publisher = rospy.Publisher('/nocalib/stereo/%s/camera_info' % side, CameraInfo,
+                                        queue_size=1, latch=True)
+            infos.append(publisher)
+            publisher.publish(info)
+
+        def refused():
+            return int(self.latest_status('without_camera_info')[1].get('bad_camera_info', 0)) >= 3
+        ok = wait_until(refused, 10.0)
+        status, values = self.latest_status('without_camera_info')
+        log('tracker with a camera_info pair not rectified: %s, %s' % (
+            status.message if status else None, values))
+        self.assertTrue(ok)
+        self.assertEqual(values['pairs_tracked'], '0')
+        self.assertEqual(values['pairs_waiting'], '0')
+        self.assertEqual(status.level, 2)  # ERROR: no pair tracked
 
     def test_05_bag_played_again_restarts_both(self):
         """Time goes back to the start of the drive (and from test_03's stamps): tracker and

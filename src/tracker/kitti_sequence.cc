@@ -1,5 +1,7 @@
 #include "ekf_vislam/tracker/kitti_sequence.h"
 
+#include "ekf_vislam/core/calibration_builder.h"
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -81,15 +83,21 @@ bool readKittiCalibration(const std::string& path, RectifiedStereo* calibration,
     *error = path + ": needs two 3x4 projection matrices P0 and P1 (12 numbers each)";
     return false;
   }
-  calibration->fx = p0[0];
-  calibration->cx = p0[2];
-  calibration->fy = p0[5];
-  calibration->cy = p0[6];
-  calibration->baseline = calibration->fx > 0 ? (p0[3] - p1[3]) / calibration->fx : 0.0;
-  if (!calibration->valid()) {
-    *error = path + ": fx, fy and the baseline (P0[0,3] - P1[0,3]) / fx must be positive";
+  // The estimator's rule (stereoIntrinsicsFromProjections): a rectified pair, equal intrinsics;
+  // P1's translation taken relative to P0's.
+  const PinholeProjection left{p0[0], p0[5], p0[2], p0[6], 0.0};
+  const PinholeProjection right{p1[0], p1[5], p1[2], p1[6], p1[3] - p0[3]};
+  StereoCalibration stereo;
+  std::string why;
+  if (!stereoIntrinsicsFromProjections(left, right, &stereo, &why)) {
+    *error = path + ": P0 and P1: " + why;
     return false;
   }
+  calibration->fx = stereo.fx;
+  calibration->cx = stereo.cx;
+  calibration->fy = stereo.fy;
+  calibration->cy = stereo.cy;
+  calibration->baseline = stereo.baseline;
   return true;
 }
 

@@ -281,6 +281,29 @@ class TrackStereoImagesTest(unittest.TestCase):
         np.testing.assert_allclose(slipped_difference[:9], difference[:9])
         self.assertIn('median size', result.stdout)
 
+    def test_a_calibration_that_is_not_rectified_is_refused(self):
+        # P1's principal point half a pixel right of P0's: the estimator's rule refuses it, and
+        # so does the tracker (it used to read P0's alone).
+        folder = os.path.join(self.tmp, 'unrectified')
+        os.makedirs(folder, exist_ok=True)
+        for name in ('image_left', 'image_right', 'times.txt'):
+            target = os.path.join(folder, name)
+            if not os.path.exists(target):
+                os.symlink(os.path.join(self.folder, name), target)
+        with open(os.path.join(self.folder, 'calib.txt')) as f:
+            lines = f.read().splitlines()
+        p1 = lines[1].split()
+        p1[3] = repr(float(p1[3]) + 0.5)  # P1[0,2]: label, then the row-major numbers
+        lines[1] = ' '.join(p1)
+        with open(os.path.join(folder, 'calib.txt'), 'w') as f:
+            f.write('\n'.join(lines) + '\n')
+        result = subprocess.run(track_args(folder, os.path.join(self.tmp, 'unrectified.npz')),
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                universal_newlines=True)
+        self.assertEqual(result.returncode, 2, result.stdout)
+        self.assertIn('P0 and P1', result.stderr)
+        self.assertIn('rectified', result.stderr)
+
     def test_bag_of_images(self):
         bag = os.path.join(self.tmp, 'drive.bag')
         result = paths.run_script('play_stereo_images.py', self.folder, '--bag', bag)

@@ -5,6 +5,7 @@
 #include "ekf_vislam/ros/gray_image.h"
 #include "ekf_vislam/ros/ros_parameter_source.h"
 #include "ekf_vislam/tracker/debug_drawing.h"
+#include "ekf_vislam/tracker/rectified_stereo.h"
 
 #include <cv_bridge/cv_bridge.h>
 #include <ekf_vislam/StereoFeatureArray.h>
@@ -310,12 +311,7 @@ bool StereoTrackerRos::calibrationFor(const sensor_msgs::Image& left, RectifiedS
     *why = "camera_info refused: " + error;
     return false;
   }
-  RectifiedStereo s;
-  s.fx = calibration.fx;
-  s.fy = calibration.fy;
-  s.cx = calibration.cx;
-  s.cy = calibration.cy;
-  s.baseline = calibration.baseline;
+  const RectifiedStereo s = rectifiedStereoOf(calibration);
   if ((left_info_->width != 0 && left_info_->width != left.width) ||
       (left_info_->height != 0 && left_info_->height != left.height)) {
     ++size_mismatch_;

@@ -1,6 +1,7 @@
 #include "ekf_vislam/tracker/kitti_sequence.h"
 
 #include "ekf_vislam/core/calibration_builder.h"
+#include "ekf_vislam/tracker/rectified_stereo.h"
 
 #include <algorithm>
 #include <cmath>
@@ -93,11 +94,7 @@ bool readKittiCalibration(const std::string& path, RectifiedStereo* calibration,
     *error = path + ": P0 and P1: " + why;
     return false;
   }
-  calibration->fx = stereo.fx;
-  calibration->cx = stereo.cx;
-  calibration->fy = stereo.fy;
-  calibration->cy = stereo.cy;
-  calibration->baseline = stereo.baseline;
+  *calibration = rectifiedStereoOf(stereo);
   return true;
 }
 

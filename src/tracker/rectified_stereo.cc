@@ -2,6 +2,16 @@
 
 namespace ekf_vislam {
 
+RectifiedStereo rectifiedStereoOf(const StereoCalibration& calibration) {
+  RectifiedStereo stereo;
+  stereo.fx = calibration.fx;
+  stereo.fy = calibration.fy;
+  stereo.cx = calibration.cx;
+  stereo.cy = calibration.cy;
+  stereo.baseline = calibration.baseline;
+  return stereo;
+}
+
 Eigen::Vector3d normalized(const RectifiedStereo& calibration, const cv::Point2f& pixel) {
   return Eigen::Vector3d((pixel.x - calibration.cx) / calibration.fx,
                          (pixel.y - calibration.cy) / calibration.fy, 1.0);

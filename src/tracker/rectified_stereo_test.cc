@@ -124,5 +124,20 @@ TEST(RectifiedStereo, NormalizedIsThePixelsRayAtUnitDepth) {
   }
 }
 
+TEST(RectifiedStereo, TakesTheEstimatorsCalibration) {
+  StereoCalibration calibration;
+  calibration.fx = 718.856;
+  calibration.fy = 718.5;
+  calibration.cx = 607.1928;
+  calibration.cy = 185.2157;
+  calibration.baseline = 0.5372;
+  const RectifiedStereo stereo = rectifiedStereoOf(calibration);
+  EXPECT_EQ(stereo.fx, 718.856);
+  EXPECT_EQ(stereo.fy, 718.5);
+  EXPECT_EQ(stereo.cx, 607.1928);
+  EXPECT_EQ(stereo.cy, 185.2157);
+  EXPECT_EQ(stereo.baseline, 0.5372);
+}
+
 }  // namespace
 }  // namespace ekf_vislam

@@ -3,6 +3,7 @@
 // camera frame (x right, y down, z forward, m); pixels in the rectified left image. No ROS.
 #pragma once
 
+#include "ekf_vislam/core/types.h"
 #include "ekf_vislam/tracker/tracker_types.h"
 
 #include <Eigen/Core>
@@ -11,6 +12,10 @@
 #include <optional>
 
 namespace ekf_vislam {
+
+/// The tracker's view of the estimator's stereo calibration (fx, fy, cx, cy, baseline), e.g. one
+/// built by stereoIntrinsicsFromProjections from camera_info or calib.txt.
+RectifiedStereo rectifiedStereoOf(const StereoCalibration& calibration);
 
 /// The ray of a left-image pixel at unit depth: ((u - cx) / fx, (v - cy) / fy, 1).
 Eigen::Vector3d normalized(const RectifiedStereo& calibration, const cv::Point2f& pixel);

@@ -239,8 +239,7 @@ bool writeStats(const std::string& path, const std::vector<StereoFrame>& frames,
          "ms_temporal,ms_ransac,ms_stereo,ms_detect,ms_total,refined,refine_failed,ms_refine,"
          "exposure_gain_temporal,exposure_gain_stereo,stereo_converged,stereo_row_failed,"
          "stereo_negative_disparity,stereo_row_offset_px,predicted_from_first_matches,crowded,"
-         "disparity_offset_px,"
-         "disparity_offset_sigma_px\n";
+         "disparity_offset_px,disparity_offset_sigma_px\n";
   out.precision(10);
   for (size_t k = 0; k < frames.size(); ++k) {
     const TrackerFrameStats& s = frames[k].stats;
@@ -361,7 +360,7 @@ int run(int argc, char** argv) {
         "%.2f, max %.2f\n",
         T, args.out.c_str(), ms.percentile(0.5), ms.percentile(0.99), ms.max());
     std::printf(
-        "stereo rig, last %d pairs: disparity offset %.3f px (median of %d fits), row offset "
+        "stereo rig, last %d frames: disparity offset %.3f px (median of %d fits), row offset "
         "%.3f px\n",
         std::min<int>(static_cast<int>(T), StereoRigCheck::kWindowPairs),
         rig_check.medianDisparityOffsetPx(), rig_check.disparityOffsetPairs(),

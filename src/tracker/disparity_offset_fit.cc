@@ -102,16 +102,17 @@ DisparityOffsetFit fitDisparityOffset(const std::vector<DisparityOffsetMatch>& m
   DisparityOffsetFit result;
   Parameters x{cur_R_prev, cur_t_prev, 0.0};
   std::vector<int> chosen;
-  for (int round = 0; round < kMaxRounds; ++round) {
+  // After the last round the set is chosen once more, for the fitted motion and offset: the
+  // round that finds it unchanged has chosen it already.
+  for (int round = 0; round <= kMaxRounds; ++round) {
     std::vector<int> next = chooseMatches(x, matches, calibration, threshold_px);
     if (static_cast<int>(next.size()) < kMinInliers) return result;
-    if (next == chosen) break;
+    const bool unchanged = next == chosen;
     chosen = std::move(next);
+    if (unchanged || round == kMaxRounds) break;
     gaussNewton(matches, chosen, calibration, &x);
   }
-  chosen = chooseMatches(x, matches, calibration, threshold_px);
   const int n = static_cast<int>(chosen.size());
-  if (n < kMinInliers) return result;
   Matrix7d normal;
   Vector7d gradient;
   double cost;

@@ -43,20 +43,18 @@ double StereoRigCheck::negativeDisparityFraction() const {
   return on_row > 0 ? static_cast<double>(negative) / on_row : 0.0;
 }
 
-double StereoRigCheck::medianRowOffsetPx() const {
-  std::vector<float> offsets;
+double StereoRigCheck::medianOfFinite(float Pair::*figure) const {
+  std::vector<float> values;
   for (const Pair& pair : pairs_) {
-    if (std::isfinite(pair.row_offset_px)) offsets.push_back(pair.row_offset_px);
+    if (std::isfinite(pair.*figure)) values.push_back(pair.*figure);
   }
-  return offsets.empty() ? 0.0 : upperMedian(&offsets);
+  return values.empty() ? 0.0 : upperMedian(&values);
 }
 
+double StereoRigCheck::medianRowOffsetPx() const { return medianOfFinite(&Pair::row_offset_px); }
+
 double StereoRigCheck::medianDisparityOffsetPx() const {
-  std::vector<float> offsets;
-  for (const Pair& pair : pairs_) {
-    if (std::isfinite(pair.disparity_offset_px)) offsets.push_back(pair.disparity_offset_px);
-  }
-  return offsets.empty() ? 0.0 : upperMedian(&offsets);
+  return medianOfFinite(&Pair::disparity_offset_px);
 }
 
 int StereoRigCheck::disparityOffsetPairs() const {

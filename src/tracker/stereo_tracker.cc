@@ -115,6 +115,12 @@ TemporalKltResult temporalKlt(const std::vector<cv::Mat>& prev_pyramid,
   return result;
 }
 
+// Where a track's stereo point is seen: its left column, the mean of both images' rows (half a
+// float sum is exact in float). pointOf and the rig's offset fit both place it there.
+cv::Point2f stereoPixelOf(const cv::Point2f& left, const cv::Point2f& right) {
+  return cv::Point2f(left.x, 0.5f * (left.y + right.y));
+}
+
 // The motion a RANSAC found (check.has_motion), as a prediction of the next start points.
 CameraMotionPrior motionPriorOf(const MotionCheckResult& check) {
   CameraMotionPrior motion;
@@ -146,10 +152,8 @@ void StereoTracker::reset() {
 }
 
 cv::Point3f StereoTracker::pointOf(const Track& track) const {
-  // The row: the mean of both images' rows (half a float sum is exact in float).
-  const cv::Point2f pixel(track.left.x, 0.5f * (track.left.y + track.right.y));
-  const std::optional<Eigen::Vector3d> p_cam =
-      triangulate(calibration_, pixel, track.left.x - track.right.x);
+  const std::optional<Eigen::Vector3d> p_cam = triangulate(
+      calibration_, stereoPixelOf(track.left, track.right), track.left.x - track.right.x);
   if (!p_cam) return cv::Point3f(0, 0, -1);
   return cv::Point3f(static_cast<float>(p_cam->x()), static_cast<float>(p_cam->y()),
                      static_cast<float>(p_cam->z()));
@@ -445,9 +449,8 @@ void StereoTracker::fitRigDisparityOffset(const std::vector<cv::Point2f>& cur,
   matches.reserve(tracks_.size());
   for (size_t i = 0; i < tracks_.size(); ++i) {
     const Track& track = tracks_[i];
-    // The previous pixel as pointOf places it: the mean of both images' rows.
-    matches.push_back({cv::Point2f(track.left.x, 0.5f * (track.left.y + track.right.y)),
-                       track.left.x - track.right.x, cur[i]});
+    matches.push_back(
+        {stereoPixelOf(track.left, track.right), track.left.x - track.right.x, cur[i]});
   }
   const DisparityOffsetFit fit = fitDisparityOffset(matches, check.cur_R_prev, check.cur_t_prev,
                                                     calibration_, options_.ransac_threshold_px);

@@ -58,6 +58,9 @@ class StereoRigCheck {
     float row_offset_px = 0;        // NaN without a match
     float disparity_offset_px = 0;  // NaN without a fit within kMaxOffsetSigmaPx
   };
+  // The upper median of one of the held pairs' figures, NaN ones left out; 0 without any.
+  double medianOfFinite(float Pair::*figure) const;
+
   double row_tolerance_px_;
   std::deque<Pair> pairs_;
 };

@@ -5,7 +5,8 @@ images_end_to_end.sh take the copy as they take the folder. For checking that th
 its settings hold beyond the clips they were measured on.
 
     image_variant.py FOLDER OUT_FOLDER [--step N] [--reverse] [--hold K:N] [--mirror]
-                     [--scale S] [--right-shift DX] [--noise SIGMA] [--seed 0]
+                     [--scale S] [--right-shift DX] [--right-roll DEG] [--noise SIGMA]
+                     [--seed 0]
 
 --step N     every Nth frame only (times kept): a slower frame rate, N times the motion per
              pair (2: KITTI at 5 Hz).
@@ -26,6 +27,11 @@ its settings hold beyond the clips they were measured on.
              from a rig whose right camera's cx disagrees with its images (the tracker's rig
              check reports a disparity offset of -DX). Whole pixels move the image without
              resampling it.
+--right-roll DEG
+             the right image turned DEG degrees clockwise as displayed about the principal point
+             (cv2.warpAffine, bilinear, border reflected), the calibration kept: rows apart by
+             DEG (u - cx) in radians, as from a rig whose rectification leaves the right camera
+             turned about its optical axis (the tracker's rig check reports a roll of DEG).
 --noise S    Gaussian noise of S gray levels added to every pixel, drawn anew for each image
              (--seed), saturated at 0 and 255.
 
@@ -60,12 +66,25 @@ def parse_args(argv):
     p.add_argument('--scale', type=float, default=1.0, help='image scale factor')
     p.add_argument('--right-shift', type=float, default=0.0,
                    help='move the right image right by this many px')
+    p.add_argument('--right-roll', type=float, default=0.0,
+                   help='turn the right image clockwise by this many degrees')
     p.add_argument('--noise', type=float, default=0.0, help='pixel noise std, gray levels')
     p.add_argument('--seed', type=int, default=0)
     return p.parse_args(argv)
 
 
-def variant_image(path, flip, scale, shift, noise, rng):
+def right_image_warp(shift, roll_deg, principal_point):
+    """The 2x3 map of a right image's pixels: turned roll_deg clockwise as displayed about the
+    principal point (x right, y down), then moved shift px right. None for no change."""
+    if shift == 0.0 and roll_deg == 0.0:
+        return None
+    # getRotationMatrix2D turns anticlockwise as displayed for a positive angle.
+    warp = cv2.getRotationMatrix2D(tuple(float(c) for c in principal_point), -roll_deg, 1.0)
+    warp[0, 2] += shift
+    return warp
+
+
+def variant_image(path, flip, scale, warp, noise, rng):
     image = cv2.imread(path, cv2.IMREAD_UNCHANGED)
     if image is None:
         sys.exit('%s: cannot read %s' % (PROG, path))
@@ -75,9 +94,8 @@ def variant_image(path, flip, scale, shift, noise, rng):
         size = (int(round(image.shape[1] * scale)), int(round(image.shape[0] * scale)))
         image = cv2.resize(image, size,
                            interpolation=cv2.INTER_AREA if scale < 1 else cv2.INTER_LINEAR)
-    if shift != 0.0:
-        move = np.float32([[1, 0, shift], [0, 1, 0]])
-        image = cv2.warpAffine(image, move, (image.shape[1], image.shape[0]),
+    if warp is not None:
+        image = cv2.warpAffine(image, warp, (image.shape[1], image.shape[0]),
                                flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
     if noise > 0:
         image = np.clip(image.astype(np.float32) + rng.normal(0.0, noise, image.shape), 0, 255)
@@ -112,10 +130,10 @@ def main(argv):
     rng = np.random.default_rng(args.seed)
     for side in ('image_left', 'image_right'):
         os.makedirs(os.path.join(args.out_folder, side), exist_ok=True)
+    warp = right_image_warp(args.right_shift, args.right_roll, (K[0, 2], K[1, 2]))
     for k, i in enumerate(order):
-        for side, paths, shift in (('image_left', lefts, 0.0),
-                                   ('image_right', rights, args.right_shift)):
-            image = variant_image(paths[i], args.mirror, args.scale, shift, args.noise, rng)
+        for side, paths, side_warp in (('image_left', lefts, None), ('image_right', rights, warp)):
+            image = variant_image(paths[i], args.mirror, args.scale, side_warp, args.noise, rng)
             cv2.imwrite(os.path.join(args.out_folder, side, '%06d.png' % k), image)
     poses = (None if source.world_T_cam is None
              else variant_poses(source.world_T_cam, order, args.mirror, source.b))

@@ -523,6 +523,8 @@ void StereoTrackerRos::fillDiagnostics(uint64_t dropped_from_backlog,
   status.add("stereo_negative_disparity_fraction", rig_check_.negativeDisparityFraction());
   status.add("disparity_offset_px", rig_check_.medianDisparityOffsetPx());
   status.add("disparity_offset_pairs", rig_check_.disparityOffsetPairs());
+  status.add("stereo_roll_deg", rig_check_.medianStereoRollDeg());
+  status.add("stereo_roll_edge_px", rig_check_.medianRollEdgePx());
 }
 
 }  // namespace ekf_vislam

@@ -7,7 +7,9 @@
 // a regression fails. The 06 ground truth disagrees with its images in its first second (frames
 // 0-10, up to 0.17 degrees of yaw per frame); from frame 12 on, the error targets themselves are
 // asserted. The stereo rig check must name the 01 clip's disparity offset (1.18 px by the
-// tracker's fit, 1.39 px by the ground truth) and not the 06 clip's (0.30 px; 0.23).
+// tracker's fit, 1.39 px by the ground truth) and not the 06 clip's (0.30 px; 0.23). It reads
+// the right images' roll against the left ones (the rows' slope across the image; a made roll
+// follows: doc/tracker.md) within bounds of its figures and warns of neither.
 #include "ekf_vislam/core/yaml_parameter_source.h"
 #include "ekf_vislam/tracker/kitti_sequence.h"
 #include "ekf_vislam/tracker/stereo_rig_check.h"
@@ -47,13 +49,18 @@ struct ClipBounds {
                                // 5.54 to 5.47
   bool disparity_offset_hint;  // the rig check's median offset: measured -0.300 px (06), -1.178
                                // (01), -0.288 (06 from frame 12)
+  // The rig check's median roll of the right image, degrees: measured -0.0148 (06), -0.0463
+  // (01; rows 0.51 px apart at the side edge, where 0.75 px warns), -0.0149 (06 from frame 12).
+  // A slope of the published tracks' own rows, fitted apart (without the KLT's other matches),
+  // gives -0.027 and -0.061.
+  double min_roll_deg, max_roll_deg;
 };
 
 const ClipBounds kClips[] = {
-    {"odometry_06_000000-000050", 0, 0.75, 1.35, 3.05, 150, 3.7, false},
-    {"odometry_01_000000-000050", 0, 1.05, 2.00, 4.80, 145, 5.3, true},
+    {"odometry_06_000000-000050", 0, 0.75, 1.35, 3.05, 150, 3.7, false, -0.025, -0.005},
+    {"odometry_01_000000-000050", 0, 1.05, 2.00, 4.80, 145, 5.3, true, -0.056, -0.036},
     // Measured 0.439 / 0.732 / 1.466 px, at least 173 observations, 3.79 frames.
-    {"odometry_06_000000-000050", 12, 0.5, 0.8, 1.5, 150, 3.5, false},
+    {"odometry_06_000000-000050", 12, 0.5, 0.8, 1.5, 150, 3.5, false, -0.025, -0.005},
 };
 
 class KittiClips : public ::testing::TestWithParam<ClipBounds> {};
@@ -100,6 +107,16 @@ TEST_P(KittiClips, TrackQualityAgainstGroundTruth) {
   EXPECT_EQ(std::abs(rig_check.medianDisparityOffsetPx()) > StereoRigCheck::kOffsetHintPx,
             bounds.disparity_offset_hint);
   EXPECT_EQ(rig_check.hint().empty(), !bounds.disparity_offset_hint) << rig_check.hint();
+  std::printf(
+      "right image's roll %.4f degrees (median of %d fits; rows %.2f px apart at the "
+      "side edge)\n",
+      rig_check.medianStereoRollDeg(), rig_check.stereoRollPairs(), rig_check.medianRollEdgePx());
+  EXPECT_EQ(rig_check.stereoRollPairs(),
+            std::min<int>(static_cast<int>(sequence.size()), StereoRigCheck::kWindowPairs));
+  EXPECT_GE(rig_check.medianStereoRollDeg(), bounds.min_roll_deg);
+  EXPECT_LE(rig_check.medianStereoRollDeg(), bounds.max_roll_deg);
+  EXPECT_LT(std::abs(rig_check.medianRollEdgePx()),
+            StereoRigCheck::kRollHintFraction * options.row_tolerance_px);
 }
 
 INSTANTIATE_TEST_SUITE_P(Real, KittiClips, ::testing::ValuesIn(kClips));

@@ -86,6 +86,7 @@ std::vector<cv::Point2f> matchStereo(const std::vector<cv::Mat>& left_pyramid,
       continue;
     }
     counts->row_offsets.push_back(r.y - left[i].y);
+    counts->row_offset_left.push_back(left[i]);
     if (std::abs(r.y - left[i].y) > options.row_tolerance_px) {
       ++counts->row_failed;
     } else if (disparity < options.min_disparity_px || disparity > options.max_disparity_px) {

@@ -13,11 +13,13 @@ namespace ekf_vislam {
 StereoRigCheck::StereoRigCheck(double row_tolerance_px) : row_tolerance_px_(row_tolerance_px) {}
 
 void StereoRigCheck::add(const TrackerFrameStats& stats) {
+  constexpr float kNone = std::numeric_limits<float>::quiet_NaN();
   const bool offset_told = stats.disparity_offset_sigma_px <= kMaxOffsetSigmaPx;
+  const bool roll_told = stats.stereo_roll_sigma_deg <= kMaxRollSigmaDeg;
   pairs_.push_back(
       {stats.stereo_converged, stats.stereo_row_failed, stats.stereo_negative_disparity,
-       stats.stereo_row_offset_px,
-       offset_told ? stats.disparity_offset_px : std::numeric_limits<float>::quiet_NaN()});
+       stats.stereo_row_offset_px, offset_told ? stats.disparity_offset_px : kNone,
+       roll_told ? stats.stereo_roll_deg : kNone, roll_told ? stats.stereo_roll_edge_px : kNone});
   if (pairs_.size() > static_cast<size_t>(kWindowPairs)) pairs_.pop_front();
 }
 
@@ -57,9 +59,17 @@ double StereoRigCheck::medianDisparityOffsetPx() const {
   return medianOfFinite(&Pair::disparity_offset_px);
 }
 
-int StereoRigCheck::disparityOffsetPairs() const {
-  return static_cast<int>(std::count_if(pairs_.begin(), pairs_.end(), [](const Pair& pair) {
-    return std::isfinite(pair.disparity_offset_px);
+int StereoRigCheck::disparityOffsetPairs() const { return countFinite(&Pair::disparity_offset_px); }
+
+double StereoRigCheck::medianStereoRollDeg() const { return medianOfFinite(&Pair::roll_deg); }
+
+double StereoRigCheck::medianRollEdgePx() const { return medianOfFinite(&Pair::roll_edge_px); }
+
+int StereoRigCheck::stereoRollPairs() const { return countFinite(&Pair::roll_deg); }
+
+int StereoRigCheck::countFinite(float Pair::*figure) const {
+  return static_cast<int>(std::count_if(pairs_.begin(), pairs_.end(), [figure](const Pair& pair) {
+    return std::isfinite(pair.*figure);
   }));
 }
 
@@ -92,6 +102,19 @@ std::string StereoRigCheck::hint() const {
         "true in the estimator's configuration",
         std::abs(medianDisparityOffsetPx()), medianDisparityOffsetPx() < 0 ? "below" : "above",
         disparityOffsetPairs(), medianDisparityOffsetPx() < 0 ? "large" : "small");
+    return text;
+  }
+  if (stereoRollPairs() >= kMinRollPairs &&
+      std::abs(medianRollEdgePx()) > kRollHintFraction * row_tolerance_px_) {
+    std::snprintf(
+        text, sizeof(text),
+        "the right image is turned %.3f degrees %s (as displayed) against the left one (median "
+        "over %d pairs): rows at the image's side edge lie %.2f px apart, where matches beyond "
+        "stereo/row_tolerance_px (%.1f px) are lost, and disparities err in proportion to the "
+        "distance from the middle row. The rectification (R and P of the camera_info) does not "
+        "fit the rig: recalibrate it",
+        std::abs(medianStereoRollDeg()), medianStereoRollDeg() > 0 ? "clockwise" : "anticlockwise",
+        stereoRollPairs(), std::abs(medianRollEdgePx()), row_tolerance_px_);
     return text;
   }
   return "";

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 namespace ekf_vislam {
 namespace {
 
@@ -99,6 +101,41 @@ TEST(StereoRigCheck, OffsetsWithinHalfAPixelOrNotToldApartGiveNoHint) {
   for (int k = 0; k < 30; ++k) check.add(offsetPair(0.8f, 0.05f));
   EXPECT_NE(check.hint().find("0.80 px above"), std::string::npos) << check.hint();
   EXPECT_NE(check.hint().find("too small"), std::string::npos) << check.hint();
+}
+
+TrackerFrameStats rollPair(float roll_deg, float sigma_deg, float half_width_px = 620.f) {
+  TrackerFrameStats stats = pair(300, 12, 3, 0.05f);
+  stats.stereo_roll_deg = roll_deg;
+  stats.stereo_roll_sigma_deg = sigma_deg;
+  stats.stereo_roll_edge_px = static_cast<float>(roll_deg * M_PI / 180.0 * half_width_px);
+  return stats;
+}
+
+TEST(StereoRigCheck, ARightImageTurnedAgainstTheLeftAsksForTheRectification) {
+  StereoRigCheck check(1.0);
+  // The KITTI 01 clip's roll (rows 0.51 px apart at the edge, of a 1 px tolerance): no hint.
+  for (int k = 0; k < 20; ++k) check.add(rollPair(-0.046f, 0.003f));
+  EXPECT_NEAR(check.medianStereoRollDeg(), -0.046, 1e-6);
+  EXPECT_EQ(check.stereoRollPairs(), 20);
+  EXPECT_EQ(check.hint(), "");
+  // Turned 0.1 degrees clockwise: rows 1.08 px apart at the edge, beyond 0.75 px.
+  for (int k = 0; k < StereoRigCheck::kWindowPairs; ++k) check.add(rollPair(0.1f, 0.003f));
+  std::string hint = check.hint();
+  EXPECT_NE(hint.find("turned 0.100 degrees clockwise"), std::string::npos) << hint;
+  EXPECT_NE(hint.find("1.08 px apart"), std::string::npos) << hint;
+  // The same angle on an image half as wide stays within the limit (0.54 px).
+  StereoRigCheck narrow(1.0);
+  for (int k = 0; k < 20; ++k) narrow.add(rollPair(0.1f, 0.003f, 310.f));
+  EXPECT_EQ(narrow.hint(), "");
+  // Anticlockwise; frames whose roll is not told (too few matches spread) are left out, and with
+  // fewer than kMinRollPairs told there is no hint.
+  StereoRigCheck other(1.0);
+  for (int k = 0; k < 30; ++k) other.add(rollPair(-0.2f, 0.05f));
+  for (int k = 0; k < StereoRigCheck::kMinRollPairs - 1; ++k) other.add(rollPair(-0.2f, 0.003f));
+  EXPECT_EQ(other.stereoRollPairs(), StereoRigCheck::kMinRollPairs - 1);
+  EXPECT_EQ(other.hint(), "");
+  other.add(rollPair(-0.2f, 0.003f));
+  EXPECT_NE(other.hint().find("0.200 degrees anticlockwise"), std::string::npos) << other.hint();
 }
 
 }  // namespace

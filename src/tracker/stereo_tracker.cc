@@ -7,6 +7,7 @@
 #include "ekf_vislam/tracker/motion_check.h"
 #include "ekf_vislam/tracker/rectified_stereo.h"
 #include "ekf_vislam/tracker/stereo_matcher.h"
+#include "ekf_vislam/tracker/stereo_roll_fit.h"
 
 #include <Eigen/Geometry>
 #include <opencv2/video/tracking.hpp>
@@ -130,11 +131,25 @@ CameraMotionPrior motionPriorOf(const MotionCheckResult& check) {
   return motion;
 }
 
-// The frame's left-right matches in the figures the rig check reads (stereo_rig_check.h).
-void summarizeStereoMatches(StereoMatchCounts counts, TrackerFrameStats* stats) {
+// The frame's left-right matches in the figures the rig check reads (stereo_rig_check.h). The
+// roll is fitted to the matches within twice the row tolerance of its line: the row test's own
+// matches and their neighbours, not the wrong matches of other rows.
+void summarizeStereoMatches(StereoMatchCounts counts, const RectifiedStereo& calibration,
+                            int image_width, double row_tolerance_px, TrackerFrameStats* stats) {
   stats->stereo_converged = counts.converged();
   stats->stereo_row_failed = counts.row_failed;
   stats->stereo_negative_disparity = counts.negative_disparity;
+  const cv::Point2f principal_point(static_cast<float>(calibration.cx),
+                                    static_cast<float>(calibration.cy));
+  const StereoRollFit roll = fitStereoRoll(counts.row_offset_left, counts.row_offsets,
+                                           principal_point, 2.0 * row_tolerance_px);
+  if (roll.fitted) {
+    constexpr double kDegreesPerRadian = 180.0 / M_PI;
+    stats->stereo_roll_deg = static_cast<float>(roll.roll_rad * kDegreesPerRadian);
+    stats->stereo_roll_sigma_deg = static_cast<float>(roll.roll_sigma_rad * kDegreesPerRadian);
+    const double farther_edge = std::max(calibration.cx, image_width - 1 - calibration.cx);
+    stats->stereo_roll_edge_px = static_cast<float>(roll.roll_rad * farther_edge);
+  }
   if (!counts.row_offsets.empty()) stats->stereo_row_offset_px = upperMedian(&counts.row_offsets);
 }
 
@@ -281,7 +296,8 @@ bool StereoTracker::process(const cv::Mat& left, const cv::Mat& right, double st
   addNewTracks(left, left_pyramid, right_pyramid,
                detector_.candidatesIndependent() ? &corners_found : nullptr, &stereo_counts,
                &stats);
-  summarizeStereoMatches(std::move(stereo_counts), &stats);
+  summarizeStereoMatches(std::move(stereo_counts), calibration_, left.cols,
+                         options_.row_tolerance_px, &stats);
 
   prev_left_pyramid_ = std::move(left_pyramid);
   image_size_ = left.size();

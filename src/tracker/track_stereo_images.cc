@@ -239,7 +239,8 @@ bool writeStats(const std::string& path, const std::vector<StereoFrame>& frames,
          "ms_temporal,ms_ransac,ms_stereo,ms_detect,ms_total,refined,refine_failed,ms_refine,"
          "exposure_gain_temporal,exposure_gain_stereo,stereo_converged,stereo_row_failed,"
          "stereo_negative_disparity,stereo_row_offset_px,predicted_from_first_matches,crowded,"
-         "disparity_offset_px,disparity_offset_sigma_px\n";
+         "disparity_offset_px,disparity_offset_sigma_px,stereo_roll_deg,stereo_roll_sigma_deg,"
+         "stereo_roll_edge_px\n";
   out.precision(10);
   for (size_t k = 0; k < frames.size(); ++k) {
     const TrackerFrameStats& s = frames[k].stats;
@@ -252,7 +253,9 @@ bool writeStats(const std::string& path, const std::vector<StereoFrame>& frames,
         << s.exposure_gain_temporal << "," << s.exposure_gain_stereo << "," << s.stereo_converged
         << "," << s.stereo_row_failed << "," << s.stereo_negative_disparity << ","
         << s.stereo_row_offset_px << "," << s.predicted_from_first_matches << "," << s.crowded
-        << "," << s.disparity_offset_px << "," << s.disparity_offset_sigma_px << "\n";
+        << "," << s.disparity_offset_px << "," << s.disparity_offset_sigma_px << ","
+        << s.stereo_roll_deg << "," << s.stereo_roll_sigma_deg << "," << s.stereo_roll_edge_px
+        << "\n";
   }
   if (!out) *error = path + ": cannot write";
   return static_cast<bool>(out);
@@ -361,10 +364,12 @@ int run(int argc, char** argv) {
         T, args.out.c_str(), ms.percentile(0.5), ms.percentile(0.99), ms.max());
     std::printf(
         "stereo rig, last %d frames: disparity offset %.3f px (median of %d fits), row offset "
-        "%.3f px\n",
+        "%.3f px, right image's roll %.4f degrees (median of %d fits; rows %.2f px apart at the "
+        "side edge)\n",
         std::min<int>(static_cast<int>(T), StereoRigCheck::kWindowPairs),
         rig_check.medianDisparityOffsetPx(), rig_check.disparityOffsetPairs(),
-        rig_check.medianRowOffsetPx());
+        rig_check.medianRowOffsetPx(), rig_check.medianStereoRollDeg(), rig_check.stereoRollPairs(),
+        rig_check.medianRollEdgePx());
     if (!sequence.world_T_cam.empty()) {
       std::vector<Eigen::Matrix4d> poses(sequence.world_T_cam.begin(),
                                          sequence.world_T_cam.begin() + T);

@@ -200,6 +200,27 @@ class TrackStereoImagesTest(unittest.TestCase):
                 self.assertLess(mean_observations(report), 2.3 * mean_observations(self.report),
                                 report)
 
+    def test_a_right_image_turned_against_the_left(self):
+        """The rig check reads the right image's roll from the rows of the left-right matches:
+        about 0 on the exact rendered rig, the made roll on a copy whose right images are turned
+        (image_variant.py --right-roll), with a warning once the rows at the side edge lie 0.75
+        px apart (the row tolerance 1 px). Measured: 0.0012 (the drive), 0.3053 and -0.3013
+        degrees (turned 0.3 either way; 1.70 px at the edge of this 640-px image)."""
+        roll = re.compile(r"right image's roll (-?[0-9.]+) degrees")
+        self.assertLess(abs(float(roll.search(self.report).group(1))), 0.01, self.report)
+        for degrees in (0.3, -0.3):
+            varied = os.path.join(self.tmp, 'roll%g' % degrees)
+            result = paths.run_script('image_variant.py', self.folder, varied, '--right-roll',
+                                      str(degrees))
+            self.assertEqual(result.returncode, 0, result.stderr)
+            result = subprocess.run(track_args(varied, varied + '.npz'), check=True,
+                                    stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                    universal_newlines=True)
+            self.assertAlmostEqual(float(roll.search(result.stdout).group(1)), degrees,
+                                   delta=0.02, msg=result.stdout)
+            self.assertIn('turned 0.3', result.stderr)
+            self.assertIn('clockwise' if degrees > 0 else 'anticlockwise', result.stderr)
+
     def test_masks(self):
         """mask/left and mask/right (image files, zero = no feature): no left point on the masked
         bottom rows, no right point on the masked left columns; an unreadable file stops the tool

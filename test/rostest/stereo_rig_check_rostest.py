@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """rostest of the tracker's stereo rig check (see stereo_rig_check.test): a short rendered drive
-played into a tracker that gets its images as recorded, one that gets them swapped and one that
-gets its right images moved by a pixel; only the second's diagnostics name the swap, only the
-third's the disparity offset."""
+played into a tracker that gets its images as recorded, one that gets them swapped, one that
+gets its right images moved by a pixel and one that gets them turned by 0.2 degrees; only the
+second's diagnostics name the swap, only the third's the disparity offset, only the fourth's the
+turn."""
 import os
 import shutil
 import sys
@@ -27,20 +28,22 @@ FRAMES = 20
 PLAY_RATE = 1.0
 RIGHT_SHIFT_PX = 1.0
 OFFSET_NS = '/offset'
+RIGHT_ROLL_DEG = 0.2
+TURNED_NS = '/turned'
 
 
-def shifted_bag(tmp):
-    """The rendered drive in TMP/drive with its right images moved RIGHT_SHIFT_PX to the right
-    (image_variant.py), as a bag whose stereo topics lie under OFFSET_NS: TMP/offset.bag."""
+def variant_bag(tmp, name, namespace, options):
+    """The rendered drive in TMP/drive copied by image_variant.py with OPTIONS, as a bag whose
+    stereo topics lie under NAMESPACE: TMP/NAME.bag."""
     scripts = os.path.join(rospkg.RosPack().get_path(PKG), 'scripts')
-    folder = os.path.join(tmp, 'shifted')
-    bag, renamed = os.path.join(tmp, 'shifted.bag'), os.path.join(tmp, 'offset.bag')
+    folder = os.path.join(tmp, name)
+    bag, renamed = os.path.join(tmp, name + '_images.bag'), os.path.join(tmp, name + '.bag')
     run(['/usr/bin/python3', os.path.join(scripts, 'image_variant.py'),
-         os.path.join(tmp, 'drive'), folder, '--right-shift', str(RIGHT_SHIFT_PX)])
+         os.path.join(tmp, 'drive'), folder] + options)
     run(['/usr/bin/python3', os.path.join(scripts, 'play_stereo_images.py'), folder, '--bag', bag])
     with rosbag.Bag(bag) as source, rosbag.Bag(renamed, 'w') as out:
         for topic, msg, stamp in source.read_messages(topics=list(STEREO_INPUTS)):
-            out.write(OFFSET_NS + topic, msg, stamp)
+            out.write(namespace + topic, msg, stamp)
     return renamed
 
 
@@ -51,21 +54,27 @@ class StereoRigCheckTest(NewestStatuses, unittest.TestCase):
         rospy.init_node('stereo_rig_check_rostest', anonymous=True)
         cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_rig_check_')
         bag = rendered_drive_bag(cls.tmp, FRAMES)
-        offset_bag = shifted_bag(cls.tmp)
+        offset_bag = variant_bag(cls.tmp, 'offset', OFFSET_NS,
+                                 ['--right-shift', str(RIGHT_SHIFT_PX)])
+        turned_bag = variant_bag(cls.tmp, 'turned', TURNED_NS,
+                                 ['--right-roll', str(RIGHT_ROLL_DEG)])
         cls.lock = threading.Lock()
         cls.listen_to_diagnostics()
         required = stereo_inputs_required(('/tracker_as_recorded', '/swapped/tracker_swapped'))
-        required.update({OFFSET_NS + topic: (OFFSET_NS + '/tracker_offset',)
-                         for topic in STEREO_INPUTS})
-        # Both bags in one player: one clock, their messages in the order of their times.
-        play_bag(bag, '/stereo_rig_check_player', PLAY_RATE, required, extra_args=[offset_bag])
+        for namespace, node in ((OFFSET_NS, '/tracker_offset'), (TURNED_NS, '/tracker_turned')):
+            required.update({namespace + topic: (namespace + node,) for topic in STEREO_INPUTS})
+        # The bags in one player: one clock, their messages in the order of their times.
+        play_bag(bag, '/stereo_rig_check_player', PLAY_RATE, required,
+                 extra_args=[offset_bag, turned_bag])
 
         def tracked_everything():
             return all(int(cls.values(name).get('pairs_tracked', 0)) >= FRAMES - 1
-                       for name in ('tracker_as_recorded', 'tracker_swapped', 'tracker_offset'))
+                       for name in ('tracker_as_recorded', 'tracker_swapped', 'tracker_offset',
+                                    'tracker_turned'))
         wait_until(tracked_everything, 30.0)
         wait_until(lambda: 'swapped' in cls.message('tracker_swapped'), 5.0)
         wait_until(lambda: 'disparity' in cls.message('tracker_offset'), 5.0)
+        wait_until(lambda: 'turned' in cls.message('tracker_turned'), 5.0)
 
     @classmethod
     def status(cls, name_part):
@@ -112,6 +121,20 @@ class StereoRigCheckTest(NewestStatuses, unittest.TestCase):
         self.assertAlmostEqual(float(offset['disparity_offset_px']), -RIGHT_SHIFT_PX, delta=0.15)
         self.assertGreaterEqual(int(recorded['disparity_offset_pairs']), 10)
         self.assertLess(abs(float(recorded['disparity_offset_px'])), 0.15)
+
+    def test_a_turned_right_image_is_named(self):
+        turned, recorded = self.values('tracker_turned'), self.values('tracker_as_recorded')
+        log('turned: "%s" %s; as recorded: %s' % (
+            self.message('tracker_turned'),
+            {k: v for k, v in turned.items() if k.startswith('stereo_roll')},
+            {k: v for k, v in recorded.items() if k.startswith('stereo_roll')}))
+        self.assertEqual(self.status('tracker_turned').level, DiagnosticStatus.WARN)
+        self.assertIn('turned 0.2', self.message('tracker_turned'))
+        self.assertIn('degrees clockwise', self.message('tracker_turned'))
+        self.assertAlmostEqual(float(turned['stereo_roll_deg']), RIGHT_ROLL_DEG, delta=0.02)
+        self.assertGreater(float(turned['stereo_roll_edge_px']), 0.75)
+        self.assertLess(abs(float(recorded['stereo_roll_deg'])), 0.01)
+        self.assertLess(abs(float(self.values('tracker_offset')['stereo_roll_deg'])), 0.01)
 
 
 if __name__ == '__main__':

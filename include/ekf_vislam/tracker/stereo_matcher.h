@@ -20,8 +20,10 @@ struct StereoMatchCounts {
   int matched = 0;
   int refined = 0;  ///< of the matched, aligned by refine/stereo
   int masked = 0;   ///< of the matched, refused on the right mask
-  /// v_right - v_left of every KLT match inside the right image (before the checks), px.
+  /// v_right - v_left of every KLT match inside the right image (before the checks), px, and
+  /// the match's left pixel.
   std::vector<float> row_offsets;
+  std::vector<cv::Point2f> row_offset_left;
 
   /// Matches the KLT ended inside the right image: those the row test was applied to.
   int converged() const { return row_failed + disparity_failed + back_check_failed + matched; }

@@ -1,9 +1,10 @@
 // A check of the stereo rig from the tracker's own matches: images that are not rectified (left
-// and right rows apart), swapped (the right image's points right of the left one's), or whose
+// and right rows apart), swapped (the right image's points right of the left one's), whose
 // disparities are all off by the same amount (a right camera's cx or rectification that
-// disagrees with the images: disparity_offset_fit.h) show in every pair long before the
-// estimator's figures go wrong. Reads the figures of TrackerFrameStats over the last pairs and
-// says what to check. No ROS.
+// disagrees with the images: disparity_offset_fit.h), or whose right image is turned against the
+// left one (rows apart in proportion to the column: stereo_roll_fit.h) show in every pair long
+// before the estimator's figures go wrong. Reads the figures of TrackerFrameStats over the last
+// pairs and says what to check. No ROS.
 #pragma once
 
 #include "ekf_vislam/tracker/tracker_types.h"
@@ -35,11 +36,20 @@ class StereoRigCheck {
   /// fitted within kMaxOffsetSigmaPx (pairs that move forward); 0 without one. And their count.
   double medianDisparityOffsetPx() const;
   int disparityOffsetPairs() const;
+  /// The median of the held pairs' roll of the right image against the left (degrees, positive
+  /// clockwise as displayed), of those fitted within kMaxRollSigmaDeg; 0 without one. The median
+  /// of the rows' difference it makes at the side edge farther from the principal point (px).
+  /// And their count.
+  double medianStereoRollDeg() const;
+  double medianRollEdgePx() const;
+  int stereoRollPairs() const;
 
   /// What to check, or "" when the rig looks right or too few matches are held
   /// (kMinMatches): more than half of the matches off their row, or more than half of those on
   /// their row with negative disparity; else, with at least kMinOffsetPairs offsets held, a
-  /// median disparity offset beyond kOffsetHintPx.
+  /// median disparity offset beyond kOffsetHintPx; else, with at least kMinRollPairs rolls held,
+  /// a roll that moves the rows at the side edge more than kRollHintFraction of the row
+  /// tolerance apart.
   std::string hint() const;
 
   static constexpr int kWindowPairs = 50;
@@ -49,6 +59,14 @@ class StereoRigCheck {
   /// Half a pixel: 5 % of the depth at 10 px of disparity (39 m on KITTI's rig). Rigs whose
   /// images agree with their calibration read 0.4 px at most (doc/tracker.md).
   static constexpr double kOffsetHintPx = 0.5;
+  /// A frame's roll is read from a few hundred matches to 0.004-0.005 degrees (KITTI clips).
+  static constexpr double kMaxRollSigmaDeg = 0.02;
+  static constexpr int kMinRollPairs = 10;
+  /// Three quarters of the row tolerance at the side edge: with the rows' own noise (0.3 px std on
+  /// the KITTI clips) a fifth of the matches there then fail the row test, and more with every
+  /// tenth of a pixel. The KITTI clips read 0.16-0.51 px at their default tolerance of 1 px
+  /// (doc/tracker.md).
+  static constexpr double kRollHintFraction = 0.75;
 
  private:
   struct Pair {
@@ -57,9 +75,13 @@ class StereoRigCheck {
     int negative_disparity = 0;
     float row_offset_px = 0;        // NaN without a match
     float disparity_offset_px = 0;  // NaN without a fit within kMaxOffsetSigmaPx
+    float roll_deg = 0;             // NaN without a fit within kMaxRollSigmaDeg
+    float roll_edge_px = 0;         // NaN with roll_deg
   };
   // The upper median of one of the held pairs' figures, NaN ones left out; 0 without any.
   double medianOfFinite(float Pair::*figure) const;
+  // How many held pairs have a finite figure.
+  int countFinite(float Pair::*figure) const;
 
   double row_tolerance_px_;
   std::deque<Pair> pairs_;

@@ -51,6 +51,12 @@ struct TrackerFrameStats {
   int stereo_row_failed = 0;          ///< of them, rows further apart than stereo/row_tolerance_px
   int stereo_negative_disparity = 0;  ///< of them, the right point right of the left one
   float stereo_row_offset_px = std::numeric_limits<float>::quiet_NaN();  ///< median v_R - v_L
+  /// The right image's roll against the left one (stereo_roll_fit.h), degrees, its standard error,
+  /// and the rows' difference it makes at the side edge farther from the principal point (px);
+  /// NaN without a fit.
+  float stereo_roll_deg = std::numeric_limits<float>::quiet_NaN();
+  float stereo_roll_sigma_deg = std::numeric_limits<float>::quiet_NaN();
+  float stereo_roll_edge_px = std::numeric_limits<float>::quiet_NaN();
   /// The disparity offset (measured minus true, px) and its standard error fitted with this
   /// pair's motion (disparity_offset_fit.h), for the rig check; NaN without a fit.
   float disparity_offset_px = std::numeric_limits<float>::quiet_NaN();

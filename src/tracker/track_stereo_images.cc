@@ -292,6 +292,32 @@ StereoRigCheck checkTheRig(const std::vector<StereoFrame>& frames, const Tracker
   return check;
 }
 
+// What the run gives on stdout: time per frame, the rig check's figures and, with poses, the
+// track quality.
+void printSummary(const Arguments& args, const KittiSequence& sequence,
+                  const std::vector<StereoFrame>& frames, const StereoRigCheck& rig_check,
+                  const ProcessingTimes& ms) {
+  const size_t T = frames.size();
+  std::printf(
+      "track_stereo_images: %zu frames -> %s; tracker ms per frame: median %.2f, p99 "
+      "%.2f, max %.2f\n",
+      T, args.out.c_str(), ms.percentile(0.5), ms.percentile(0.99), ms.max());
+  std::printf(
+      "stereo rig, last %d frames: disparity offset %.3f px (median of %d fits), row offset "
+      "%.3f px, right image's roll %.4f degrees (median of %d fits; rows %.2f px apart at the "
+      "side edge)\n",
+      std::min<int>(static_cast<int>(T), StereoRigCheck::kWindowPairs),
+      rig_check.medianDisparityOffsetPx(), rig_check.disparityOffsetPairs(),
+      rig_check.medianRowOffsetPx(), rig_check.medianStereoRollDeg(), rig_check.stereoRollPairs(),
+      rig_check.medianRollEdgePx());
+  if (!sequence.world_T_cam.empty()) {
+    std::vector<Eigen::Matrix4d> poses(sequence.world_T_cam.begin(),
+                                       sequence.world_T_cam.begin() + T);
+    std::printf("%s\n",
+                evaluateTrackQuality(frames, poses, sequence.calibration, 10).describe().c_str());
+  }
+}
+
 int run(int argc, char** argv) {
   Arguments args;
   TrackerOptions options;
@@ -357,26 +383,7 @@ int run(int argc, char** argv) {
     std::cerr << "track_stereo_images: " << error << "\n";
     return 1;
   }
-  if (!args.quiet) {
-    std::printf(
-        "track_stereo_images: %zu frames -> %s; tracker ms per frame: median %.2f, p99 "
-        "%.2f, max %.2f\n",
-        T, args.out.c_str(), ms.percentile(0.5), ms.percentile(0.99), ms.max());
-    std::printf(
-        "stereo rig, last %d frames: disparity offset %.3f px (median of %d fits), row offset "
-        "%.3f px, right image's roll %.4f degrees (median of %d fits; rows %.2f px apart at the "
-        "side edge)\n",
-        std::min<int>(static_cast<int>(T), StereoRigCheck::kWindowPairs),
-        rig_check.medianDisparityOffsetPx(), rig_check.disparityOffsetPairs(),
-        rig_check.medianRowOffsetPx(), rig_check.medianStereoRollDeg(), rig_check.stereoRollPairs(),
-        rig_check.medianRollEdgePx());
-    if (!sequence.world_T_cam.empty()) {
-      std::vector<Eigen::Matrix4d> poses(sequence.world_T_cam.begin(),
-                                         sequence.world_T_cam.begin() + T);
-      std::printf("%s\n",
-                  evaluateTrackQuality(frames, poses, sequence.calibration, 10).describe().c_str());
-    }
-  }
+  if (!args.quiet) printSummary(args, sequence, frames, rig_check, ms);
   return 0;
 }
 

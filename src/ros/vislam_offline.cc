@@ -303,6 +303,47 @@ CalibrationStatus calibrationFromBag(const BagCalibrationData& data, const BagTo
   return builder.complete() ? CalibrationStatus::kInvalid : CalibrationStatus::kMissing;
 }
 
+// The bag's camera calibration given to the estimator. Dead reckoning does without one; wrong
+// values fail in every mode. False with *error saying why.
+bool setBagCalibration(const BagCalibrationData& data, const BagTopics& topics,
+                       const VislamRosOptions& ros_options, bool needs_features,
+                       EstimatorRunner* runner, std::string* error) {
+  StereoCalibration calibration;
+  switch (calibrationFromBag(data, topics, ros_options, &calibration, error)) {
+    case CalibrationStatus::kBuilt:
+      if (runner->estimator().setCalibration(calibration, error)) return true;
+      *error = "invalid calibration: " + *error;
+      return false;
+    case CalibrationStatus::kInvalid: *error = "invalid calibration: " + *error; return false;
+    case CalibrationStatus::kMissing:
+      if (needs_features) {
+        *error = "no calibration: " + *error;
+        return false;
+      }
+      std::cerr << "vislam_offline: dead reckoning without a calibration: " << *error << "\n";
+      return true;
+  }
+  return true;
+}
+
+// The twist combiner's counters for stats.json (none without a combiner).
+std::map<std::string, double> combinerStats(const TwistCombiner* combiner) {
+  std::map<std::string, double> stats;
+  if (combiner == nullptr) return stats;
+  const TwistCombinerCounters& c = combiner->counters();
+  const std::pair<const char*, uint64_t> counts[] = {
+      {"gyro_samples", c.angular_received},
+      {"wheel_samples", c.linear_received},
+      {"twists", c.twists},
+      {"velocity_held", c.velocity_held},
+      {"dropped_no_velocity", c.dropped_no_velocity},
+      {"refused", c.rejected_non_finite + c.rejected_not_increasing}};
+  for (const auto& [key, count] : counts) {
+    stats[std::string("twist_combiner_") + key] = static_cast<double>(count);
+  }
+  return stats;
+}
+
 void printSummary(const EstimatorRunner& runner, const std::string& out_dir) {
   const RunSummary summary = runner.summary();
   const ProcessingTimes& times = runner.times();
@@ -372,19 +413,8 @@ int run(int argc, char** argv) {
   }
   EstimatorRunner runner(options, {ros_options.sequencer_max_delay,
                                    static_cast<size_t>(ros_options.sequencer_max_buffered)});
-  StereoCalibration calibration;
-  switch (calibrationFromBag(data, topics, ros_options, &calibration, &error)) {
-    case CalibrationStatus::kBuilt:
-      if (!runner.estimator().setCalibration(calibration, &error)) {
-        return fail("invalid calibration: " + error);
-      }
-      break;
-    case CalibrationStatus::kInvalid:  // wrong values fail in every mode
-      return fail("invalid calibration: " + error);
-    case CalibrationStatus::kMissing:  // dead reckoning does without one
-      if (needs_features) return fail("no calibration: " + error);
-      std::cerr << "vislam_offline: dead reckoning without a calibration: " << error << "\n";
-      break;
+  if (!setBagCalibration(data, topics, ros_options, needs_features, &runner, &error)) {
+    return fail(error);
   }
 
   runner.enableTimeJumpReset(ros_options.time_jump_reset);  // as the node does
@@ -405,21 +435,7 @@ int run(int argc, char** argv) {
                  "outputs hold the part after the last reset\n";
   }
   runner.flush();
-  std::map<std::string, double> extra;
-  if (const TwistCombiner* combiner = bag.twistCombiner()) {
-    const TwistCombinerCounters& c = combiner->counters();
-    const std::pair<const char*, uint64_t> counts[] = {
-        {"gyro_samples", c.angular_received},
-        {"wheel_samples", c.linear_received},
-        {"twists", c.twists},
-        {"velocity_held", c.velocity_held},
-        {"dropped_no_velocity", c.dropped_no_velocity},
-        {"refused", c.rejected_non_finite + c.rejected_not_increasing}};
-    for (const auto& [key, count] : counts) {
-      extra[std::string("twist_combiner_") + key] = static_cast<double>(count);
-    }
-  }
-  if (!runner.save(args["--out"], &error, extra)) return fail(error);
+  if (!runner.save(args["--out"], &error, combinerStats(bag.twistCombiner()))) return fail(error);
   printSummary(runner, args["--out"]);
   if (const TwistCombiner* combiner = bag.twistCombiner()) printCombinerSummary(*combiner);
   return 0;

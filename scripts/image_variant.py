@@ -48,8 +48,8 @@ import numpy as np
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'src'))
 from ekf_vislam_tools import stereo_images  # noqa: E402
 from ekf_vislam_tools.image_variants import (frame_order, mirrored_calibration,  # noqa: E402
-                                             parse_hold, scaled_calibration, variant_poses,
-                                             variant_times)
+                                             parse_hold, right_image_warp, scaled_calibration,
+                                             variant_poses, variant_times)
 
 PROG = 'image_variant.py'
 
@@ -71,17 +71,6 @@ def parse_args(argv):
     p.add_argument('--noise', type=float, default=0.0, help='pixel noise std, gray levels')
     p.add_argument('--seed', type=int, default=0)
     return p.parse_args(argv)
-
-
-def right_image_warp(shift, roll_deg, principal_point):
-    """The 2x3 map of a right image's pixels: turned roll_deg clockwise as displayed about the
-    principal point (x right, y down), then moved shift px right. None for no change."""
-    if shift == 0.0 and roll_deg == 0.0:
-        return None
-    # getRotationMatrix2D turns anticlockwise as displayed for a positive angle.
-    warp = cv2.getRotationMatrix2D(tuple(float(c) for c in principal_point), -roll_deg, 1.0)
-    warp[0, 2] += shift
-    return warp
 
 
 def variant_image(path, flip, scale, warp, noise, rng):

@@ -71,3 +71,18 @@ def variant_poses(world_T_cam, order, mirror, baseline):
         poses = np.array([MIRROR @ T @ cam0_T_cam1 @ MIRROR for T in poses])
     first_inv = se3.inverse(poses[0])
     return np.array([first_inv @ T for T in poses])
+
+
+def right_image_warp(shift, roll_deg, principal_point):
+    """The 2x3 map (cv2.warpAffine, source to copy) of a right image's pixels: turned roll_deg
+    clockwise as displayed about the principal point (x right, y down), then moved shift px
+    right. None for no change."""
+    if shift == 0.0 and roll_deg == 0.0:
+        return None
+    # OpenCV's getRotationMatrix2D turns anticlockwise as displayed for a positive angle; this is
+    # the same matrix for the negated angle.
+    angle = np.radians(roll_deg)
+    c, s = np.cos(angle), np.sin(angle)
+    cx, cy = principal_point
+    return np.array([[c, -s, (1 - c) * cx + s * cy + shift],
+                     [s, c, -s * cx + (1 - c) * cy]])

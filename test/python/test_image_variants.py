@@ -99,6 +99,25 @@ class ImageVariantsTest(unittest.TestCase):
                 self.assertAlmostEqual(
                     (se3.inverse(variant[k]) @ variant_right)[0, 3], BASELINE, places=9)
 
+    def test_right_image_warp_turns_clockwise_about_the_principal_point(self):
+        """--right-roll: a positive roll turns the right image clockwise as displayed (points right
+        of the principal point go down, the rig check's sign), about the principal point, and
+        --right-shift moves it right after the turn."""
+        self.assertIsNone(iv.right_image_warp(0.0, 0.0, (K[0, 2], K[1, 2])))
+        warp = iv.right_image_warp(2.0, 0.5, (K[0, 2], K[1, 2]))
+
+        def moved(u, v):
+            return warp @ np.array([u, v, 1.0])
+
+        np.testing.assert_allclose(moved(K[0, 2], K[1, 2]), [K[0, 2] + 2.0, K[1, 2]], atol=1e-9)
+        right = moved(K[0, 2] + 100.0, K[1, 2])
+        self.assertAlmostEqual(right[1] - K[1, 2], 100.0 * np.sin(np.radians(0.5)), places=9)
+        below = moved(K[0, 2], K[1, 2] + 100.0)
+        self.assertAlmostEqual(below[0] - (K[0, 2] + 2.0), -100.0 * np.sin(np.radians(0.5)),
+                               places=9)
+        shift_only = iv.right_image_warp(1.0, 0.0, (K[0, 2], K[1, 2]))
+        np.testing.assert_array_equal(shift_only, [[1.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
+
 
 if __name__ == '__main__':
     unittest.main()

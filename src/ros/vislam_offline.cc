@@ -312,8 +312,7 @@ bool setBagCalibration(const BagCalibrationData& data, const BagTopics& topics,
   switch (calibrationFromBag(data, topics, ros_options, &calibration, error)) {
     case CalibrationStatus::kBuilt:
       if (runner->estimator().setCalibration(calibration, error)) return true;
-      *error = "invalid calibration: " + *error;
-      return false;
+      [[fallthrough]];
     case CalibrationStatus::kInvalid: *error = "invalid calibration: " + *error; return false;
     case CalibrationStatus::kMissing:
       if (needs_features) {

@@ -91,8 +91,9 @@ std::string StereoRigCheck::hint() const {
                   100.0 * negativeDisparityFraction());
     return text;
   }
-  if (disparityOffsetPairs() >= kMinOffsetPairs &&
-      std::abs(medianDisparityOffsetPx()) > kOffsetHintPx) {
+  const double offset_px = medianDisparityOffsetPx();
+  const int offset_pairs = disparityOffsetPairs();
+  if (offset_pairs >= kMinOffsetPairs && std::abs(offset_px) > kOffsetHintPx) {
     std::snprintf(
         text, sizeof(text),
         "the tracks' motion fits best with every measured disparity %.2f px %s the "
@@ -100,12 +101,15 @@ std::string StereoRigCheck::hint() const {
         "point (cx in P of its camera_info) disagrees with its images, and every stereo depth "
         "is too %s. Recalibrate the rig, or set intrinsic/estimate_disparity_offset: "
         "true in the estimator's configuration",
-        std::abs(medianDisparityOffsetPx()), medianDisparityOffsetPx() < 0 ? "below" : "above",
-        disparityOffsetPairs(), medianDisparityOffsetPx() < 0 ? "large" : "small");
+        std::abs(offset_px), offset_px < 0 ? "below" : "above", offset_pairs,
+        offset_px < 0 ? "large" : "small");
     return text;
   }
-  if (stereoRollPairs() >= kMinRollPairs &&
-      std::abs(medianRollEdgePx()) > kRollHintFraction * row_tolerance_px_) {
+  const double roll_deg = medianStereoRollDeg();
+  const double roll_edge_px = medianRollEdgePx();
+  const int roll_pairs = stereoRollPairs();
+  if (roll_pairs >= kMinRollPairs &&
+      std::abs(roll_edge_px) > kRollHintFraction * row_tolerance_px_) {
     std::snprintf(
         text, sizeof(text),
         "the right image is turned %.3f degrees %s (as displayed) against the left one (median "
@@ -113,8 +117,8 @@ std::string StereoRigCheck::hint() const {
         "stereo/row_tolerance_px (%.1f px) are lost, and disparities err in proportion to the "
         "distance from the middle row. The rectification (R and P of the camera_info) does not "
         "fit the rig: recalibrate it",
-        std::abs(medianStereoRollDeg()), medianStereoRollDeg() > 0 ? "clockwise" : "anticlockwise",
-        stereoRollPairs(), std::abs(medianRollEdgePx()), row_tolerance_px_);
+        std::abs(roll_deg), roll_deg > 0 ? "clockwise" : "anticlockwise", roll_pairs,
+        std::abs(roll_edge_px), row_tolerance_px_);
     return text;
   }
   return "";

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """rostest of the tracker's backlog (see stereo_tracker_backlog.test): a rendered drive played
-10 times faster than real time into a tracker with 60-message ROS queues loses no pair, and its
+10 times faster than real time into a tracker with 100-message ROS queues loses no pair, and its
 features are those of the offline tool (track_stereo_images) on the same images, bit for bit; a
 second tracker whose backlog holds 8 pairs drops pairs, counted as dropped and not as missing."""
 import os
@@ -24,14 +24,14 @@ from vislam_rostest import (NewestStatuses, log, rendered_drive_bag, run,  # noq
 from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
 
 PKG = 'ekf_vislam'
-# 3 s of playback: long enough for the backlog to pass the ROS queues on a fast machine (about
+# 4 s of playback: long enough for the backlog to pass the ROS queues on a fast machine (about
 # twice ROS_QUEUE pairs at 17 ms per pair), short enough for a slow one.
-FRAMES = 300
+FRAMES = 400
 # 100 pairs per second: more than the tracker takes, while a callback thread starved for less
 # than ROS_QUEUE / 100 s (the tracking threads keep both cores busy, other tests may run beside
 # them, a virtual machine may pause) loses nothing.
 PLAY_RATE = 10.0
-ROS_QUEUE = 60  # ros/queue_size in stereo_tracker_backlog.test
+ROS_QUEUE = 100  # ros/queue_size in stereo_tracker_backlog.test
 PAIR_MB = 2 * 640 * 192 / 1e6  # two mono8 images of the rendered drive
 START_TIME = 1000.0  # play_stereo_images.py's default --start-time
 # The two trackers' diagnostic status names: the second's ros/max_backlog_mb holds 8 pairs.

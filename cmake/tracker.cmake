@@ -22,6 +22,7 @@ add_library(ekf_vislam_tracker
   src/tracker/motion_check.cc
   src/tracker/disparity_offset_fit.cc
   src/tracker/stereo_roll_fit.cc
+  src/tracker/frame_rate_limit.cc
   src/tracker/stereo_tracker.cc
   src/tracker/debug_drawing.cc
   src/tracker/kitti_sequence.cc
@@ -54,6 +55,8 @@ if(CATKIN_ENABLE_TESTING)
     src/tracker/pnp_ransac_test.cc
     src/tracker/disparity_offset_fit_test.cc
     src/tracker/stereo_roll_fit_test.cc
+    src/tracker/frame_rate_limit_test.cc
+    src/tracker/kitti_sequence_test.cc
     src/tracker/exposure_compensation_test.cc
     src/tracker/stereo_tracker_test.cc
     src/tracker/stereo_rig_check_test.cc

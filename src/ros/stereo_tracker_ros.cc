@@ -5,6 +5,7 @@
 #include "ekf_vislam/ros/gray_image.h"
 #include "ekf_vislam/ros/ros_parameter_source.h"
 #include "ekf_vislam/tracker/debug_drawing.h"
+#include "ekf_vislam/tracker/frame_rate_limit.h"
 #include "ekf_vislam/tracker/rectified_stereo.h"
 
 #include <cv_bridge/cv_bridge.h>
@@ -378,6 +379,11 @@ void StereoTrackerRos::trackPair(const ImagePair& pair) {
                       name_.c_str(), stamp, pairs_out_of_order_);
     return;
   }
+  // input/max_rate_hz: decided by the stamps alone, as track_stereo_images does (not a fault).
+  if (!dueForTracking(stamp, prev_stamp_, options_.max_rate_hz)) {
+    ++pairs_skipped_rate_;
+    return;
+  }
   cv::Mat left, right;
   std::string why;
   if (!toGrayImage(left_msg, &left, &why) || !toGrayImage(right_msg, &right, &why)) {
@@ -507,6 +513,7 @@ void StereoTrackerRos::fillDiagnostics(uint64_t dropped_from_backlog,
   status.add("bad_camera_info", bad_camera_info_);
   status.add("tracker_refused", tracker_refused_);
   status.add("pairs_out_of_order", pairs_out_of_order_);
+  status.add("pairs_skipped_rate", pairs_skipped_rate_);
   status.add("time_jump_resets", time_jump_resets_);
   status.add("pairs_dropped_waiting", pairs_dropped_waiting_);
   status.add("pairs_missing", pair_gaps_.missing());

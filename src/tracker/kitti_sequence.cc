@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <type_traits>
 
 namespace ekf_vislam {
 
@@ -20,6 +21,20 @@ void KittiSequence::dropFirstFrames(size_t n) {
   drop(&right_images);
   drop(&times);
   drop(&world_T_cam);
+}
+
+void KittiSequence::keepFrames(const std::vector<size_t>& indices) {
+  auto keep = [&indices](auto* items) {
+    if (items->empty()) return;  // poses are optional
+    auto kept = std::remove_reference_t<decltype(*items)>();
+    kept.reserve(indices.size());
+    for (const size_t k : indices) kept.push_back((*items)[k]);
+    *items = std::move(kept);
+  };
+  keep(&left_images);
+  keep(&right_images);
+  keep(&times);
+  keep(&world_T_cam);
 }
 
 namespace {

@@ -4,6 +4,7 @@
 #include "ekf_vislam/core/se3.h"
 #include "ekf_vislam/core/yaml_parameter_source.h"
 #include "ekf_vislam/tracker/debug_drawing.h"
+#include "ekf_vislam/tracker/frame_rate_limit.h"
 #include "ekf_vislam/tracker/image_mask.h"
 #include "ekf_vislam/tracker/kitti_sequence.h"
 #include "ekf_vislam/tracker/npz_writer.h"
@@ -318,6 +319,17 @@ void printSummary(const Arguments& args, const KittiSequence& sequence,
   }
 }
 
+// The pairs the node would take under input/max_rate_hz (frame_rate_limit.h), as if the folder
+// held them alone.
+void keepFramesDue(const TrackerOptions& options, bool quiet, KittiSequence* sequence) {
+  const size_t before = sequence->size();
+  sequence->keepFrames(framesDueForTracking(sequence->times, options.max_rate_hz));
+  if (!quiet && sequence->size() < before) {
+    std::printf("track_stereo_images: input/max_rate_hz %g: %zu of %zu pairs skipped\n",
+                options.max_rate_hz, before - sequence->size(), before);
+  }
+}
+
 int run(int argc, char** argv) {
   Arguments args;
   TrackerOptions options;
@@ -337,6 +349,7 @@ int run(int argc, char** argv) {
     return 2;
   }
   sequence.dropFirstFrames(static_cast<size_t>(args.first_frame));
+  keepFramesDue(options, args.quiet, &sequence);
   const size_t T =
       args.max_frames > 0 ? std::min<size_t>(args.max_frames, sequence.size()) : sequence.size();
   std::vector<double> stamps(T);

@@ -17,6 +17,7 @@ constexpr EnumNames<TemporalOutlierCheck, 3> kCheckNames{
 /// in the same order). `Options` is TrackerOptions or const TrackerOptions.
 template <typename Options, typename Visitor>
 void visitTrackerOptions(Options& o, Visitor& v) {
+  v.number("input/max_rate_hz", o.max_rate_hz, Bound::kNonNegative);
   v.choice("detector/type", o.detector, kDetectorNames);
   v.integer("detector/grid_cols", o.grid_cols, Bound::kAtLeastOne);
   v.integer("detector/grid_rows", o.grid_rows, Bound::kAtLeastOne);

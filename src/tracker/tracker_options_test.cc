@@ -10,7 +10,7 @@ TEST(TrackerOptions, ShippedFileEqualsTheDefaults) {
   YamlParameterSource source(std::string(EKF_VISLAM_SOURCE_DIR) + "/config/tracker.yaml");
   ASSERT_TRUE(source.ok()) << source.error();
   const std::vector<OptionKeyList::Key> keys = trackerOptionKeys();
-  EXPECT_EQ(keys.size(), 42u);
+  EXPECT_EQ(keys.size(), 43u);
   for (const OptionKeyList::Key& key : keys) {
     EXPECT_TRUE(source.has(key.name)) << key.name << " is not documented in config/tracker.yaml";
   }
@@ -94,6 +94,7 @@ TEST(TrackerOptions, ParsesAndRejects) {
         Case{[](TrackerOptions* o) { o->ransac_confidence = 1.0; }, "ransac/confidence"},
         Case{[](TrackerOptions* o) { o->refine_patch_size = 14; }, "refine/patch_size"},
         Case{[](TrackerOptions* o) { o->refine_min_zncc = 1.5; }, "refine/min_zncc"},
+        Case{[](TrackerOptions* o) { o->max_rate_hz = -1; }, "input/max_rate_hz"},
         Case{[](TrackerOptions* o) { o->refine_max_scale_change = 1.0; },
              "refine/max_scale_change"}}) {
     TrackerOptions bad;

@@ -268,6 +268,32 @@ class TrackStereoImagesTest(unittest.TestCase):
         self.assertEqual(refused.returncode, 2)
         self.assertIn('leaves fewer than 2', refused.stderr)
 
+    def test_a_rate_limit_takes_the_pairs_of_a_slower_camera(self):
+        """input/max_rate_hz 4 on the 10 Hz drive tracks every second pair (a pair 0.2 s after the
+        last tracked one passes 0.75 / 4 s, one 0.1 s after does not): the features are those of
+        the same drive recorded at 5 Hz (image_variant.py --step 2) bit for bit, and its twist and
+        ground truth are those of the pairs tracked."""
+        config = os.path.join(self.tmp, 'rate4.yaml')
+        with open(config, 'w') as out:
+            out.write('input:\n  max_rate_hz: 4.0\n')
+        limited, slower = os.path.join(self.tmp, 'rate4.npz'), os.path.join(self.tmp, 'step2.npz')
+        report = subprocess.run(
+            track_args(self.folder, limited) + ['--poses', self.folder + '/poses.txt', '--config',
+                                                config],
+            check=True, stdout=subprocess.PIPE, universal_newlines=True).stdout
+        self.assertIn('input/max_rate_hz 4: %d of %d pairs skipped' % (FRAMES // 2, FRAMES), report)
+        varied = os.path.join(self.tmp, 'step2')
+        result = paths.run_script('image_variant.py', self.folder, varied, '--step', '2')
+        self.assertEqual(result.returncode, 0, result.stderr)
+        subprocess.run(track_args(varied, slower) + ['--poses', varied + '/poses.txt'], check=True,
+                       stdout=subprocess.PIPE)
+        a, b = np.load(limited), np.load(slower)
+        self.assertEqual(a['time_stamps'].shape, (1, FRAMES // 2))
+        np.testing.assert_array_equal(a['time_stamps'], b['time_stamps'])
+        np.testing.assert_array_equal(a['features'], b['features'])
+        np.testing.assert_allclose(a['linear_velocity'], b['linear_velocity'], atol=1e-6)
+        self.assertEqual(len(np.loadtxt(limited[:-4] + '_groundtruth.tum')), FRAMES // 2)
+
     def test_groundtruth_vs_images(self):
         """groundtruth_vs_images.py: the rendered drive's exact poses agree with its images; the
         same poses with a 0.3 degree yaw slipped in between frames 9 and 10 are caught there."""

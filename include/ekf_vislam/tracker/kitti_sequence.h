@@ -21,6 +21,8 @@ struct KittiSequence {
   size_t size() const { return times.size(); }
   /// Leaves out the first n frames (images, times, poses); all of them when n >= size().
   void dropFirstFrames(size_t n);
+  /// Keeps the frames at `indices` (increasing, each < size()), in that order.
+  void keepFrames(const std::vector<size_t>& indices);
 };
 
 /// Reads the calibration (fx, fy, cx, cy from P0; baseline = (P0[0,3] - P1[0,3]) / fx).

@@ -26,6 +26,10 @@ enum class TemporalOutlierCheck {
 };
 
 struct TrackerOptions {
+  // input/
+  double max_rate_hz = 0;  ///< pairs closer than kRateSlack / this to the last tracked one are
+                           ///< skipped (frame_rate_limit.h); 0 = every pair
+
   // detector/
   FeatureDetectorType detector = FeatureDetectorType::kFast;
   int grid_cols = 20;  ///< detection grid over the left image

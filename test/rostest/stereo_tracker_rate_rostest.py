@@ -1,0 +1,108 @@
+#!/usr/bin/python3
+"""rostest of the tracker's rate limit (see stereo_tracker_rate.test): a rendered 10 Hz drive
+played into a tracker limited to 4 Hz gives every second pair, counted skips and no fault, and
+the features of track_stereo_images run with the same input/max_rate_hz, bit for bit."""
+import os
+import shutil
+import sys
+import tempfile
+import threading
+import unittest
+
+import numpy as np
+import rospy
+import rostest
+from diagnostic_msgs.msg import DiagnosticStatus
+
+from ekf_vislam.msg import StereoFeatureArray
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from vislam_rostest import (NewestStatuses, rendered_drive_bag, run,  # noqa: E402
+                            stereo_inputs_required)
+
+from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
+
+PKG = 'ekf_vislam'
+FRAMES = 40
+PLAY_RATE = 2.0
+MAX_RATE_HZ = 4.0  # input/max_rate_hz in stereo_tracker_rate.test: pairs 0.2 s apart pass
+TRACKED = FRAMES // 2  # pairs 0, 2, ..., 38
+START_TIME = 1000.0  # play_stereo_images.py's default --start-time
+STATUS = 'tracker: stereo tracker'
+
+
+class StereoTrackerRateTest(NewestStatuses, unittest.TestCase):
+
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('stereo_tracker_rate_rostest', anonymous=True)
+        cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_rate_')
+        bag = rendered_drive_bag(cls.tmp, FRAMES)
+        cls.lock = threading.Lock()
+        cls.features = {}  # stamp -> {id: (u_left, v_left, u_right, v_right)}
+        cls.listen_to_diagnostics()
+        rospy.Subscriber('/stereo/features', StereoFeatureArray, cls.on_features,
+                         queue_size=1000)
+        wait_until(lambda: rospy.get_param('/use_sim_time', False), 5.0)
+        play_bag(bag, '/stereo_tracker_rate_player', PLAY_RATE,
+                 stereo_inputs_required(('/tracker',)))
+        # The synchronizer emits the last pair (39, not due) only once a later message comes.
+        wait_until(lambda: cls.value('pairs_tracked') + cls.value('pairs_skipped_rate') >=
+                   FRAMES - 1, 30.0)
+        wait_until(lambda: len(cls.features) >= TRACKED, 10.0)
+        folder = os.path.join(cls.tmp, 'drive')
+        config = os.path.join(cls.tmp, 'rate.yaml')
+        with open(config, 'w') as out:
+            out.write('input:\n  max_rate_hz: %g\n' % MAX_RATE_HZ)
+        cls.offline = os.path.join(cls.tmp, 'offline.npz')
+        run(['rosrun', PKG, 'track_stereo_images', '--left', os.path.join(folder, 'image_left'),
+             '--right', os.path.join(folder, 'image_right'), '--calib',
+             os.path.join(folder, 'calib.txt'), '--times', os.path.join(folder, 'times.txt'),
+             '--time-offset', str(START_TIME), '--config', config, '--out', cls.offline,
+             '--quiet'])
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.tmp, ignore_errors=True)
+
+    @classmethod
+    def on_features(cls, msg):
+        with cls.lock:
+            cls.features[msg.header.stamp.to_sec()] = {
+                f.id: (f.u_left, f.v_left, f.u_right, f.v_right) for f in msg.features}
+
+    @classmethod
+    def value(cls, key):
+        return float(cls.latest_status(STATUS)[1].get(key, 0))
+
+    def test_every_second_pair_is_tracked_and_the_rest_counted_as_skipped(self):
+        status, values = self.latest_status(STATUS)
+        self.assertEqual(int(values['pairs_tracked']), TRACKED, values)
+        self.assertGreaterEqual(int(values['pairs_skipped_rate']), FRAMES - 1 - TRACKED, values)
+        self.assertEqual(int(values['pairs_missing']), 0, values)
+        self.assertEqual(status.level, DiagnosticStatus.OK, status.message)
+        with self.lock:
+            stamps = sorted(self.features)
+        self.assertEqual(len(stamps), TRACKED)
+        np.testing.assert_allclose(np.diff(stamps), 0.2, atol=1e-3)
+
+    def test_live_features_are_the_offline_tools_bit_for_bit(self):
+        offline = np.load(self.offline)
+        features, times = offline['features'], offline['time_stamps'].ravel()
+        self.assertEqual(len(times), TRACKED)
+        with self.lock:
+            live = dict(self.features)
+        compared = 0
+        for k, t in enumerate(times):
+            stamp = [s for s in live if abs(s - t) < 1e-4]
+            self.assertEqual(len(stamp), 1, 'frame %d at %.4f' % (k, t))
+            columns = np.flatnonzero(features[0, :, k] != -1)
+            expected = {int(j): tuple(np.float32(features[:, j, k])) for j in columns}
+            got = {i: tuple(np.float32(v)) for i, v in live[stamp[0]].items()}
+            self.assertEqual(got, expected, 'features at frame %d' % k)
+            compared += len(expected)
+        self.assertGreater(compared, 100 * TRACKED)
+
+
+if __name__ == '__main__':
+    rostest.rosrun(PKG, 'stereo_tracker_rate', StereoTrackerRateTest)

@@ -320,11 +320,13 @@ void printSummary(const Arguments& args, const KittiSequence& sequence,
 }
 
 // The pairs the node would take under input/max_rate_hz (frame_rate_limit.h), as if the folder
-// held them alone.
-void keepFramesDue(const TrackerOptions& options, bool quiet, KittiSequence* sequence) {
+// held them alone; decided on the stamps the node would see (times + --time-offset).
+void keepFramesDue(const Arguments& args, const TrackerOptions& options, KittiSequence* sequence) {
   const size_t before = sequence->size();
-  sequence->keepFrames(framesDueForTracking(sequence->times, options.max_rate_hz));
-  if (!quiet && sequence->size() < before) {
+  std::vector<double> stamps(sequence->times);
+  for (double& stamp : stamps) stamp += args.time_offset;
+  sequence->keepFrames(framesDueForTracking(stamps, options.max_rate_hz));
+  if (!args.quiet && sequence->size() < before) {
     std::printf("track_stereo_images: input/max_rate_hz %g: %zu of %zu pairs skipped\n",
                 options.max_rate_hz, before - sequence->size(), before);
   }
@@ -349,7 +351,7 @@ int run(int argc, char** argv) {
     return 2;
   }
   sequence.dropFirstFrames(static_cast<size_t>(args.first_frame));
-  keepFramesDue(options, args.quiet, &sequence);
+  keepFramesDue(args, options, &sequence);
   const size_t T =
       args.max_frames > 0 ? std::min<size_t>(args.max_frames, sequence.size()) : sequence.size();
   std::vector<double> stamps(T);

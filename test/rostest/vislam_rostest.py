@@ -32,6 +32,8 @@ from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import Marker, MarkerArray
 
+from ekf_vislam.msg import StereoFeatureArray
+
 from ekf_vislam_tools import metrics
 from ekf_vislam_tools.bag_playback import play_bag, wait_until
 
@@ -93,6 +95,61 @@ def rendered_drive_bag(tmp, frames):
          str(frames)])
     run(['/usr/bin/python3', os.path.join(scripts, 'play_stereo_images.py'), folder, '--bag', bag])
     return bag
+
+
+DRIVE_START_TIME = 1000.0  # play_stereo_images.py's default --start-time: the bag's first stamp
+
+
+def track_drive_offline(tmp, out, extra_args=()):
+    """track_stereo_images over rendered_drive_bag's folder TMP/drive, stamped as its bag, into
+    OUT (an npz)."""
+    folder = os.path.join(tmp, 'drive')
+    run(['rosrun', PKG, 'track_stereo_images', '--left', os.path.join(folder, 'image_left'),
+         '--right', os.path.join(folder, 'image_right'), '--calib',
+         os.path.join(folder, 'calib.txt'), '--times', os.path.join(folder, 'times.txt'),
+         '--time-offset', str(DRIVE_START_TIME), '--out', out, '--quiet'] + list(extra_args))
+
+
+class LiveFeatures:
+    """Mixin for a test class: keeps the /stereo/features of each stamp (cls.features: stamp ->
+    {id: (u_left, v_left, u_right, v_right)}) and compares them with track_stereo_images's.
+    setUpClass calls listen_to_features() once cls.lock (a threading.Lock) exists."""
+
+    @classmethod
+    def listen_to_features(cls):
+        cls.features = {}
+        rospy.Subscriber('/stereo/features', StereoFeatureArray, cls.keep_features,
+                         queue_size=1000)
+
+    @classmethod
+    def keep_features(cls, msg):
+        with cls.lock:
+            cls.features[msg.header.stamp.to_sec()] = {
+                f.id: (f.u_left, f.v_left, f.u_right, f.v_right) for f in msg.features}
+
+    def assert_live_features_equal(self, npz, last_may_be_missing):
+        """Every frame of track_stereo_images's NPZ equals the live features of its stamp, ids
+        and float32 values; a frame without live features fails, except the last one when
+        last_may_be_missing (the synchronizer emits a pair only once a later message comes).
+        Returns the observations compared."""
+        offline = np.load(npz)
+        features, times = offline['features'], offline['time_stamps'].ravel()
+        with self.lock:
+            live = dict(self.features)
+        compared = 0
+        for k, t in enumerate(times):
+            stamp = [s for s in live if abs(s - t) < 1e-4]
+            if not stamp and last_may_be_missing and k == len(times) - 1:
+                continue
+            self.assertEqual(len(stamp), 1, 'frame %d at %.4f' % (k, t))
+            columns = np.flatnonzero(features[0, :, k] != -1)
+            expected = {int(j): tuple(np.float32(features[:, j, k])) for j in columns}
+            got = {i: tuple(np.float32(v)) for i, v in live[stamp[0]].items()}
+            self.assertEqual(sorted(got), sorted(expected), 'ids at frame %d' % k)
+            self.assertEqual(got, expected, 'features at frame %d' % k)
+            compared += len(expected)
+        log('%d observations in %d frames equal to the offline tool\'s' % (compared, len(live)))
+        return compared
 
 
 class NewestStatuses:

@@ -123,11 +123,13 @@ offline = np.loadtxt(out + '/offline/trajectory.tum', ndmin=2)
 same = live.shape == offline.shape and np.array_equal(live, offline)
 diff = np.abs(live[:, 1:] - offline[:, 1:]).max() if live.shape == offline.shape else float('nan')
 stats = json.load(open(out + '/live/stats.json'))
-print('pairs played %d at %sx; tracker: received %s, tracked %s, dropped waiting %s, '
-      'dropped from its backlog %s, out of order %s, missing %s; backlog peak %s MB' % (
+print('pairs played %d at %sx; tracker: received %s, tracked %s, skipped by input/max_rate_hz '
+      '%s, dropped waiting %s, dropped from its backlog %s, out of order %s, missing %s; backlog '
+      'peak %s MB' % (
           pairs, rate, tracker.get('pairs_received'), tracker.get('pairs_tracked'),
-          tracker.get('pairs_dropped_waiting'), tracker.get('pairs_dropped_backlog'),
-          tracker.get('pairs_out_of_order'), tracker.get('pairs_missing'),
+          tracker.get('pairs_skipped_rate'), tracker.get('pairs_dropped_waiting'),
+          tracker.get('pairs_dropped_backlog'), tracker.get('pairs_out_of_order'),
+          tracker.get('pairs_missing'),
           tracker.get('backlog_mb_peak')))
 print('estimator: frames used %s of %s, update ms p99 %s, latency ms p50 %.2f, p99 %.2f, '
       'peak active landmarks %s; its last output %.2f s after the player ended (%s outputs)'

@@ -90,16 +90,22 @@ class StereoRigCheckTest(NewestStatuses, unittest.TestCase):
         return status.message if status else ''
 
     @classmethod
+    def log_beside_recorded(cls, name, prefixes):
+        """Logs the status message of the node `name` and its figures whose keys start with one
+        of `prefixes`, then the same of the node that gets the images as recorded."""
+        def figures(node):
+            return {k: v for k, v in cls.values(node).items() if k.startswith(prefixes)}
+        log('%s: "%s" %s; as recorded: "%s" %s' % (
+            name, cls.message(name), figures(name), cls.message('tracker_as_recorded'),
+            figures('tracker_as_recorded')))
+
+    @classmethod
     def tearDownClass(cls):
         shutil.rmtree(cls.tmp, ignore_errors=True)
 
     def test_swapped_images_are_named(self):
         swapped, recorded = self.values('tracker_swapped'), self.values('tracker_as_recorded')
-        log('swapped: "%s" %s; as recorded: "%s" %s' % (
-            self.message('tracker_swapped'),
-            {k: v for k, v in swapped.items() if k.startswith(('stereo_row', 'stereo_neg'))},
-            self.message('tracker_as_recorded'),
-            {k: v for k, v in recorded.items() if k.startswith(('stereo_row', 'stereo_neg'))}))
+        self.log_beside_recorded('tracker_swapped', ('stereo_row', 'stereo_neg'))
         self.assertIn('swapped', self.message('tracker_swapped'))
         self.assertEqual(self.status('tracker_swapped').level, DiagnosticStatus.WARN)
         self.assertGreater(float(swapped['stereo_negative_disparity_fraction']), 0.9)
@@ -110,10 +116,7 @@ class StereoRigCheckTest(NewestStatuses, unittest.TestCase):
 
     def test_a_disparity_offset_is_named(self):
         offset, recorded = self.values('tracker_offset'), self.values('tracker_as_recorded')
-        log('offset: "%s" %s; as recorded: %s' % (
-            self.message('tracker_offset'),
-            {k: v for k, v in offset.items() if k.startswith('disparity_offset')},
-            {k: v for k, v in recorded.items() if k.startswith('disparity_offset')}))
+        self.log_beside_recorded('tracker_offset', ('disparity_offset',))
         self.assertEqual(self.status('tracker_offset').level, DiagnosticStatus.WARN)
         self.assertIn('px below the true one', self.message('tracker_offset'))
         self.assertIn('estimate_disparity_offset', self.message('tracker_offset'))
@@ -124,10 +127,7 @@ class StereoRigCheckTest(NewestStatuses, unittest.TestCase):
 
     def test_a_turned_right_image_is_named(self):
         turned, recorded = self.values('tracker_turned'), self.values('tracker_as_recorded')
-        log('turned: "%s" %s; as recorded: %s' % (
-            self.message('tracker_turned'),
-            {k: v for k, v in turned.items() if k.startswith('stereo_roll')},
-            {k: v for k, v in recorded.items() if k.startswith('stereo_roll')}))
+        self.log_beside_recorded('tracker_turned', ('stereo_roll',))
         self.assertEqual(self.status('tracker_turned').level, DiagnosticStatus.WARN)
         self.assertIn('turned 0.2', self.message('tracker_turned'))
         self.assertIn('degrees clockwise', self.message('tracker_turned'))

@@ -6,18 +6,16 @@ second tracker whose backlog holds 8 pairs drops pairs, counted as dropped and n
 import os
 import shutil
 import sys
-import tempfile
-import threading
 import unittest
 
 import numpy as np
-import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticStatus
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from vislam_rostest import (LiveFeatures, NewestStatuses, log,  # noqa: E402
-                            rendered_drive_bag, stereo_inputs_required, track_drive_offline)
+                            set_up_rendered_drive_test, stereo_inputs_required,
+                            track_drive_offline)
 
 from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
 
@@ -39,14 +37,8 @@ class StereoTrackerBacklogTest(LiveFeatures, NewestStatuses, unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
-        rospy.init_node('stereo_tracker_backlog_rostest', anonymous=True)
-        cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_backlog_')
-        bag = rendered_drive_bag(cls.tmp, FRAMES)
-        cls.lock = threading.Lock()
-        cls.listen_to_diagnostics()
-        cls.listen_to_features()
+        bag = set_up_rendered_drive_test(cls, 'stereo_tracker_backlog_rostest', FRAMES)
         required = stereo_inputs_required(('/tracker', '/overloaded/tracker_overloaded'))
-        wait_until(lambda: rospy.get_param('/use_sim_time', False), 5.0)
         play_bag(bag, '/stereo_tracker_backlog_player', PLAY_RATE, required)
         # The synchronizer emits the last pair only once a later message comes: FRAMES - 1.
         wait_until(lambda: int(cls.value('pairs_tracked')) >= FRAMES - 1, 120.0)

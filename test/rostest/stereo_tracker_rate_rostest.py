@@ -5,18 +5,16 @@ the features of track_stereo_images run with the same input/max_rate_hz, bit for
 import os
 import shutil
 import sys
-import tempfile
-import threading
 import unittest
 
 import numpy as np
-import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticStatus
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import (LiveFeatures, NewestStatuses, rendered_drive_bag,  # noqa: E402
-                            stereo_inputs_required, track_drive_offline)
+from vislam_rostest import (LiveFeatures, NewestStatuses,  # noqa: E402
+                            set_up_rendered_drive_test, stereo_inputs_required,
+                            track_drive_offline)
 
 from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
 
@@ -32,13 +30,7 @@ class StereoTrackerRateTest(LiveFeatures, NewestStatuses, unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
-        rospy.init_node('stereo_tracker_rate_rostest', anonymous=True)
-        cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_rate_')
-        bag = rendered_drive_bag(cls.tmp, FRAMES)
-        cls.lock = threading.Lock()
-        cls.listen_to_diagnostics()
-        cls.listen_to_features()
-        wait_until(lambda: rospy.get_param('/use_sim_time', False), 5.0)
+        bag = set_up_rendered_drive_test(cls, 'stereo_tracker_rate_rostest', FRAMES)
         play_bag(bag, '/stereo_tracker_rate_player', PLAY_RATE,
                  stereo_inputs_required(('/tracker',)))
         # The synchronizer emits the last pair (39, not due) only once a later message comes.

@@ -110,6 +110,21 @@ def track_drive_offline(tmp, out, extra_args=()):
          '--time-offset', str(DRIVE_START_TIME), '--out', out, '--quiet'] + list(extra_args))
 
 
+def set_up_rendered_drive_test(cls, node_name, frames):
+    """The start of setUpClass for a class with NewestStatuses and LiveFeatures: this test node,
+    a temporary folder cls.tmp holding rendered_drive_bag's drive of `frames` pairs, the lock, the
+    /diagnostics and /stereo/features subscriptions, and /use_sim_time set by the launch file.
+    Returns the drive's bag."""
+    rospy.init_node(node_name, anonymous=True)
+    cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_%s_' % node_name)
+    bag = rendered_drive_bag(cls.tmp, frames)
+    cls.lock = threading.Lock()
+    cls.listen_to_diagnostics()
+    cls.listen_to_features()
+    wait_until(lambda: rospy.get_param('/use_sim_time', False), 5.0)
+    return bag
+
+
 class LiveFeatures:
     """Mixin for a test class: keeps the /stereo/features of each stamp (cls.features: stamp ->
     {id: (u_left, v_left, u_right, v_right)}) and compares them with track_stereo_images's.

@@ -296,7 +296,7 @@ bool StereoTrackerRos::wellFormed(const sensor_msgs::Image& left, const sensor_m
   return true;
 }
 
-bool StereoTrackerRos::calibrationFor(const sensor_msgs::Image& left, RectifiedStereo* stereo,
+bool StereoTrackerRos::calibrationFor(const sensor_msgs::Image& left, StereoCalibration* stereo,
                                       std::string* why) {
   if (!hasCameraInfo()) {
     ++missing_camera_info_;
@@ -312,14 +312,13 @@ bool StereoTrackerRos::calibrationFor(const sensor_msgs::Image& left, RectifiedS
     *why = "camera_info refused: " + error;
     return false;
   }
-  const RectifiedStereo s = rectifiedStereoOf(calibration);
   if ((left_info_->width != 0 && left_info_->width != left.width) ||
       (left_info_->height != 0 && left_info_->height != left.height)) {
     ++size_mismatch_;
     *why = "image size differs from its camera_info's";
     return false;
   }
-  *stereo = s;
+  *stereo = calibration;
   return true;
 }
 
@@ -392,7 +391,7 @@ void StereoTrackerRos::trackPair(const ImagePair& pair) {
                       bad_encoding_);
     return;
   }
-  RectifiedStereo stereo;
+  StereoCalibration stereo;
   if (!calibrationFor(*left_msg, &stereo, &why)) {
     ROS_WARN_THROTTLE(kWarnPeriod, "%s: %s: pair skipped", name_.c_str(), why.c_str());
     return;

@@ -29,7 +29,7 @@ struct Parameters {
 // A match's residual (projection minus current pixel) and its Jacobian in (dtheta, dt,
 // dcorrection), the motion perturbed as in pnp_ransac.h; false when the corrected disparity or
 // the moved point's depth is not positive enough to project.
-bool residualOf(const Parameters& x, const DisparityOffsetMatch& match, const RectifiedStereo& c,
+bool residualOf(const Parameters& x, const DisparityOffsetMatch& match, const StereoCalibration& c,
                 Eigen::Vector2d* residual, Eigen::Matrix<double, 2, 7>* jacobian) {
   const double disparity = match.prev_disparity + x.correction_px;
   if (!(disparity > kMinDisparityPx)) return false;
@@ -48,7 +48,7 @@ bool residualOf(const Parameters& x, const DisparityOffsetMatch& match, const Re
 }
 
 std::vector<int> chooseMatches(const Parameters& x, const std::vector<DisparityOffsetMatch>& all,
-                               const RectifiedStereo& c, double threshold_px) {
+                               const StereoCalibration& c, double threshold_px) {
   std::vector<int> chosen;
   Eigen::Vector2d residual;
   for (int i = 0; i < static_cast<int>(all.size()); ++i) {
@@ -62,7 +62,7 @@ std::vector<int> chooseMatches(const Parameters& x, const std::vector<DisparityO
 
 // The normal matrix and gradient of the chosen matches' squared residuals; their sum in *cost.
 void normalEquations(const Parameters& x, const std::vector<DisparityOffsetMatch>& all,
-                     const std::vector<int>& chosen, const RectifiedStereo& c, Matrix7d* normal,
+                     const std::vector<int>& chosen, const StereoCalibration& c, Matrix7d* normal,
                      Vector7d* gradient, double* cost) {
   normal->setZero();
   gradient->setZero();
@@ -78,7 +78,7 @@ void normalEquations(const Parameters& x, const std::vector<DisparityOffsetMatch
 }
 
 void gaussNewton(const std::vector<DisparityOffsetMatch>& all, const std::vector<int>& chosen,
-                 const RectifiedStereo& c, Parameters* x) {
+                 const StereoCalibration& c, Parameters* x) {
   Matrix7d normal;
   Vector7d gradient;
   double cost;
@@ -98,7 +98,7 @@ void gaussNewton(const std::vector<DisparityOffsetMatch>& all, const std::vector
 DisparityOffsetFit fitDisparityOffset(const std::vector<DisparityOffsetMatch>& matches,
                                       const Eigen::Matrix3d& cur_R_prev,
                                       const Eigen::Vector3d& cur_t_prev,
-                                      const RectifiedStereo& calibration, double threshold_px) {
+                                      const StereoCalibration& calibration, double threshold_px) {
   DisparityOffsetFit result;
   Parameters x{cur_R_prev, cur_t_prev, 0.0};
   std::vector<int> chosen;

@@ -14,7 +14,7 @@ namespace ekf_vislam {
 namespace {
 
 // A KITTI-like rectified camera: fx, fy, cx, cy (px), baseline (m).
-const RectifiedStereo kCamera{718.0, 718.0, 607.0, 185.0, 0.54};
+const StereoCalibration kCamera = rectifiedPair(718.0, 718.0, 607.0, 185.0, 0.54);
 
 struct Pair {
   std::vector<DisparityOffsetMatch> matches;

@@ -73,7 +73,7 @@ bool openFile(const std::string& path, std::ifstream* in, std::string* error) {
 
 }  // namespace
 
-bool readKittiCalibration(const std::string& path, RectifiedStereo* calibration,
+bool readKittiCalibration(const std::string& path, StereoCalibration* calibration,
                           std::string* error) {
   std::ifstream in;
   if (!openFile(path, &in, error)) return false;
@@ -103,13 +103,11 @@ bool readKittiCalibration(const std::string& path, RectifiedStereo* calibration,
   // P1's translation taken relative to P0's.
   const PinholeProjection left{p0[0], p0[5], p0[2], p0[6], 0.0};
   const PinholeProjection right{p1[0], p1[5], p1[2], p1[6], p1[3] - p0[3]};
-  StereoCalibration stereo;
   std::string why;
-  if (!stereoIntrinsicsFromProjections(left, right, &stereo, &why)) {
+  if (!stereoIntrinsicsFromProjections(left, right, calibration, &why)) {
     *error = path + ": P0 and P1: " + why;
     return false;
   }
-  *calibration = rectifiedStereoOf(stereo);
   return true;
 }
 

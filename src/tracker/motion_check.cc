@@ -32,7 +32,7 @@ MotionCheckResult fundamentalCheck(const std::vector<cv::Point2f>& prev_pixels,
 // Squared Sampson distance of a match under the essential matrix E (normalized coordinates),
 // returned in pixels through the focal length.
 double epipolarErrorPx(const Eigen::Matrix3d& E, const cv::Point2f& prev, const cv::Point2f& cur,
-                       const RectifiedStereo& c) {
+                       const StereoCalibration& c) {
   const Eigen::Vector3d x0 = normalized(c, prev);
   const Eigen::Vector3d x1 = normalized(c, cur);
   const Eigen::Vector3d Ex0 = E * x0;
@@ -49,7 +49,7 @@ double epipolarErrorPx(const Eigen::Matrix3d& E, const cv::Point2f& prev, const 
 MotionCheckResult checkTemporalMatches(const std::vector<cv::Point3f>& prev_points,
                                        const std::vector<cv::Point2f>& prev_pixels,
                                        const std::vector<cv::Point2f>& cur_pixels,
-                                       const RectifiedStereo& calibration,
+                                       const StereoCalibration& calibration,
                                        const TrackerOptions& options) {
   const size_t n = cur_pixels.size();
   if (options.outlier_check == TemporalOutlierCheck::kNone) {

@@ -42,7 +42,8 @@ Motion motionOf(const cv::Mat& rvec, const cv::Mat& tvec) {
 
 // The motion puts the point in front of the camera, within the threshold of its pixel.
 bool reprojectsWithin(const Motion& motion, const Eigen::Vector3d& point,
-                      const Eigen::Vector2d& pixel, const RectifiedStereo& c, double threshold_sq) {
+                      const Eigen::Vector2d& pixel, const StereoCalibration& c,
+                      double threshold_sq) {
   const Eigen::Vector3d q = motion.cur_R_prev * point + motion.cur_t_prev;
   return q.z() > 0 && (project(c, q) - pixel).squaredNorm() <= threshold_sq;
 }
@@ -50,7 +51,7 @@ bool reprojectsWithin(const Motion& motion, const Eigen::Vector3d& point,
 // Counts the matches the motion explains, and stops once the count can no longer exceed
 // `to_beat`.
 int countInliers(const Motion& motion, const std::vector<Eigen::Vector3d>& points,
-                 const std::vector<Eigen::Vector2d>& pixels, const RectifiedStereo& c,
+                 const std::vector<Eigen::Vector2d>& pixels, const StereoCalibration& c,
                  double threshold_sq, int to_beat) {
   const int n = static_cast<int>(points.size());
   int count = 0;
@@ -61,7 +62,7 @@ int countInliers(const Motion& motion, const std::vector<Eigen::Vector3d>& point
 }
 
 std::vector<int> inliersOf(const Motion& motion, const std::vector<Eigen::Vector3d>& points,
-                           const std::vector<Eigen::Vector2d>& pixels, const RectifiedStereo& c,
+                           const std::vector<Eigen::Vector2d>& pixels, const StereoCalibration& c,
                            double threshold_sq) {
   std::vector<int> inliers;
   for (int i = 0; i < static_cast<int>(points.size()); ++i) {
@@ -74,7 +75,7 @@ std::vector<int> inliersOf(const Motion& motion, const std::vector<Eigen::Vector
 // R <- exp(dtheta) R, t <- exp(dtheta) t + dt.
 Motion refineOn(Motion motion, const std::vector<int>& matches,
                 const std::vector<Eigen::Vector3d>& points,
-                const std::vector<Eigen::Vector2d>& pixels, const RectifiedStereo& c) {
+                const std::vector<Eigen::Vector2d>& pixels, const StereoCalibration& c) {
   constexpr int kSteps = 3;
   for (int step = 0; step < kSteps; ++step) {
     Eigen::Matrix<double, 6, 6> normal = Eigen::Matrix<double, 6, 6>::Zero();
@@ -98,7 +99,7 @@ Motion refineOn(Motion motion, const std::vector<int>& matches,
 
 }  // namespace
 
-Eigen::Matrix<double, 2, 6> reprojectionJacobian(const RectifiedStereo& calibration,
+Eigen::Matrix<double, 2, 6> reprojectionJacobian(const StereoCalibration& calibration,
                                                  const Eigen::Vector3d& q) {
   const double inv_z = 1.0 / q.z();
   Eigen::Matrix<double, 2, 3> d_pixel_d_q;
@@ -122,7 +123,7 @@ int ransacIterationsNeeded(double inlier_ratio, int sample_size, double confiden
 
 PnpRansacResult pnpRansac(const std::vector<cv::Point3f>& points_prev,
                           const std::vector<cv::Point2f>& pixels_cur,
-                          const RectifiedStereo& calibration, const PnpRansacOptions& options) {
+                          const StereoCalibration& calibration, const PnpRansacOptions& options) {
   PnpRansacResult result;
   const int n = static_cast<int>(std::min(points_prev.size(), pixels_cur.size()));
   if (n < kSampleSize + 1) return result;

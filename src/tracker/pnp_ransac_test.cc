@@ -15,7 +15,7 @@ namespace ekf_vislam {
 namespace {
 
 // A KITTI-like rectified camera: fx, fy, cx, cy (px), baseline (m).
-const RectifiedStereo kCamera{718.0, 718.0, 607.0, 185.0, 0.54};
+const StereoCalibration kCamera = rectifiedPair(718.0, 718.0, 607.0, 185.0, 0.54);
 
 struct Matches {
   std::vector<cv::Point3f> points_prev;
@@ -28,7 +28,7 @@ struct Matches {
 // n points 5-60 m ahead seen after a turn and a step forward, with Gaussian pixel noise; a
 // fraction of them moved 3-30 px (wrong matches).
 Matches makeMatches(int n, double outlier_fraction, double noise_px, uint32_t seed) {
-  const RectifiedStereo& c = kCamera;
+  const StereoCalibration& c = kCamera;
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   std::normal_distribution<double> noise(0.0, noise_px);
@@ -76,7 +76,7 @@ TEST(PnpRansac, FindsTheMotionAndRefusesTheWrongMatches) {
 }
 
 TEST(PnpRansac, KeepsTheInliersOpenCvsRansacKeeps) {
-  const RectifiedStereo& c = kCamera;
+  const StereoCalibration& c = kCamera;
   const cv::Matx33d K = cameraMatrix(c);
   for (uint32_t seed = 1; seed <= 5; ++seed) {
     const Matches m = makeMatches(120, 0.4, 0.3, seed);

@@ -2,22 +2,22 @@
 
 namespace ekf_vislam {
 
-RectifiedStereo rectifiedStereoOf(const StereoCalibration& calibration) {
-  RectifiedStereo stereo;
-  stereo.fx = calibration.fx;
-  stereo.fy = calibration.fy;
-  stereo.cx = calibration.cx;
-  stereo.cy = calibration.cy;
-  stereo.baseline = calibration.baseline;
-  return stereo;
+StereoCalibration rectifiedPair(double fx, double fy, double cx, double cy, double baseline) {
+  StereoCalibration pair;
+  pair.fx = fx;
+  pair.fy = fy;
+  pair.cx = cx;
+  pair.cy = cy;
+  pair.baseline = baseline;
+  return pair;
 }
 
-Eigen::Vector3d normalized(const RectifiedStereo& calibration, const cv::Point2f& pixel) {
+Eigen::Vector3d normalized(const StereoCalibration& calibration, const cv::Point2f& pixel) {
   return Eigen::Vector3d((pixel.x - calibration.cx) / calibration.fx,
                          (pixel.y - calibration.cy) / calibration.fy, 1.0);
 }
 
-std::optional<Eigen::Vector3d> triangulate(const RectifiedStereo& calibration,
+std::optional<Eigen::Vector3d> triangulate(const StereoCalibration& calibration,
                                            const cv::Point2f& left, double disparity) {
   if (!(disparity > 0)) return std::nullopt;
   const double z = calibration.fx * calibration.baseline / disparity;
@@ -25,16 +25,16 @@ std::optional<Eigen::Vector3d> triangulate(const RectifiedStereo& calibration,
                          (left.y - calibration.cy) * z / calibration.fy, z);
 }
 
-Eigen::Vector2d project(const RectifiedStereo& calibration, const Eigen::Vector3d& p_cam) {
+Eigen::Vector2d project(const StereoCalibration& calibration, const Eigen::Vector3d& p_cam) {
   return Eigen::Vector2d(calibration.fx * p_cam.x() / p_cam.z() + calibration.cx,
                          calibration.fy * p_cam.y() / p_cam.z() + calibration.cy);
 }
 
-cv::Matx33d cameraMatrix(const RectifiedStereo& calibration) {
+cv::Matx33d cameraMatrix(const StereoCalibration& calibration) {
   return cv::Matx33d(calibration.fx, 0, calibration.cx, 0, calibration.fy, calibration.cy, 0, 0, 1);
 }
 
-double disparityAtDepth(const RectifiedStereo& calibration, double z) {
+double disparityAtDepth(const StereoCalibration& calibration, double z) {
   return calibration.fx * calibration.baseline / z;
 }
 

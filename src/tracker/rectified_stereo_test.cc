@@ -9,33 +9,20 @@ namespace ekf_vislam {
 namespace {
 
 // KITTI odometry 06 (P0, P1).
-RectifiedStereo kittiCalibration() {
-  RectifiedStereo c;
-  c.fx = c.fy = 707.0912;
-  c.cx = 601.8873;
-  c.cy = 183.1104;
-  c.baseline = 379.8145 / 707.0912;
-  return c;
+StereoCalibration kittiCalibration() {
+  return rectifiedPair(707.0912, 707.0912, 601.8873, 183.1104, 379.8145 / 707.0912);
 }
 
 // Round numbers whose projections are exact in float.
-RectifiedStereo roundCalibration() {
-  RectifiedStereo c;
-  c.fx = 500;
-  c.fy = 400;
-  c.cx = 320;
-  c.cy = 240;
-  c.baseline = 0.5;
-  return c;
-}
+StereoCalibration roundCalibration() { return rectifiedPair(500, 400, 320, 240, 0.5); }
 
 // A point of the left camera frame seen from the right camera (baseline metres along +x).
-Eigen::Vector3d inRightCamera(const RectifiedStereo& c, const Eigen::Vector3d& p_cam) {
+Eigen::Vector3d inRightCamera(const StereoCalibration& c, const Eigen::Vector3d& p_cam) {
   return p_cam - Eigen::Vector3d(c.baseline, 0, 0);
 }
 
 TEST(RectifiedStereo, ProjectionOfTriangulatedPointGivesBothPixels) {
-  for (const RectifiedStereo& c : {kittiCalibration(), roundCalibration()}) {
+  for (const StereoCalibration& c : {kittiCalibration(), roundCalibration()}) {
     for (const cv::Point2f left : {cv::Point2f(10.25f, 5.5f), cv::Point2f(601.9f, 183.1f),
                                    cv::Point2f(1200.75f, 360.125f), cv::Point2f(333.3f, 17.7f)}) {
       for (const double disparity : {0.01, 0.5, 3.25, 40.0, 250.0}) {
@@ -55,7 +42,7 @@ TEST(RectifiedStereo, ProjectionOfTriangulatedPointGivesBothPixels) {
 
 TEST(RectifiedStereo, TriangulatingTheProjectionsRecoversThePoint) {
   // Exact case: the pixels and the disparity of these points are exact in float.
-  const RectifiedStereo c = roundCalibration();
+  const StereoCalibration c = roundCalibration();
   for (const Eigen::Vector3d& p_cam : {Eigen::Vector3d(1, -0.5, 10), Eigen::Vector3d(-2, 3, 4),
                                        Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(25, -12.5, 125)}) {
     const Eigen::Vector2d left = project(c, p_cam);
@@ -70,7 +57,7 @@ TEST(RectifiedStereo, TriangulatingTheProjectionsRecoversThePoint) {
     EXPECT_LT((*p - p_cam).norm(), 1e-12) << p_cam.transpose() << " -> " << p->transpose();
   }
   // General case, float pixels: within what a float pixel resolves.
-  const RectifiedStereo k = kittiCalibration();
+  const StereoCalibration k = kittiCalibration();
   for (const Eigen::Vector3d& p_cam :
        {Eigen::Vector3d(1.3, -0.7, 8.9), Eigen::Vector3d(-4.1, 1.9, 23.7),
         Eigen::Vector3d(0.05, 0.02, 2.2)}) {
@@ -90,7 +77,7 @@ TEST(RectifiedStereo, TriangulatingTheProjectionsRecoversThePoint) {
 }
 
 TEST(RectifiedStereo, NonPositiveDisparityGivesNoPoint) {
-  const RectifiedStereo c = kittiCalibration();
+  const StereoCalibration c = kittiCalibration();
   const cv::Point2f left(400.5f, 120.25f);
   for (const double disparity :
        {0.0, -0.0, -1e-9, -0.5, -300.0, std::numeric_limits<double>::quiet_NaN()}) {
@@ -100,7 +87,7 @@ TEST(RectifiedStereo, NonPositiveDisparityGivesNoPoint) {
 }
 
 TEST(RectifiedStereo, DisparityAtDepth) {
-  const RectifiedStereo c = kittiCalibration();
+  const StereoCalibration c = kittiCalibration();
   for (const double z : {0.5, 1.0, 7.3, 40.0, 1000.0}) {
     EXPECT_EQ(disparityAtDepth(c, z), c.fx * c.baseline / z) << z;
     const std::optional<Eigen::Vector3d> p =
@@ -112,10 +99,10 @@ TEST(RectifiedStereo, DisparityAtDepth) {
 }
 
 TEST(RectifiedStereo, NormalizedIsThePixelsRayAtUnitDepth) {
-  const RectifiedStereo c = roundCalibration();
+  const StereoCalibration c = roundCalibration();
   const Eigen::Vector3d ray = normalized(c, cv::Point2f(370, 200));
   EXPECT_EQ(ray, Eigen::Vector3d(0.1, -0.1, 1.0));
-  const RectifiedStereo k = kittiCalibration();
+  const StereoCalibration k = kittiCalibration();
   const cv::Point2f pixel(1000.125f, 50.75f);
   for (const double z : {1.0, 3.5, 60.0}) {
     const Eigen::Vector2d back = project(k, z * normalized(k, pixel));
@@ -124,19 +111,16 @@ TEST(RectifiedStereo, NormalizedIsThePixelsRayAtUnitDepth) {
   }
 }
 
-TEST(RectifiedStereo, TakesTheEstimatorsCalibration) {
-  StereoCalibration calibration;
-  calibration.fx = 718.856;
-  calibration.fy = 718.5;
-  calibration.cx = 607.1928;
-  calibration.cy = 185.2157;
-  calibration.baseline = 0.5372;
-  const RectifiedStereo stereo = rectifiedStereoOf(calibration);
-  EXPECT_EQ(stereo.fx, 718.856);
-  EXPECT_EQ(stereo.fy, 718.5);
-  EXPECT_EQ(stereo.cx, 607.1928);
-  EXPECT_EQ(stereo.cy, 185.2157);
-  EXPECT_EQ(stereo.baseline, 0.5372);
+TEST(RectifiedStereo, RectifiedPairIsAValidCalibrationWithoutExtrinsic) {
+  const StereoCalibration pair = rectifiedPair(718.856, 718.5, 607.1928, 185.2157, 0.5372);
+  EXPECT_EQ(pair.validate(), "");
+  EXPECT_EQ(pair.fx, 718.856);
+  EXPECT_EQ(pair.fy, 718.5);
+  EXPECT_EQ(pair.cx, 607.1928);
+  EXPECT_EQ(pair.cy, 185.2157);
+  EXPECT_EQ(pair.baseline, 0.5372);
+  EXPECT_TRUE(pair.cam_T_imu.isApprox(Eigen::Isometry3d::Identity()));
+  EXPECT_FALSE(rectifiedPair(718.856, 718.5, 607.1928, 185.2157, 0.0).validate().empty());
 }
 
 }  // namespace

@@ -134,7 +134,7 @@ CameraMotionPrior motionPriorOf(const MotionCheckResult& check) {
 // The frame's left-right matches in the figures the rig check reads (stereo_rig_check.h). The
 // roll is fitted to the matches within twice the row tolerance of its line: the row test's own
 // matches and their neighbours, not the wrong matches of other rows.
-void summarizeStereoMatches(StereoMatchCounts counts, const RectifiedStereo& calibration,
+void summarizeStereoMatches(StereoMatchCounts counts, const StereoCalibration& calibration,
                             int image_width, double row_tolerance_px, TrackerFrameStats* stats) {
   stats->stereo_converged = counts.converged();
   stats->stereo_row_failed = counts.row_failed;
@@ -155,7 +155,7 @@ void summarizeStereoMatches(StereoMatchCounts counts, const RectifiedStereo& cal
 
 }  // namespace
 
-StereoTracker::StereoTracker(const TrackerOptions& options, const RectifiedStereo& calibration,
+StereoTracker::StereoTracker(const TrackerOptions& options, const StereoCalibration& calibration,
                              StereoMasks masks)
     : options_(options), calibration_(calibration), masks_(std::move(masks)), detector_(options) {}
 

@@ -1,5 +1,6 @@
 #include "ekf_vislam/tracker/stereo_tracker.h"
 #include "ekf_vislam/tracker/motion_check.h"
+#include "ekf_vislam/tracker/rectified_stereo.h"
 #include "ekf_vislam/tracker/stereo_rig_check.h"
 
 #include <gtest/gtest.h>
@@ -22,17 +23,13 @@ namespace {
 class SlantedPlaneScene {
  public:
   SlantedPlaneScene() {
-    calibration_.fx = calibration_.fy = 400;
-    calibration_.cx = 320;
-    calibration_.cy = 120;
-    calibration_.baseline = 0.5;
     cv::Mat noise(1024, 2048, CV_32F);
     cv::RNG rng(7);
     rng.fill(noise, cv::RNG::UNIFORM, 0, 255);
     cv::GaussianBlur(noise, texture_, cv::Size(0, 0), 2.0);
     cv::normalize(texture_, texture_, 0, 255, cv::NORM_MINMAX);
   }
-  const RectifiedStereo& calibration() const { return calibration_; }
+  const StereoCalibration& calibration() const { return calibration_; }
   cv::Size size() const { return cv::Size(640, 240); }
 
   /// Image of a camera at `position` (axes parallel to the world's) plus `x_offset` along x.
@@ -71,7 +68,7 @@ class SlantedPlaneScene {
  private:
   static constexpr double kTexturePerMetre = 60.0;
   double depth_ = 8.0, slope_ = 0.3;
-  RectifiedStereo calibration_;
+  StereoCalibration calibration_ = rectifiedPair(400, 400, 320, 120, 0.5);
   cv::Mat texture_;
 };
 
@@ -344,11 +341,7 @@ TEST(StereoTracker, MasksKeepFeaturesOffMaskedPixels) {
 }
 
 TEST(MotionCheck, RejectsAnInjectedWrongMatch) {
-  RectifiedStereo c;
-  c.fx = c.fy = 400;
-  c.cx = 320;
-  c.cy = 120;
-  c.baseline = 0.5;
+  const StereoCalibration c = rectifiedPair(400, 400, 320, 120, 0.5);
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> uniform(-1, 1);
   const Eigen::Matrix3d R = Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitY()).matrix();

@@ -35,7 +35,7 @@ struct TrackStart {
 
 TrackQuality evaluateTrackQuality(const std::vector<StereoFrame>& frames,
                                   const std::vector<Eigen::Matrix4d>& world_T_cam,
-                                  const RectifiedStereo& c, int max_age) {
+                                  const StereoCalibration& c, int max_age) {
   TrackQuality quality;
   std::unordered_map<uint32_t, TrackStart> starts;
   std::unordered_map<uint32_t, int> lengths;

@@ -195,7 +195,7 @@ bool writeDataset(const Arguments& args, const KittiSequence& sequence,
                   const std::vector<StereoFrame>& frames, const PoseTwist& pose_twist,
                   const cv::Size& image_size, std::string* error) {
   const size_t T = frames.size();
-  const RectifiedStereo& c = sequence.calibration;
+  const StereoCalibration& c = sequence.calibration;
   NpzWriter npz;
   size_t M = 0;
   const std::vector<double> features = featureArray(frames, &M);

@@ -106,7 +106,7 @@ class StereoTrackerRos {
   bool wellFormed(const sensor_msgs::Image& left, const sensor_msgs::Image& right);
   /// Counts and warns about pairs missing before this one (StampGapDetector on the left stamps).
   void noteMissingPairs(double stamp);
-  bool calibrationFor(const sensor_msgs::Image& left, RectifiedStereo* stereo, std::string* why);
+  bool calibrationFor(const sensor_msgs::Image& left, StereoCalibration* stereo, std::string* why);
   std::optional<CameraMotionPrior> motionPrior(const std::string& camera_frame, double from,
                                                double to);
   void publish(const sensor_msgs::Image& left_msg, const cv::Mat& left, const cv::Mat& right,
@@ -130,7 +130,7 @@ class StereoTrackerRos {
   StereoMasks masks_;  ///< read once at start (mask/left, mask/right)
   StereoTrackerRosOptions ros_options_;
   std::unique_ptr<StereoTracker> tracker_;
-  RectifiedStereo stereo_;
+  StereoCalibration stereo_;
 
   image_transport::ImageTransport image_transport_;
   message_filters::Subscriber<sensor_msgs::Image> left_sub_, right_sub_;

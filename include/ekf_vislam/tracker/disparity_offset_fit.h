@@ -45,6 +45,6 @@ struct DisparityOffsetMatch {
 DisparityOffsetFit fitDisparityOffset(const std::vector<DisparityOffsetMatch>& matches,
                                       const Eigen::Matrix3d& cur_R_prev,
                                       const Eigen::Vector3d& cur_t_prev,
-                                      const RectifiedStereo& calibration, double threshold_px);
+                                      const StereoCalibration& calibration, double threshold_px);
 
 }  // namespace ekf_vislam

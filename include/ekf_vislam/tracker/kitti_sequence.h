@@ -16,7 +16,7 @@ namespace ekf_vislam {
 struct KittiSequence {
   std::vector<std::string> left_images, right_images;  ///< paths, sorted
   std::vector<double> times;                           ///< s, one per frame
-  RectifiedStereo calibration;
+  StereoCalibration calibration;
   std::vector<Eigen::Matrix4d> world_T_cam;  ///< empty without poses
   size_t size() const { return times.size(); }
   /// Leaves out the first n frames (images, times, poses); all of them when n >= size().
@@ -26,7 +26,7 @@ struct KittiSequence {
 };
 
 /// Reads the calibration (fx, fy, cx, cy from P0; baseline = (P0[0,3] - P1[0,3]) / fx).
-bool readKittiCalibration(const std::string& path, RectifiedStereo* calibration,
+bool readKittiCalibration(const std::string& path, StereoCalibration* calibration,
                           std::string* error);
 /// One number per line.
 bool readKittiTimes(const std::string& path, std::vector<double>* times, std::string* error);

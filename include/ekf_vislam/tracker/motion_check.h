@@ -26,7 +26,7 @@ struct MotionCheckResult {
 MotionCheckResult checkTemporalMatches(const std::vector<cv::Point3f>& prev_points,
                                        const std::vector<cv::Point2f>& prev_pixels,
                                        const std::vector<cv::Point2f>& cur_pixels,
-                                       const RectifiedStereo& calibration,
+                                       const StereoCalibration& calibration,
                                        const TrackerOptions& options);
 
 }  // namespace ekf_vislam

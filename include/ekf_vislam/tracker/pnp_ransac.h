@@ -33,11 +33,11 @@ struct PnpRansacResult {
 /// (rectified, left) image sees them. At least 4 matches, else nothing is found.
 PnpRansacResult pnpRansac(const std::vector<cv::Point3f>& points_prev,
                           const std::vector<cv::Point2f>& pixels_cur,
-                          const RectifiedStereo& calibration, const PnpRansacOptions& options);
+                          const StereoCalibration& calibration, const PnpRansacOptions& options);
 
 /// d pixel / d (dtheta, dt) of a point q = R p + t (current camera frame, z > 0) under the motion
 /// update R <- exp(dtheta) R, t <- exp(dtheta) t + dt: the Jacobian of the refit's Gauss-Newton.
-Eigen::Matrix<double, 2, 6> reprojectionJacobian(const RectifiedStereo& calibration,
+Eigen::Matrix<double, 2, 6> reprojectionJacobian(const StereoCalibration& calibration,
                                                  const Eigen::Vector3d& q);
 
 /// The number of samples that find an all-inlier one with `confidence`, for an inlier ratio and

@@ -21,9 +21,9 @@ namespace ekf_vislam {
 
 class StereoTracker {
  public:
-  /// `options` must pass validate() and `calibration` must be valid() (checked by the callers);
-  /// `masks` (loadStereoMasks) keep features off parts of the images.
-  StereoTracker(const TrackerOptions& options, const RectifiedStereo& calibration,
+  /// `options` must pass validate() and `calibration` must pass validate() (checked by the
+  /// callers); `masks` (loadStereoMasks) keep features off parts of the images.
+  StereoTracker(const TrackerOptions& options, const StereoCalibration& calibration,
                 StereoMasks masks = StereoMasks());
 
   /// Processes one rectified pair (8-bit single channel, same size, that of the masks) taken at
@@ -36,7 +36,7 @@ class StereoTracker {
   /// Ends every track (the next pair starts afresh; ids continue).
   void reset();
 
-  const RectifiedStereo& calibration() const { return calibration_; }
+  const StereoCalibration& calibration() const { return calibration_; }
   const TrackerOptions& options() const { return options_; }
 
  private:
@@ -134,7 +134,7 @@ class StereoTracker {
   void fillFrame(double stamp, StereoFrame* frame);
 
   TrackerOptions options_;
-  RectifiedStereo calibration_;
+  StereoCalibration calibration_;
   StereoMasks masks_;
   GridFeatureDetector detector_;
   std::vector<Track> tracks_;

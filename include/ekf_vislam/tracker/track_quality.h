@@ -27,6 +27,6 @@ struct TrackQuality {
 /// Errors are computed for the ages 1..max_age.
 TrackQuality evaluateTrackQuality(const std::vector<StereoFrame>& frames,
                                   const std::vector<Eigen::Matrix4d>& world_T_cam,
-                                  const RectifiedStereo& calibration, int max_age);
+                                  const StereoCalibration& calibration, int max_age);
 
 }  // namespace ekf_vislam

@@ -1,6 +1,9 @@
-// Plain data of the stereo tracker: calibration in, tracked features and per-frame counters out.
-// No ROS.
+// Plain data of the stereo tracker: tracked features and per-frame counters out. Its calibration
+// is the estimator's StereoCalibration (core/types.h; the tracker reads the intrinsics and
+// baseline of the rectified pair, not cam_T_imu). No ROS.
 #pragma once
+
+#include "ekf_vislam/core/types.h"
 
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
@@ -10,14 +13,6 @@
 #include <vector>
 
 namespace ekf_vislam {
-
-/// Rectified stereo pair: both images share fx, fy, cx, cy; the right camera sits `baseline`
-/// metres along the left camera's +x axis (disparity u_left - u_right = fx * baseline / z).
-struct RectifiedStereo {
-  double fx = 0, fy = 0, cx = 0, cy = 0;
-  double baseline = 0;  ///< m
-  bool valid() const { return fx > 0 && fy > 0 && baseline > 0; }
-};
 
 /// Optional motion of the left camera between the previous and the current frame, e.g. from
 /// the gyro: p_cur = cur_R_prev * p_prev + cur_t_prev (points in the left camera frames).

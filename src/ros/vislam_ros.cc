@@ -20,6 +20,34 @@ namespace ekf_vislam {
 VislamRos::VislamRos(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const std::string& name)
     : nh_(nh), pnh_(pnh), name_(name) {
   keepLargeAllocationsOnHeap();
+  loadOptions();
+  runner_ = std::make_unique<EstimatorRunner>(
+      options_,
+      MeasurementSequencer::Options{ros_options_.sequencer_max_delay,
+                                    static_cast<size_t>(ros_options_.sequencer_max_buffered)});
+  runner_->enablePreview(true);        // twist-rate odometry
+  runner_->enableWallClockWait(true);  // a late stream is waited for in wall time too
+  runner_->enableTimeJumpReset(ros_options_.time_jump_reset);
+  if (ros_options_.calibration.has_intrinsics && ros_options_.calibration.has_extrinsic) {
+    tryCalibrate();
+  }
+
+  path_.header.frame_id = ros_options_.world_frame;
+  const ros::WallTime now = ros::WallTime::now();
+  last_input_ = last_twist_ = last_features_ = last_diag_ = now;
+
+  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_);
+  imu_T_frame_ = FixedFrameTransforms(&tf_buffer_, ros_options_.imu_frame);
+  advertiseOutputs();
+  subscribeInputs();
+  startTimersAndServices();
+  ROS_INFO("%s: listening on %s and %s%s%s, publishing %s", name_.c_str(),
+           twist_sub_.getTopic().c_str(), features_sub_.getTopic().c_str(),
+           imu_sub_ ? " (accelerometer: " : "", imu_sub_ ? (imu_sub_.getTopic() + ")").c_str() : "",
+           odometry_pub_.getTopic().c_str());
+}
+
+void VislamRos::loadOptions() {
   RosParameterSource source(pnh_);
   std::string error;
   if (!parseVislamOptions(source, &options_, &error) ||
@@ -38,29 +66,16 @@ VislamRos::VislamRos(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, cons
   }
   ROS_INFO("%s: effective options (from %s):\n%s\n%s", name_.c_str(), source.describe().c_str(),
            describeOptions(options_).c_str(), describeOptions(ros_options_).c_str());
+}
 
-  runner_ = std::make_unique<EstimatorRunner>(
-      options_,
-      MeasurementSequencer::Options{ros_options_.sequencer_max_delay,
-                                    static_cast<size_t>(ros_options_.sequencer_max_buffered)});
-  runner_->enablePreview(true);        // twist-rate odometry
-  runner_->enableWallClockWait(true);  // a late stream is waited for in wall time too
-  runner_->enableTimeJumpReset(ros_options_.time_jump_reset);
-  if (ros_options_.calibration.has_intrinsics && ros_options_.calibration.has_extrinsic) {
-    tryCalibrate();
-  }
-
-  path_.header.frame_id = ros_options_.world_frame;
-  const ros::WallTime now = ros::WallTime::now();
-  last_input_ = last_twist_ = last_features_ = last_diag_ = now;
-
-  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_);
-  imu_T_frame_ = FixedFrameTransforms(&tf_buffer_, ros_options_.imu_frame);
+void VislamRos::advertiseOutputs() {
   odometry_pub_ = pnh_.advertise<nav_msgs::Odometry>("odometry", 100);
   odometry_update_pub_ = pnh_.advertise<nav_msgs::Odometry>("odometry_update", 100);
   path_pub_ = pnh_.advertise<nav_msgs::Path>("path", 1, true);
   landmarks_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("landmarks", 1, true);
+}
 
+void VislamRos::subscribeInputs() {
   const int queue = ros_options_.queue_size;
   const ros::TransportHints hints = ros::TransportHints().tcpNoDelay();
   if (ros_options_.twist_type == TwistMessageType::kOdometry) {
@@ -79,7 +94,9 @@ VislamRos::VislamRos(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, cons
   left_info_sub_ = nh_.subscribe("stereo/left/camera_info", 10, &VislamRos::leftInfoCallback, this);
   right_info_sub_ =
       nh_.subscribe("stereo/right/camera_info", 10, &VislamRos::rightInfoCallback, this);
+}
 
+void VislamRos::startTimersAndServices() {
   // Releases what the calibration wait held back once it is over, and what waited for a stopped
   // stream for ros/sequencer_max_delay of wall time (the sequencer waits in both clocks).
   wait_timer_ = nh_.createWallTimer(ros::WallDuration(0.1), &VislamRos::waitTimer, this);
@@ -94,10 +111,6 @@ VislamRos::VislamRos(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, cons
   // Last, so that a client seeing the services knows the subscriptions are registered.
   reset_srv_ = pnh_.advertiseService("reset", &VislamRos::resetService, this);
   save_srv_ = pnh_.advertiseService("save", &VislamRos::saveService, this);
-  ROS_INFO("%s: listening on %s and %s%s%s, publishing %s", name_.c_str(),
-           twist_sub_.getTopic().c_str(), features_sub_.getTopic().c_str(),
-           imu_sub_ ? " (accelerometer: " : "", imu_sub_ ? (imu_sub_.getTopic() + ")").c_str() : "",
-           odometry_pub_.getTopic().c_str());
 }
 
 VislamRos::~VislamRos() { shutdown(); }

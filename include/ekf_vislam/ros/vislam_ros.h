@@ -57,6 +57,13 @@ class VislamRos {
   void shutdown();
 
  private:
+  // Construction: parameters (throws on invalid ones), publishers, subscribers, then timers,
+  // diagnostics and services.
+  void loadOptions();
+  void advertiseOutputs();
+  void subscribeInputs();
+  void startTimersAndServices();
+
   // Inputs.
   void twistCallback(const geometry_msgs::TwistStamped::ConstPtr& msg);
   void twistWithCovarianceCallback(const geometry_msgs::TwistWithCovarianceStamped::ConstPtr& msg);

@@ -62,7 +62,11 @@ if(CATKIN_ENABLE_TESTING)
     src/tracker/stereo_rig_check_test.cc
     src/tracker/patch_refiner_test.cc
     src/tracker/rectified_stereo_test.cc
+    src/tracker/track_quality_test.cc
+    src/tracker/motion_check_test.cc
+    src/tracker/stereo_matcher_test.cc
     src/tracker/kitti_clips_test.cc)
+  target_include_directories(ekf_vislam_tracker_test PRIVATE ${PROJECT_SOURCE_DIR}/src/tracker)
   target_link_libraries(ekf_vislam_tracker_test ekf_vislam_tracker)
   target_compile_definitions(ekf_vislam_tracker_test PRIVATE
     EKF_VISLAM_SOURCE_DIR="${PROJECT_SOURCE_DIR}")

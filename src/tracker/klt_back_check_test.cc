@@ -1,5 +1,7 @@
 #include "ekf_vislam/tracker/klt_back_check.h"
 
+#include "testing/blurred_texture.h"
+
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
@@ -12,12 +14,7 @@ namespace {
 // A blurred random texture and the same texture moved by (3.0, -2.0) px.
 struct ShiftedPair {
   ShiftedPair() {
-    cv::Mat noise(240, 320, CV_32F);
-    cv::RNG rng(3);
-    rng.fill(noise, cv::RNG::UNIFORM, 0, 255);
-    cv::GaussianBlur(noise, noise, cv::Size(0, 0), 1.5);
-    cv::normalize(noise, noise, 0, 255, cv::NORM_MINMAX);
-    noise.convertTo(first, CV_8U);
+    first = testing::blurredTexture(cv::Size(320, 240), 3, 1.5);
     const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, 3.0, 0, 1, -2.0);
     cv::warpAffine(first, second, shift, first.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
     cv::buildOpticalFlowPyramid(first, first_pyramid, klt.window, klt.levels, true);

@@ -1,5 +1,4 @@
 #include "ekf_vislam/tracker/stereo_tracker.h"
-#include "ekf_vislam/tracker/motion_check.h"
 #include "ekf_vislam/tracker/rectified_stereo.h"
 #include "ekf_vislam/tracker/stereo_rig_check.h"
 
@@ -338,42 +337,6 @@ TEST(StereoTracker, MasksKeepFeaturesOffMaskedPixels) {
   EXPECT_FALSE(tracker.process(scene.render(positionAt(0), 0), scene.render(positionAt(0), 0.5),
                                0.0, nullptr, &frame, &why));
   EXPECT_EQ(why, "the 'mask/left' image is 1241x376, the camera images 640x240");
-}
-
-TEST(MotionCheck, RejectsAnInjectedWrongMatch) {
-  const StereoCalibration c = rectifiedPair(400, 400, 320, 120, 0.5);
-  std::mt19937 rng(3);
-  std::uniform_real_distribution<double> uniform(-1, 1);
-  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitY()).matrix();
-  const Eigen::Vector3d t(0.05, 0.0, -0.8);
-  std::vector<cv::Point3f> points;
-  std::vector<cv::Point2f> prev, cur;
-  for (int i = 0; i < 80; ++i) {
-    const Eigen::Vector3d p(6 * uniform(rng), 2 * uniform(rng), 12 + 8 * uniform(rng));
-    const Eigen::Vector3d q = R * p + t;
-    points.emplace_back(p.x(), p.y(), p.z());
-    prev.emplace_back(c.fx * p.x() / p.z() + c.cx, c.fy * p.y() / p.z() + c.cy);
-    cur.emplace_back(c.fx * q.x() / q.z() + c.cx, c.fy * q.y() / q.z() + c.cy);
-  }
-  cur[17].x += 3.0f;  // a KLT match that slid 3 px
-  cur[42].y -= 2.0f;
-  for (TemporalOutlierCheck type :
-       {TemporalOutlierCheck::kPnp, TemporalOutlierCheck::kFundamental}) {
-    TrackerOptions options;
-    options.outlier_check = type;
-    const MotionCheckResult result = checkTemporalMatches(points, prev, cur, c, options);
-    ASSERT_TRUE(result.checked);
-    EXPECT_EQ(result.inlier[17], 0);
-    EXPECT_EQ(result.inlier[42], 0);
-    int inliers = 0;
-    for (uint8_t in : result.inlier) inliers += in;
-    EXPECT_GE(inliers, 76);
-    if (type == TemporalOutlierCheck::kPnp) {
-      ASSERT_TRUE(result.has_motion);
-      EXPECT_LT((result.cur_t_prev - t).norm(), 1e-3);
-      EXPECT_LT((result.cur_R_prev - R).norm(), 1e-4);
-    }
-  }
 }
 
 TEST(StereoTracker, IndependentlyMovingPatchIsRejected) {

@@ -1,5 +1,6 @@
 #include "ekf_vislam/tracker/track_quality.h"
 
+#include "ekf_vislam/core/median.h"
 #include "ekf_vislam/tracker/rectified_stereo.h"
 
 #include <Eigen/Geometry>
@@ -13,17 +14,6 @@
 namespace ekf_vislam {
 
 namespace {
-
-double median(std::vector<double> values) {
-  if (values.empty()) return 0.0;
-  const size_t mid = values.size() / 2;
-  std::nth_element(values.begin(), values.begin() + mid, values.end());
-  double m = values[mid];
-  if (values.size() % 2 == 0) {
-    m = 0.5 * (m + *std::max_element(values.begin(), values.begin() + mid));
-  }
-  return m;
-}
 
 struct TrackStart {
   size_t frame = 0;
@@ -73,8 +63,8 @@ TrackQuality evaluateTrackQuality(const std::vector<StereoFrame>& frames,
       errors[age].push_back(std::hypot(du, dv));
     }
   }
-  for (const auto& [age, values] : errors) {
-    quality.median_error_px[age] = median(values);
+  for (auto& [age, values] : errors) {
+    quality.median_error_px[age] = median(&values);
     quality.samples[age] = static_cast<int>(values.size());
   }
   quality.num_tracks = static_cast<int>(lengths.size());

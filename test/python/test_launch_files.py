@@ -5,6 +5,8 @@ import subprocess
 import unittest
 
 import yaml
+from roslaunch.config import ROSLaunchConfig
+from roslaunch.xmlloader import XmlLoader
 
 import ekf_test_paths
 
@@ -26,6 +28,23 @@ def params(launch, *args):
 
 def nodes(launch, *args):
     return set(roslaunch('--nodes', os.path.join(LAUNCH_DIR, launch), *args).split())
+
+
+def node_args(launch, name, *args):
+    """The command-line arguments of node `name` as the launch file resolves them (the node's
+    package need not be installed)."""
+    config = ROSLaunchConfig()
+    XmlLoader().load(os.path.join(LAUNCH_DIR, launch), config, argv=['roslaunch'] + list(args),
+                     verbose=False)
+    return {node.name: node.args for node in config.nodes}[name]
+
+
+def rviz_topics(path):
+    """Every topic an rviz display file shows."""
+    with open(path) as f:
+        displays = yaml.safe_load(f)['Visualization Manager']['Displays']
+    keys = ('Topic', 'Marker Topic', 'Image Topic')
+    return {d[k] for d in displays for k in keys if k in d}
 
 
 class LaunchFileTest(unittest.TestCase):
@@ -58,6 +77,20 @@ class LaunchFileTest(unittest.TestCase):
                           '/stereo_tracker'})
         self.assertEqual(nodes('vislam.launch', 'twist_combiner:=true', 'standalone:=true'),
                          {'/vislam', '/twist_combiner'})
+
+
+    def test_rviz_shows_the_tracker_debug_image_with_the_stereo_launch(self):
+        rviz_dir = os.path.join(ekf_test_paths.REPO_ROOT, 'rviz')
+        outputs = {'/vislam/path', '/vislam/landmarks', '/vislam/odometry', '/groundtruth/path'}
+        self.assertEqual(rviz_topics(os.path.join(rviz_dir, 'vislam.rviz')), outputs)
+        self.assertEqual(rviz_topics(os.path.join(rviz_dir, 'stereo_vislam.rviz')),
+                         outputs | {'/stereo/debug_image'})
+        self.assertTrue(node_args('vislam.launch', 'rviz', 'rviz:=true').endswith(
+            '/rviz/vislam.rviz'))
+        self.assertTrue(node_args('stereo_vislam.launch', 'rviz', 'rviz:=true').endswith(
+            '/rviz/stereo_vislam.rviz'))
+        self.assertNotIn('/groundtruth_path', nodes('stereo_vislam.launch'))
+        self.assertIn('/groundtruth_path', nodes('stereo_vislam.launch', 'groundtruth_path:=true'))
 
 
 if __name__ == '__main__':

@@ -1,7 +1,7 @@
 // Pinhole projection and stereo triangulation of a rectified stereo pair (the fx, fy, cx, cy and
 // baseline of a StereoCalibration): the formulas the tracker, its motion check and its quality
-// measure share. Points are in the left
-// camera frame (x right, y down, z forward, m); pixels in the rectified left image. No ROS.
+// measure share. Points are in the left camera frame (x right, y down, z forward, m); pixels in
+// the rectified left image. No ROS.
 #pragma once
 
 #include "ekf_vislam/core/types.h"

@@ -396,8 +396,7 @@ void StereoTrackerRos::trackPair(const ImagePair& pair) {
     ROS_WARN_THROTTLE(kWarnPeriod, "%s: %s: pair skipped", name_.c_str(), why.c_str());
     return;
   }
-  if (!tracker_ || stereo.fx != stereo_.fx || stereo.baseline != stereo_.baseline ||
-      stereo.cx != stereo_.cx || stereo.cy != stereo_.cy) {
+  if (!tracker_ || !sameRectifiedPair(stereo, stereo_)) {
     tracker_ = std::make_unique<StereoTracker>(options_, stereo, masks_);  // (new) calibration
     rig_check_.reset();
     stereo_ = stereo;

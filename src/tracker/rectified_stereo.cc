@@ -12,6 +12,10 @@ StereoCalibration rectifiedPair(double fx, double fy, double cx, double cy, doub
   return pair;
 }
 
+bool sameRectifiedPair(const StereoCalibration& a, const StereoCalibration& b) {
+  return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.baseline == b.baseline;
+}
+
 Eigen::Vector3d normalized(const StereoCalibration& calibration, const cv::Point2f& pixel) {
   return Eigen::Vector3d((pixel.x - calibration.cx) / calibration.fx,
                          (pixel.y - calibration.cy) / calibration.fy, 1.0);

@@ -123,5 +123,20 @@ TEST(RectifiedStereo, RectifiedPairIsAValidCalibrationWithoutExtrinsic) {
   EXPECT_FALSE(rectifiedPair(718.856, 718.5, 607.1928, 185.2157, 0.0).validate().empty());
 }
 
+TEST(RectifiedStereo, SamePairComparesEveryIntrinsicAndTheBaseline) {
+  const StereoCalibration k = kittiCalibration();
+  StereoCalibration other = k;
+  other.cam_T_imu.translation().x() = 1.0;  // not the tracker's concern
+  other.image_width = 1241;
+  EXPECT_TRUE(sameRectifiedPair(k, other));
+  for (double StereoCalibration::*field :
+       {&StereoCalibration::fx, &StereoCalibration::fy, &StereoCalibration::cx,
+        &StereoCalibration::cy, &StereoCalibration::baseline}) {
+    StereoCalibration changed = k;
+    changed.*field += 1e-6;
+    EXPECT_FALSE(sameRectifiedPair(k, changed));
+  }
+}
+
 }  // namespace
 }  // namespace ekf_vislam

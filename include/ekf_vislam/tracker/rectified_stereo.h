@@ -19,6 +19,10 @@ namespace ekf_vislam {
 /// size, cam_T_imu the identity: all the tracker reads.
 StereoCalibration rectifiedPair(double fx, double fy, double cx, double cy, double baseline);
 
+/// True when a and b hold the same fx, fy, cx, cy and baseline (the tracker's whole view of a
+/// calibration): a camera_info that changes any of them starts the tracker anew.
+bool sameRectifiedPair(const StereoCalibration& a, const StereoCalibration& b);
+
 /// The ray of a left-image pixel at unit depth: ((u - cx) / fx, (v - cy) / fy, 1).
 Eigen::Vector3d normalized(const StereoCalibration& calibration, const cv::Point2f& pixel);
 

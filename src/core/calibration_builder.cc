@@ -5,6 +5,11 @@
 
 namespace ekf_vislam {
 
+bool sameProjection(const PinholeProjection& a, const PinholeProjection& b) {
+  return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.tx == b.tx &&
+         a.width == b.width && a.height == b.height;
+}
+
 bool stereoIntrinsicsFromProjections(const PinholeProjection& l, const PinholeProjection& r,
                                      StereoCalibration* calibration, std::string* error,
                                      double tolerance_px) {

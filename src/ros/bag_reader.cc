@@ -57,14 +57,16 @@ bool BagReader::readCalibrationData(BagCalibrationData* data, std::string* error
           if (error) *error = m.getTopic() + " is not sensor_msgs/CameraInfo";
           return false;
         }
-        if (m.getTopic() == topics_.left_info && !data->has_left_info) {
-          data->left_info = *info;
-          data->has_left_info = true;
-        } else if (m.getTopic() == topics_.right_info && !data->has_right_info) {
-          data->right_info = *info;
-          data->has_right_info = true;
+        const bool left = m.getTopic() == topics_.left_info;
+        bool& has_first = left ? data->has_left_info : data->has_right_info;
+        sensor_msgs::CameraInfo& first = left ? data->left_info : data->right_info;
+        if (!has_first) {
+          first = *info;
+          has_first = true;
+        } else if (!sameProjection(ros_conversions::projectionOf(*info),
+                                   ros_conversions::projectionOf(first))) {
+          ++data->camera_info_changed;
         }
-        if (data->has_left_info && data->has_right_info) break;
       }
     }
     {

@@ -325,6 +325,16 @@ bool setBagCalibration(const BagCalibrationData& data, const BagTopics& topics,
   return true;
 }
 
+// The camera_info messages unlike the first of their camera (none counted when ros/calibration
+// gives the intrinsics), warned: the estimator keeps the first pair's calibration, as the node.
+uint64_t changedCameraInfo(const BagCalibrationData& data, const VislamRosOptions& ros_options) {
+  if (ros_options.calibration.has_intrinsics || data.camera_info_changed == 0) return 0;
+  std::cerr << "vislam_offline: warning: " << data.camera_info_changed
+            << " camera_info message(s) differ from the first of their camera: ignored, the "
+               "estimator keeps the calibration of the first pair (as the node does)\n";
+  return data.camera_info_changed;
+}
+
 // The twist combiner's counters for stats.json (none without a combiner).
 std::map<std::string, double> combinerStats(const TwistCombiner* combiner) {
   std::map<std::string, double> stats;
@@ -415,6 +425,7 @@ int run(int argc, char** argv) {
   if (!setBagCalibration(data, topics, ros_options, needs_features, &runner, &error)) {
     return fail(error);
   }
+  const uint64_t camera_info_changed = changedCameraInfo(data, ros_options);
 
   runner.enableTimeJumpReset(ros_options.time_jump_reset);  // as the node does
   runner.startClock();
@@ -434,7 +445,9 @@ int run(int argc, char** argv) {
                  "outputs hold the part after the last reset\n";
   }
   runner.flush();
-  if (!runner.save(args["--out"], &error, combinerStats(bag.twistCombiner()))) return fail(error);
+  std::map<std::string, double> extra_stats = combinerStats(bag.twistCombiner());
+  extra_stats["camera_info_changed"] = static_cast<double>(camera_info_changed);
+  if (!runner.save(args["--out"], &error, extra_stats)) return fail(error);
   printSummary(runner, args["--out"]);
   if (const TwistCombiner* combiner = bag.twistCombiner()) printCombinerSummary(*combiner);
   return 0;

@@ -263,13 +263,32 @@ void VislamRos::featuresCallback(const ekf_vislam::StereoFeatureArray::ConstPtr&
 void VislamRos::leftInfoCallback(const sensor_msgs::CameraInfo::ConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   left_info_ = msg;
+  checkCameraInfoUnchanged(*msg, calibrated_left_info_, "left");
   tryCalibrate();
 }
 
 void VislamRos::rightInfoCallback(const sensor_msgs::CameraInfo::ConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   right_info_ = msg;
+  checkCameraInfoUnchanged(*msg, calibrated_right_info_, "right");
   tryCalibrate();
+}
+
+void VislamRos::checkCameraInfoUnchanged(const sensor_msgs::CameraInfo& now,
+                                         const sensor_msgs::CameraInfo::ConstPtr& calibrated,
+                                         const char* side) {
+  if (!calibrated || !runner_->estimator().hasCalibration()) return;
+  const PinholeProjection was = ros_conversions::projectionOf(*calibrated);
+  const PinholeProjection is = ros_conversions::projectionOf(now);
+  if (sameProjection(is, was)) return;
+  ++camera_info_changed_;
+  ROS_WARN_THROTTLE(
+      5.0,
+      "%s: the %s camera_info changed after the calibration was set (fx %.3f -> %.3f, "
+      "cx %.3f -> %.3f, P[0,3] %.3f -> %.3f, %dx%d -> %dx%d): ignored, the estimator "
+      "keeps its calibration; restart the node to take the new one (%lu so far)",
+      name_.c_str(), side, was.fx, is.fx, was.cx, is.cx, was.tx, is.tx, was.width, was.height,
+      is.width, is.height, camera_info_changed_);
 }
 
 void VislamRos::push(Measurement measurement) {
@@ -343,6 +362,10 @@ void VislamRos::tryCalibrate() {
     return;
   }
   calibration_status_ = "ok";
+  if (builder.needsProjections()) {
+    calibrated_left_info_ = left_info_;
+    calibrated_right_info_ = right_info_;
+  }
   const Eigen::Vector3d t = calibration.cam_T_imu.translation();
   ROS_INFO(
       "%s: calibration set: fx=%.3f fy=%.3f cx=%.3f cy=%.3f baseline=%.4f m, image %dx%d, "
@@ -579,6 +602,10 @@ void VislamRos::setSummary(const DiagnosticHints& hints, const ros::WallTime& no
     status.summary(DiagnosticStatus::WARN, "imu/twist stopped");
   } else if (needs_features && !runner_->estimator().hasCalibration()) {
     status.summary(DiagnosticStatus::WARN, "no calibration: " + calibration_status_);
+  } else if (needs_features && camera_info_changed_ > 0) {
+    status.summary(DiagnosticStatus::WARN,
+                   "camera_info changed after the calibration was set: the estimator keeps the "
+                   "first (restart the node to take the new one)");
   } else if (needs_features && (now - last_features_).toSec() > ros_options_.input_timeout) {
     status.summary(DiagnosticStatus::WARN, "stereo/features stopped");
   } else if (needs_features && !geometry_hint_.empty()) {
@@ -611,6 +638,7 @@ void VislamRos::addDiagnosticValues(double twist_rate, double feature_rate,
   const TravelDirectionEstimator& travel = estimator.travelDirection();
   status.add("mode", modeName(options_.mode));
   status.add("calibration", calibration_status_);
+  status.add("camera_info_changed", camera_info_changed_);
   status.add("unknown_parameters", unknown_parameters_.empty() ? "none" : unknown_parameters_);
   status.add("twist_rate_hz", twist_rate);
   status.add("feature_rate_hz", feature_rate);

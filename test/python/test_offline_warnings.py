@@ -1,11 +1,13 @@
 """vislam_offline's warnings about the regime: few observations updating the filter
 (sparseObservationsHint), a road tilt beyond its prior (roadTiltHint), an accelerometer whose
-samples are refused (accelerometerHint) and stereo features from swapped or unrectified images
-(featureGeometryHint)."""
+samples are refused (accelerometerHint), stereo features from swapped or unrectified images
+(featureGeometryHint) and a camera_info that changes during the bag."""
 import json
 import os
 import subprocess
 import unittest
+
+import rosbag
 
 import ekf_test_paths as paths
 from ekf_vislam_tools import package, simulator
@@ -15,6 +17,7 @@ WARNING = 'observations per frame updated the filter'
 TILT_WARNING = "the road's tilt is estimated at"
 SWAP_WARNING = 'are the left and right images (or u_left and u_right) swapped?'
 ROW_WARNING = 'had left and right rows further apart than limits/max_row_difference_px'
+INFO_WARNING = 'camera_info message(s) differ from the first of their camera: ignored'
 
 
 class RegimeWarningsTest(unittest.TestCase):
@@ -25,9 +28,10 @@ class RegimeWarningsTest(unittest.TestCase):
         self.tmp = paths.make_temp_dir(self)
 
     def run_offline(self, name, target_obs, mode='slam', seed=4, frames=200, change=None,
-                    **options):
+                    change_bag=None, **options):
         """Simulates a drive tracking about target_obs features per frame (its arrays passed
-        through change, when given); returns the run's stderr and stats.json."""
+        through change, its bag through change_bag(in, out), when given); returns the run's
+        stderr and stats.json."""
         arrays = simulator.dataset_arrays(simulator.simulate(seed, frames=frames,
                                                              target_obs=target_obs, **options))
         if change is not None:
@@ -35,6 +39,9 @@ class RegimeWarningsTest(unittest.TestCase):
         npz = paths.write_npz(self.tmp, name + '.npz', arrays)
         bag = os.path.join(self.tmp, name + '.bag')
         subprocess.run([paths.PYTHON, TO_BAG, npz, bag], check=True, capture_output=True)
+        if change_bag is not None:
+            change_bag(bag, bag + '.changed.bag')
+            bag += '.changed.bag'
         out = os.path.join(self.tmp, name + '_' + mode)
         proc = subprocess.run([self.offline, '--bag', bag, '--mode', mode, '--out', out],
                               capture_output=True, text=True)
@@ -114,6 +121,31 @@ class RegimeWarningsTest(unittest.TestCase):
         self.assertGreater(stats['road_tilt_deg'], 8.6)
         self.assertIn(TILT_WARNING, stderr)
         self.assertIn('tilt_sigma', stderr)
+
+    def test_a_changed_camera_info_is_counted_and_ignored(self):
+        stderr, stats = self.run_offline('info', target_obs=70)
+        self.assertEqual(stats['camera_info_changed'], 0)
+        self.assertNotIn(INFO_WARNING, stderr)
+
+        def change_one_left_info(bag_in, bag_out):
+            """The 50th left camera_info with a focal length 5 px larger."""
+            with rosbag.Bag(bag_in) as source, rosbag.Bag(bag_out, 'w') as target:
+                left = 0
+                for topic, msg, t in source.read_messages():
+                    if topic == '/stereo/left/camera_info':
+                        left += 1
+                        if left == 50:
+                            msg.P = list(msg.P)
+                            msg.P[0] += 5.0
+                    target.write(topic, msg, t)
+        stderr, stats = self.run_offline('info_changed', target_obs=70,
+                                         change_bag=change_one_left_info)
+        self.assertEqual(stats['camera_info_changed'], 1)
+        self.assertIn('1 ' + INFO_WARNING, stderr)
+        # The calibration of the first pair, as without the change: the same trajectory.
+        with open(os.path.join(self.tmp, 'info_slam', 'trajectory.tum')) as a, \
+                open(os.path.join(self.tmp, 'info_changed_slam', 'trajectory.tum')) as b:
+            self.assertEqual(a.read(), b.read())
 
 
 if __name__ == '__main__':

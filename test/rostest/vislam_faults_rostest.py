@@ -10,10 +10,13 @@ import tempfile
 import time
 import unittest
 
+import rosbag
 import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
+from rosgraph_msgs.msg import Log
+from sensor_msgs.msg import CameraInfo
 from std_srvs.srv import Trigger
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -72,6 +75,9 @@ class VislamFaultsTest(unittest.TestCase):
         cls.expected = inject_faults(prefix + '.bag', cls.bag)
         cls.odometry = []
         cls.diagnostics = {}
+        cls.warnings = []  # the node's warnings (/rosout), subscribed before anything plays
+        rospy.Subscriber('/rosout', Log, lambda msg: cls.warnings.append(msg.msg)
+                         if msg.level == Log.WARN else None, queue_size=1000)
         rospy.Subscriber(NODELET + '/odometry', Odometry, cls.odometry.append, queue_size=10000)
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics, queue_size=100)
         rospy.wait_for_service(NODELET + '/save', timeout=60.0)
@@ -132,6 +138,35 @@ class VislamFaultsTest(unittest.TestCase):
         self.assertEqual(self.replay_stats['time_jump_resets'], 1)
         self.assertGreater(poses, 250)
         self.assertLess(ate, ATE_TOLERANCE_M)
+
+    def test_zz_a_changed_camera_info_is_ignored_and_warned(self):
+        """A left camera_info with another focal length after the calibration was set: counted
+        and warned, the estimator keeps its calibration. Runs last (the status stays WARN, below
+        the stopped inputs' warning here)."""
+        before = int(self.diagnostics.get('camera_info_changed', 0))
+        warnings = [m for m in self.warnings if 'camera_info changed' in m]
+        self.assertEqual(warnings, [])
+        with rosbag.Bag(self.bag) as bag:
+            info = next(msg for _, msg, _ in bag.read_messages(['/stereo/left/camera_info']))
+        changed = CameraInfo()
+        changed.header, changed.width, changed.height = info.header, info.width, info.height
+        changed.K, changed.P = list(info.K), list(info.P)
+        changed.P[0] += 5.0
+        publisher = rospy.Publisher('/stereo/left/camera_info', CameraInfo, queue_size=10)
+        wait_until(lambda: publisher.get_num_connections() > 0, 10.0)
+        publisher.publish(changed)
+
+        def warned():
+            warnings[:] = [m for m in self.warnings if 'camera_info changed' in m]
+            return warnings
+        wait_until(lambda: int(self.diagnostics.get('camera_info_changed', 0)) > before and
+                   warned(), 10.0)
+        log('camera_info_changed %s; warned: %s' % (self.diagnostics.get('camera_info_changed'),
+                                                    warnings))
+        self.assertEqual(int(self.diagnostics['camera_info_changed']), before + 1)
+        self.assertTrue(warnings)
+        self.assertIn('fx 707.091 -> 712.091', warnings[0])
+        self.assertEqual(self.diagnostics.get('calibration'), 'ok')
 
 
 if __name__ == '__main__':

@@ -24,6 +24,10 @@ struct PinholeProjection {
   int height = 0;
 };
 
+/// True when a and b hold the same fx, fy, cx, cy, tx and image size: a camera_info unlike the
+/// one the calibration was built from is counted and ignored (node and vislam_offline alike).
+bool sameProjection(const PinholeProjection& a, const PinholeProjection& b);
+
 /// Rectified stereo intrinsics: fx, fy, cx, cy and the image size from the left projection,
 /// baseline b = -tx_right / fx_right. Refuses (false, *error says why) non-finite or
 /// non-positive focal lengths, left/right intrinsics that disagree by more than tolerance_px and

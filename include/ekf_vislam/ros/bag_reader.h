@@ -47,6 +47,9 @@ struct BagCalibrationData {
   /// header.frame_id of the first feature message (left camera_info's when there is none).
   std::string camera_frame;
   std::vector<geometry_msgs::TransformStamped> static_transforms;
+  /// camera_info messages whose projection or image size differs from the first of their camera:
+  /// ignored (the calibration comes from the first pair), as the node ignores them.
+  uint64_t camera_info_changed = 0;
 };
 
 class BagReader {

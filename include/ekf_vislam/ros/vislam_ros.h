@@ -75,8 +75,13 @@ class VislamRos {
   void featuresCallback(const ekf_vislam::StereoFeatureArray::ConstPtr& msg);
   void leftInfoCallback(const sensor_msgs::CameraInfo::ConstPtr& msg);
   void rightInfoCallback(const sensor_msgs::CameraInfo::ConstPtr& msg);
-  void push(Measurement measurement);  // locked
-  void process(bool flush);            // locked
+  /// After the calibration is set: counts and warns a camera_info whose projection or image size
+  /// differs from the one the calibration was built from (the estimator keeps its calibration).
+  void checkCameraInfoUnchanged(const sensor_msgs::CameraInfo& now,
+                                const sensor_msgs::CameraInfo::ConstPtr& calibrated,
+                                const char* side);  // locked
+  void push(Measurement measurement);               // locked
+  void process(bool flush);                         // locked
   void onProcessed(const EstimatorRunner::Processed& processed);
   void tryCalibrate();
   /// tf imu_frame -> camera frame into the builder; false (status set) while it is not there.
@@ -143,6 +148,9 @@ class VislamRos {
   // Calibration.
   sensor_msgs::CameraInfo::ConstPtr left_info_;
   sensor_msgs::CameraInfo::ConstPtr right_info_;
+  /// The camera_info pair the calibration was built from (empty with ros/calibration intrinsics).
+  sensor_msgs::CameraInfo::ConstPtr calibrated_left_info_, calibrated_right_info_;
+  uint64_t camera_info_changed_ = 0;  ///< camera_info messages unlike the calibration's, ignored
   std::string camera_frame_;
   std::string calibration_status_ = "waiting for camera_info and tf";
   /// Parameters in the private namespace that no option reads (typing mistakes), or "".

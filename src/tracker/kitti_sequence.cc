@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <type_traits>
 
@@ -74,11 +75,12 @@ bool openFile(const std::string& path, std::ifstream* in, std::string* error) {
 }  // namespace
 
 bool readKittiCalibration(const std::string& path, StereoCalibration* calibration,
-                          std::string* error) {
+                          std::string* error, KittiCameras cameras, Eigen::Matrix4d* cam0_T_left) {
   std::ifstream in;
   if (!openFile(path, &in, error)) return false;
+  std::map<std::string, std::vector<double>> labelled;
   std::vector<std::vector<double>> unlabeled;
-  std::vector<double> p0, p1, numbers;
+  std::vector<double> numbers;
   std::string line, label;
   while (std::getline(in, line)) {
     if (!parseNumbers(line, &numbers, &label)) {
@@ -86,27 +88,39 @@ bool readKittiCalibration(const std::string& path, StereoCalibration* calibratio
       return false;
     }
     if (numbers.empty()) continue;
-    if (label == "P0")
-      p0 = numbers;
-    else if (label == "P1")
-      p1 = numbers;
-    else if (label.empty())
+    if (label.empty()) {
       unlabeled.push_back(numbers);
+    } else {
+      labelled[label] = numbers;
+    }
   }
-  if (p0.empty() && unlabeled.size() >= 1) p0 = unlabeled[0];
-  if (p1.empty() && unlabeled.size() >= 2) p1 = unlabeled[1];
-  if (p0.size() != 12 || p1.size() != 12) {
-    *error = path + ": needs two 3x4 projection matrices P0 and P1 (12 numbers each)";
+  const std::string left_label = "P" + std::to_string(cameras.left);
+  const std::string right_label = "P" + std::to_string(cameras.right);
+  std::vector<double> pl = labelled[left_label], pr = labelled[right_label];
+  if (cameras.left == 0 && cameras.right == 1) {  // a file of two unlabelled lines
+    if (pl.empty() && unlabeled.size() >= 1) pl = unlabeled[0];
+    if (pr.empty() && unlabeled.size() >= 2) pr = unlabeled[1];
+  }
+  if (pl.size() != 12 || pr.size() != 12) {
+    *error = path + ": needs two 3x4 projection matrices " + left_label + " and " + right_label +
+             " (12 numbers each)";
     return false;
   }
   // The estimator's rule (stereoIntrinsicsFromProjections): a rectified pair, equal intrinsics;
-  // P1's translation taken relative to P0's.
-  const PinholeProjection left{p0[0], p0[5], p0[2], p0[6], 0.0};
-  const PinholeProjection right{p1[0], p1[5], p1[2], p1[6], p1[3] - p0[3]};
+  // the right camera's translation taken relative to the left one's.
+  const PinholeProjection left{pl[0], pl[5], pl[2], pl[6], 0.0};
+  const PinholeProjection right{pr[0], pr[5], pr[2], pr[6], pr[3] - pl[3]};
   std::string why;
   if (!stereoIntrinsicsFromProjections(left, right, calibration, &why)) {
-    *error = path + ": P0 and P1: " + why;
+    *error = path + ": " + left_label + " and " + right_label + ": " + why;
     return false;
+  }
+  if (cam0_T_left != nullptr) {
+    // P<left> = K [I | t], t = K^-1 P<left>[:, 3]: camera 0's origin in the left camera's frame.
+    const double tz = pl[11];
+    const Eigen::Vector3d t((pl[3] - pl[2] * tz) / pl[0], (pl[7] - pl[6] * tz) / pl[5], tz);
+    cam0_T_left->setIdentity();
+    cam0_T_left->topRightCorner<3, 1>() = -t;
   }
   return true;
 }
@@ -179,10 +193,12 @@ bool listImages(const std::string& folder, std::vector<std::string>* paths, std:
 
 bool loadKittiSequence(const std::string& left_folder, const std::string& right_folder,
                        const std::string& calib_path, const std::string& times_path,
-                       const std::string& poses_path, KittiSequence* sequence, std::string* error) {
+                       const std::string& poses_path, KittiSequence* sequence, std::string* error,
+                       KittiCameras cameras) {
+  Eigen::Matrix4d cam0_T_left;
   if (!listImages(left_folder, &sequence->left_images, error) ||
       !listImages(right_folder, &sequence->right_images, error) ||
-      !readKittiCalibration(calib_path, &sequence->calibration, error) ||
+      !readKittiCalibration(calib_path, &sequence->calibration, error, cameras, &cam0_T_left) ||
       !readKittiTimes(times_path, &sequence->times, error)) {
     return false;
   }
@@ -190,6 +206,8 @@ bool loadKittiSequence(const std::string& left_folder, const std::string& right_
   if (!poses_path.empty() && !readKittiPoses(poses_path, &sequence->world_T_cam, error)) {
     return false;
   }
+  for (Eigen::Matrix4d& world_T_cam : sequence->world_T_cam)
+    world_T_cam = world_T_cam * cam0_T_left;
   const size_t n = sequence->left_images.size();
   if (sequence->right_images.size() != n || sequence->times.size() != n ||
       (!poses_path.empty() && sequence->world_T_cam.size() != n)) {

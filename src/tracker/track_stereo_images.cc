@@ -36,7 +36,7 @@ const char* kUsage =
     "           --out OUT.npz [--poses poses.txt] [--config tracker.yaml]\n"
     "           [--twist-noise V W] [--gyro-offset B] [--seed N] [--time-offset S]\n"
     "           [--first-frame N] [--max-frames N] [--predict-with-twist] [--debug-dir DIR]\n"
-    "           [--stats CSV] [--quiet]\n"
+    "           [--stats CSV] [--cameras L R] [--quiet]\n"
     "Tracks the rectified stereo images (KITTI odometry layout: calib.txt with P0 and P1,\n"
     "times.txt, optional poses.txt with world_T_cam0) and writes OUT.npz in the course layout:\n"
     "features (4,M,T; -1 where unobserved), K, b, time_stamps (1,T), image_size. With --poses\n"
@@ -51,7 +51,10 @@ const char* kUsage =
     "twist, as the nodelet does from imu/twist.\n"
     "--config: tracker options (config/tracker.yaml; absent keys keep the defaults).\n"
     "--debug-dir: writes the debug drawing of every frame as DIR/NNNNNN.png.\n"
-    "--stats: writes the tracker's per-frame counters and times (ms) as CSV.\n";
+    "--stats: writes the tracker's per-frame counters and times (ms) as CSV.\n"
+    "--cameras: the left and right images are KITTI's cameras L and R: their projections PL and\n"
+    "PR of calib.txt (default 0 1; 2 3 for KITTI's colour cameras, whose poses are then moved\n"
+    "from camera 0 to camera L).\n";
 
 struct Arguments {
   std::string left, right, calib, times, out, poses, config, debug_dir, stats;
@@ -61,6 +64,7 @@ struct Arguments {
   long first_frame = 0;
   bool quiet = false;
   bool predict_with_twist = false;
+  KittiCameras cameras;
 };
 
 /// The IMU poses of --poses and their body twist (with the noise of --twist-noise etc.).
@@ -112,6 +116,10 @@ bool parseArguments(int argc, char** argv, Arguments* args, std::string* error) 
     } else if (arg == "--first-frame" && number(i + 1, &a) && a >= 0) {
       args->first_frame = static_cast<long>(a);
       ++i;
+    } else if (arg == "--cameras" && number(i + 1, &a) && number(i + 2, &b) && a >= 0 && b >= 0 &&
+               a != b && a == std::floor(a) && b == std::floor(b)) {
+      args->cameras = {static_cast<int>(a), static_cast<int>(b)};
+      i += 2;
     } else if (arg == "--max-frames" && number(i + 1, &a) && a >= 1) {
       args->max_frames = static_cast<long>(a);
       ++i;
@@ -341,7 +349,7 @@ int run(int argc, char** argv) {
   if (!parseArguments(argc, argv, &args, &error) || !loadOptions(args.config, &options, &error) ||
       !loadStereoMasks(options, &masks, &error) ||
       !loadKittiSequence(args.left, args.right, args.calib, args.times, args.poses, &sequence,
-                         &error)) {
+                         &error, args.cameras)) {
     std::cerr << "track_stereo_images: " << error << "\n";
     return 2;
   }

@@ -58,6 +58,16 @@ class TrackStereoImagesTest(unittest.TestCase):
     def tearDownClass(cls):
         paths.remove_dir(cls.tmp)
 
+    def linked_copy(self, name, *files):
+        """A folder NAME in the test's directory with links to `files` of the rendered drive."""
+        folder = os.path.join(self.tmp, name)
+        os.makedirs(folder, exist_ok=True)
+        for file in files:
+            target = os.path.join(folder, file)
+            if not os.path.exists(target):
+                os.symlink(os.path.join(self.folder, file), target)
+        return folder
+
     def test_npz_is_a_course_dataset(self):
         d = dataset.load_dataset(self.npz)
         self.assertEqual(d.num_frames, FRAMES)
@@ -308,12 +318,7 @@ class TrackStereoImagesTest(unittest.TestCase):
         size = np.linalg.norm(difference, axis=1)
         self.assertLess(np.median(size), 0.2)  # the fit's own precision on 640 px images: 0.108
         # A copy whose poses from frame 10 on are turned 0.3 degrees about the camera's y.
-        slipped = os.path.join(self.tmp, 'slipped')
-        os.makedirs(slipped, exist_ok=True)
-        for name in ('image_left', 'image_right', 'calib.txt', 'times.txt'):
-            target = os.path.join(slipped, name)
-            if not os.path.exists(target):
-                os.symlink(os.path.join(self.folder, name), target)
+        slipped = self.linked_copy('slipped', 'image_left', 'image_right', 'calib.txt', 'times.txt')
         poses = stereo_images.read_poses(os.path.join(self.folder, 'poses.txt'))
         turn = np.eye(4)
         turn[:3, :3] = se3.so3_exp(np.array([0.0, np.radians(0.3), 0.0]))
@@ -331,12 +336,7 @@ class TrackStereoImagesTest(unittest.TestCase):
     def test_a_calibration_that_is_not_rectified_is_refused(self):
         # P1's principal point half a pixel right of P0's: the estimator's rule refuses it, and
         # so does the tracker (it used to read P0's alone).
-        folder = os.path.join(self.tmp, 'unrectified')
-        os.makedirs(folder, exist_ok=True)
-        for name in ('image_left', 'image_right', 'times.txt'):
-            target = os.path.join(folder, name)
-            if not os.path.exists(target):
-                os.symlink(os.path.join(self.folder, name), target)
+        folder = self.linked_copy('unrectified', 'image_left', 'image_right', 'times.txt')
         with open(os.path.join(self.folder, 'calib.txt')) as f:
             lines = f.read().splitlines()
         p1 = lines[1].split()
@@ -350,6 +350,34 @@ class TrackStereoImagesTest(unittest.TestCase):
         self.assertEqual(result.returncode, 2, result.stdout)
         self.assertIn('P0 and P1', result.stderr)
         self.assertIn('rectified', result.stderr)
+
+    def test_cameras_pick_the_projections_of_calib_txt(self):
+        # The drive's P0 and P1 written as P2 and P3 beside two other projections: --cameras 2 3
+        # tracks as the drive does; without P2 and P3 the run is refused, naming them.
+        folder = self.linked_copy('cameras', 'image_left', 'image_right', 'times.txt',
+                                  'poses.txt')
+        with open(os.path.join(self.folder, 'calib.txt')) as f:
+            p0, p1 = [line.split(None, 1)[1] for line in f.read().splitlines()[:2]]
+        gray_left = '500 0 300 0 0 500 100 0 0 0 1 0'
+        gray_right = '500 0 300 -100 0 500 100 0 0 0 1 0'
+        with open(os.path.join(folder, 'calib.txt'), 'w') as f:
+            f.write('P0: %s\nP1: %s\nP2: %s\nP3: %s\n' % (gray_left, gray_right, p0, p1))
+        out = os.path.join(self.tmp, 'cameras.npz')
+        report = subprocess.run(
+            track_args(folder, out) + ['--poses', folder + '/poses.txt', '--twist-noise', '0',
+                                       '0', '--gyro-offset', '0', '--time-offset', '100',
+                                       '--cameras', '2', '3'],
+            check=True, stdout=subprocess.PIPE, universal_newlines=True).stdout
+        with np.load(self.npz) as drive, np.load(out) as picked:
+            np.testing.assert_array_equal(picked['features'], drive['features'])
+            np.testing.assert_array_equal(picked['K'], drive['K'])
+        self.assertEqual(re.search(r'by age:.*', report).group(0),
+                         re.search(r'by age:.*', self.report).group(0))
+        refused = subprocess.run(track_args(self.folder, out) + ['--cameras', '2', '3'],
+                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                 universal_newlines=True)
+        self.assertEqual(refused.returncode, 2)
+        self.assertIn('P2 and P3', refused.stderr)
 
     def test_bag_of_images(self):
         bag = os.path.join(self.tmp, 'drive.bag')

@@ -14,14 +14,9 @@
 namespace ekf_vislam {
 
 void KittiSequence::dropFirstFrames(size_t n) {
-  auto drop = [n](auto* items) {
-    items->erase(items->begin(),
-                 items->begin() + static_cast<std::ptrdiff_t>(std::min(n, items->size())));
-  };
-  drop(&left_images);
-  drop(&right_images);
-  drop(&times);
-  drop(&world_T_cam);
+  std::vector<size_t> rest;
+  for (size_t k = n; k < size(); ++k) rest.push_back(k);
+  keepFrames(rest);
 }
 
 void KittiSequence::keepFrames(const std::vector<size_t>& indices) {

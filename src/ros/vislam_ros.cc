@@ -262,22 +262,22 @@ void VislamRos::featuresCallback(const ekf_vislam::StereoFeatureArray::ConstPtr&
 void VislamRos::leftInfoCallback(const sensor_msgs::CameraInfo::ConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   left_info_ = msg;
-  checkCameraInfoUnchanged(*msg, calibrated_left_info_, "left");
+  checkCameraInfoUnchanged(*msg, calibrated_left_, "left");
   tryCalibrate();
 }
 
 void VislamRos::rightInfoCallback(const sensor_msgs::CameraInfo::ConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   right_info_ = msg;
-  checkCameraInfoUnchanged(*msg, calibrated_right_info_, "right");
+  checkCameraInfoUnchanged(*msg, calibrated_right_, "right");
   tryCalibrate();
 }
 
 void VislamRos::checkCameraInfoUnchanged(const sensor_msgs::CameraInfo& now,
-                                         const sensor_msgs::CameraInfo::ConstPtr& calibrated,
+                                         const std::optional<PinholeProjection>& calibrated,
                                          const char* side) {
   if (!calibrated || !runner_->estimator().hasCalibration()) return;
-  const PinholeProjection was = ros_conversions::projectionOf(*calibrated);
+  const PinholeProjection& was = *calibrated;
   const PinholeProjection is = ros_conversions::projectionOf(now);
   if (sameProjection(is, was)) return;
   ++camera_info_changed_;
@@ -362,8 +362,8 @@ void VislamRos::tryCalibrate() {
   }
   calibration_status_ = "ok";
   if (builder.needsProjections()) {
-    calibrated_left_info_ = left_info_;
-    calibrated_right_info_ = right_info_;
+    calibrated_left_ = ros_conversions::projectionOf(*left_info_);
+    calibrated_right_ = ros_conversions::projectionOf(*right_info_);
   }
   const Eigen::Vector3d t = calibration.cam_T_imu.translation();
   ROS_INFO(

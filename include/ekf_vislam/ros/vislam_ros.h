@@ -78,7 +78,7 @@ class VislamRos {
   /// After the calibration is set: counts and warns a camera_info whose projection or image size
   /// differs from the one the calibration was built from (the estimator keeps its calibration).
   void checkCameraInfoUnchanged(const sensor_msgs::CameraInfo& now,
-                                const sensor_msgs::CameraInfo::ConstPtr& calibrated,
+                                const std::optional<PinholeProjection>& calibrated,
                                 const char* side);  // locked
   void push(Measurement measurement);               // locked
   void process(bool flush);                         // locked
@@ -148,8 +148,8 @@ class VislamRos {
   // Calibration.
   sensor_msgs::CameraInfo::ConstPtr left_info_;
   sensor_msgs::CameraInfo::ConstPtr right_info_;
-  /// The camera_info pair the calibration was built from (empty with ros/calibration intrinsics).
-  sensor_msgs::CameraInfo::ConstPtr calibrated_left_info_, calibrated_right_info_;
+  /// The projections the calibration was built from (none with ros/calibration intrinsics).
+  std::optional<PinholeProjection> calibrated_left_, calibrated_right_;
   uint64_t camera_info_changed_ = 0;  ///< camera_info messages unlike the calibration's, ignored
   std::string camera_frame_;
   std::string calibration_status_ = "waiting for camera_info and tf";

@@ -44,7 +44,7 @@ if [[ -n "${GT}" ]]; then
   echo "[demo] ${NAME}: evaluating against ${GT}"
   extra=()
   [[ -f "${OUT}/synthetic_landmarks.csv" ]] && extra=(--landmarks-gt "${OUT}/synthetic_landmarks.csv")
-  "${PY}" "${REPO}/scripts/evaluate.py" --groundtruth "${GT}" \
+  "${PY}" "${REPO}/scripts/evaluate.py" --groundtruth "${GT}" --dataset "${DATASET}" \
     --estimate "${OUT}/slam/trajectory.tum" --label slam \
     --estimate "${OUT}/mapping/trajectory.tum" --label mapping \
     --estimate "${OUT}/deadreckoning/trajectory.tum" --label deadreckoning \

@@ -1,6 +1,8 @@
 #!/usr/bin/python3
-"""Summary of a demo run: a table of the three modes (accuracy when ground truth was evaluated,
-speed, map size) and, without ground truth, a top-down plot of the trajectories and the map.
+"""Summary of a demo run: a table of the three modes (accuracy and the reported covariance's
+consistency when ground truth was evaluated, speed, map size) and, without ground truth, a
+top-down plot of the trajectories and the map. NEES: the mean normalized estimation error
+squared of the position (3 when the covariance is right) and of the pose (6).
 
     demo_summary.py RUN_DIR   (RUN_DIR holds slam/, mapping/, deadreckoning/ and maybe eval/)
 """
@@ -26,8 +28,9 @@ def main():
     if os.path.exists(eval_json):
         with open(eval_json) as f:
             metrics = json.load(f)['estimates']
-    lines = ['| mode | ATE m | RPE % | rotation RMSE deg | final error m | landmarks | frames | '
-             'wall s | x real time | p99 ms/frame |', '|' + '---|' * 10]
+    lines = ['| mode | ATE m | RPE % | rotation RMSE deg | final error m | NEES position (3) | '
+             'NEES pose (6) | landmarks | frames | wall s | x real time | p99 ms/frame |',
+             '|' + '---|' * 12]
     for mode in MODES:
         with open(os.path.join(run_dir, mode, 'stats.json')) as f:
             s = json.load(f)
@@ -35,11 +38,14 @@ def main():
 
         def num(key, spec='.2f'):
             v = m.get(key)
+            if isinstance(v, dict):  # a NEES block: its mean
+                v = v.get('mean')
             return '-' if v is None else format(v, spec)
-        lines.append('| %s | %s | %s | %s | %s | %d | %d | %.3f | %.0f | %.2f |' % (
+        lines.append('| %s | %s | %s | %s | %s | %s | %s | %d | %d | %.3f | %.0f | %.2f |' % (
             mode, num('ate_rmse_m'), num('rpe_percent'), num('rotation_rmse_deg'),
-            num('final_position_error_m'), s['landmarks'], s['frames'], s['wall_s'],
-            s['realtime_factor'], s['frame_ms']['p99']))
+            num('final_position_error_m'), num('nees_position'), num('nees_pose'),
+            s['landmarks'], s['frames'], s['wall_s'], s['realtime_factor'],
+            s['frame_ms']['p99']))
     table = '\n'.join(lines)
     with open(os.path.join(run_dir, 'summary.md'), 'w') as f:
         f.write(table + '\n')

@@ -7,9 +7,9 @@
       --estimate A.tum --label slam --estimate B.tum --label mapping
 
 Estimates are TUM files of estworld_T_imu; the ground truth is a TUM file of gtworld_T_imu (or a
-KITTI poses file of world_T_cam0 with --frame-times and --cam-T-imu). Poses are associated by
-time stamp, each estimate is aligned to the ground truth (Umeyama, rigid, no scale) and the
-metrics of ekf_vislam_tools.metrics are computed. The first estimate is the primary one: its
+KITTI poses file of world_T_cam0 with --dataset, or with --frame-times and --cam-T-imu). Poses
+are associated by time stamp, each estimate is aligned to the ground truth (Umeyama, rigid, no
+scale) and the metrics of ekf_vislam_tools.metrics are computed. The first estimate is the primary one: its
 alignment also moves the landmarks. Writes DIR/metrics.json, DIR/trajectory_topdown.png,
 DIR/error_along_path.png and, with several estimates, DIR/comparison.png.
 
@@ -25,10 +25,10 @@ import warnings
 import numpy as np
 
 try:
-    from ekf_vislam_tools import metrics, plots, trajectory
+    from ekf_vislam_tools import dataset, metrics, plots, trajectory
 except ImportError:  # run from a source checkout without the sourced workspace
     sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'src'))
-    from ekf_vislam_tools import metrics, plots, trajectory
+    from ekf_vislam_tools import dataset, metrics, plots, trajectory
 
 PROG = 'evaluate.py'
 
@@ -78,7 +78,11 @@ def parse_args(argv):
                         help='name of the preceding --estimate (default: its parent folder name)')
     parser.add_argument('--groundtruth', required=True, metavar='FILE',
                         help='ground truth: TUM (gtworld_T_imu) or KITTI poses (world_T_cam0, '
-                        'needs --frame-times and --cam-T-imu)')
+                        'needs --dataset, or --frame-times and --cam-T-imu)')
+    parser.add_argument('--dataset', metavar='NPZ',
+                        help='for KITTI ground truth: the course dataset the run came from; its '
+                        'frame times and cam_T_imu (translation corrected as dataset_to_bag.py '
+                        'does) turn the poses into world_T_imu')
     parser.add_argument('--frame-times', metavar='FILE',
                         help='for KITTI ground truth: time stamp of each frame, as a text file '
                         '(one per line) or a dataset .npz (key time_stamps or t)')
@@ -100,6 +104,8 @@ def parse_args(argv):
         parser.error('--landmarks-gt needs --landmarks')
     if bool(args.frame_times) != bool(args.cam_T_imu):
         parser.error('--frame-times and --cam-T-imu go together')
+    if args.dataset and args.frame_times:
+        parser.error('--dataset gives the frame times and cam_T_imu: not with --frame-times')
     if not args.max_dt > 0:
         parser.error('--max-dt must be positive')
     if args.topdown_axes != 'auto':
@@ -161,9 +167,21 @@ def load_cam_T_imu(path):
     return cam_T_imu
 
 
-def load_groundtruth(args):
+def frame_times_and_cam_T_imu(args):
+    """What a KITTI poses file needs, from --dataset or --frame-times and --cam-T-imu."""
+    if args.dataset:
+        try:
+            data = dataset.load_dataset(args.dataset, fix_twist_axes=False)
+        except dataset.DatasetError as exc:
+            raise UsageError(_one_line(exc))
+        return data.t, data.cam_T_imu
     frame_times = load_frame_times(args.frame_times) if args.frame_times else None
     cam_T_imu = load_cam_T_imu(args.cam_T_imu) if args.cam_T_imu else None
+    return frame_times, cam_T_imu
+
+
+def load_groundtruth(args):
+    frame_times, cam_T_imu = frame_times_and_cam_T_imu(args)
     try:
         return trajectory.read_groundtruth(args.groundtruth, frame_times, cam_T_imu)
     except trajectory.TrajectoryError as exc:

@@ -458,6 +458,46 @@ class CommandLineTest(unittest.TestCase):
         self.assertTrue(os.path.getsize(os.path.join(out, 'error_along_path.png')) > 0)
         self.assertFalse(os.path.exists(os.path.join(out, 'comparison.png')))
 
+    def test_kitti_poses_with_the_dataset_they_came_from(self):
+        """A KITTI poses file (world_T_cam0) read through a 2019-layout dataset: its frame times,
+        and its cam_T_imu with the translation corrected as dataset_to_bag.py does."""
+        t, gtworld_T_imu = trajectory.read_tum(self.gt_path)
+        cam_T_imu = se3.se3_exp([0.3, -0.7, 1.1, 1.2, -1.2, 1.2])
+        world_T_cam0 = np.einsum('nij,jk->nik', gtworld_T_imu, se3.inverse(cam_T_imu))
+        poses = os.path.join(self.tmp, 'poses.txt')
+        np.savetxt(poses, world_T_cam0[:, :3, :].reshape(len(t), 12))
+        stored = cam_T_imu.copy()  # the 2019 files hold imu_T_cam's translation
+        stored[:3, 3] = se3.inverse(cam_T_imu)[:3, 3]
+        n = len(t)
+        npz = os.path.join(self.tmp, 'course_2019.npz')
+        np.savez(npz, time_stamps=t[None, :], features=-np.ones((4, 1, n)),
+                 linear_velocity=np.zeros((3, n)), rotational_velocity=np.zeros((3, n)),
+                 K=np.array([[700.0, 0, 600], [0, 700.0, 180], [0, 0, 1]]), b=0.54,
+                 cam_T_imu=stored)
+        out = os.path.join(self.tmp, 'out_kitti')
+        proc = self.run_evaluate('--groundtruth', poses, '--dataset', npz,
+                                 '--estimate', self.gt_path, '--label', 'gt', '--out', out)
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        with open(os.path.join(out, 'metrics.json')) as f:
+            report = json.load(f)['estimates']['gt']
+        self.assertEqual(report['matched_poses'], n)
+        self.assertLess(report['ate_rmse_m'], 1e-4)
+        # The stored translation taken as it is puts the IMU 2.6 m away: the error shows.
+        text = os.path.join(self.tmp, 'stored_cam_T_imu.txt')
+        np.savetxt(text, stored)
+        proc = self.run_evaluate('--groundtruth', poses, '--frame-times', npz, '--cam-T-imu', text,
+                                 '--estimate', self.gt_path, '--label', 'gt',
+                                 '--out', out + '_stored')
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        with open(os.path.join(out + '_stored', 'metrics.json')) as f:
+            self.assertGreater(json.load(f)['estimates']['gt']['ate_rmse_m'], 0.05)
+        proc = self.run_evaluate('--groundtruth', poses, '--estimate', self.gt_path,
+                                 '--out', out + '_without')
+        self.assert_one_line_error(proc, poses, 'frame times and cam_T_imu')
+        proc = self.run_evaluate('--groundtruth', poses, '--dataset', poses,
+                                 '--estimate', self.gt_path, '--out', out + '_bad')
+        self.assert_one_line_error(proc, poses)
+
     def test_missing_file(self):
         missing = os.path.join(self.tmp, 'no_such_dir', 'trajectory.tum')
         proc = self.run_evaluate('--groundtruth', self.gt_path, '--estimate', missing,

@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """Accuracy and speed of ekf_vislam on the course datasets and on synthetic drives.
 
-Converts each dataset to a bag (cached), runs vislam_offline in the three modes, evaluates
+Converts each dataset of the data folder (every NAME.npz, its ground truth
+groundtruth/NAME_imu_gt.tum) to a bag (cached), runs vislam_offline in the three modes, evaluates
 against ground truth and prints one table (also written as benchmark.md / benchmark.json).
 Speed: wall time and per-frame times from stats.json; peak memory (resident set) as the process
 itself reports it in stats.json (getrusage): a fork's rusage would include the parent's pages.
@@ -95,10 +96,29 @@ def table(rows):
     return markdown_table(header, cells)
 
 
+def dataset_cases(data_dir, bags):
+    """(name, bag, ground truth or None) of every dataset in data_dir: each NAME.npz, with
+    groundtruth/NAME_imu_gt.tum when it is there; those with ground truth first, each group by
+    name. A bag is converted again when its npz is newer."""
+    names = sorted(f[:-4] for f in os.listdir(data_dir) if f.endswith('.npz')) \
+        if os.path.isdir(data_dir) else []
+    cases = []
+    for name in names:
+        npz = os.path.join(data_dir, name + '.npz')
+        bag = os.path.join(bags, name + '.bag')
+        if not os.path.exists(bag) or os.path.getmtime(bag) < os.path.getmtime(npz):
+            run([PY, os.path.join(HERE, 'dataset_to_bag.py'), npz, bag])
+        gt = os.path.join(data_dir, 'groundtruth', name + '_imu_gt.tum')
+        cases.append((name, bag, gt if os.path.exists(gt) else None))
+    return sorted(cases, key=lambda case: case[2] is None)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
-    parser.add_argument('--data', default=os.environ.get('EKF_VISLAM_DATA',
-                                                         os.path.join(HERE, '..', '..', 'shared', 'data')))
+    default_data = os.path.join(HERE, '..', '..', 'shared', 'data')
+    parser.add_argument('--data', default=os.environ.get('EKF_VISLAM_DATA', default_data),
+                        help='folder of datasets: every NAME.npz in it, with the ground truth '
+                        'groundtruth/NAME_imu_gt.tum where there is one')
     parser.add_argument('--seeds', type=int, nargs='*', default=[1, 2, 3, 4, 5])
     parser.add_argument('--config', default=None, help='options YAML (default: the shipped one)')
     parser.add_argument('--out', default=os.path.join(HERE, '..', 'results', 'benchmark'))
@@ -115,15 +135,7 @@ def main():
             run([PY, os.path.join(HERE, 'simulate_dataset.py'), '--seed', str(seed), '--out', prefix])
             run([PY, os.path.join(HERE, 'dataset_to_bag.py'), prefix + '.npz', prefix + '.bag'])
         cases.append(('sim%d' % seed, prefix + '.bag', prefix + '_groundtruth.tum'))
-    for name in ('0027', '0034', '0022', '03'):
-        npz = os.path.join(args.data, name + '.npz')
-        if not os.path.exists(npz):
-            continue
-        bag = os.path.join(bags, name + '.bag')
-        if not os.path.exists(bag):
-            run([PY, os.path.join(HERE, 'dataset_to_bag.py'), npz, bag])
-        gt = os.path.join(args.data, 'groundtruth', name + '_imu_gt.tum')
-        cases.append((name, bag, gt if os.path.exists(gt) else None))
+    cases += dataset_cases(args.data, bags)
     rows = []
     for name, bag, gt in cases:
         print('benchmark: %s ...' % name, file=sys.stderr, flush=True)

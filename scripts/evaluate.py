@@ -9,9 +9,10 @@
 Estimates are TUM files of estworld_T_imu; the ground truth is a TUM file of gtworld_T_imu (or a
 KITTI poses file of world_T_cam0 with --dataset, or with --frame-times and --cam-T-imu). Poses
 are associated by time stamp, each estimate is aligned to the ground truth (Umeyama, rigid, no
-scale) and the metrics of ekf_vislam_tools.metrics are computed. The first estimate is the primary one: its
-alignment also moves the landmarks. Writes DIR/metrics.json, DIR/trajectory_topdown.png,
-DIR/error_along_path.png and, with several estimates, DIR/comparison.png.
+scale) and the metrics of ekf_vislam_tools.metrics are computed. The first estimate is the
+primary one: its alignment also moves the landmarks. Writes DIR/metrics.json,
+DIR/trajectory_topdown.png, DIR/error_along_path.png and, with several estimates,
+DIR/comparison.png.
 
 Exit status: 0 on success, 2 on unusable input (one-line message on stderr).
 """

@@ -96,21 +96,30 @@ def table(rows):
     return markdown_table(header, cells)
 
 
-def dataset_cases(data_dir, bags):
-    """(name, bag, ground truth or None) of every dataset in data_dir: each NAME.npz, with
+def find_datasets(data_dir):
+    """(name, npz, ground truth or None) of each NAME.npz in data_dir, the ground truth
     groundtruth/NAME_imu_gt.tum when it is there; those with ground truth first, each group by
-    name. A bag is converted again when its npz is newer."""
+    name."""
     names = sorted(f[:-4] for f in os.listdir(data_dir) if f.endswith('.npz')) \
         if os.path.isdir(data_dir) else []
-    cases = []
+    found = []
     for name in names:
+        gt = os.path.join(data_dir, 'groundtruth', name + '_imu_gt.tum')
         npz = os.path.join(data_dir, name + '.npz')
+        found.append((name, npz, gt if os.path.exists(gt) else None))
+    return sorted(found, key=lambda dataset: dataset[2] is None)
+
+
+def dataset_cases(data_dir, bags):
+    """(name, bag, ground truth or None) of every dataset in data_dir; a bag is converted again
+    when its npz is newer."""
+    cases = []
+    for name, npz, gt in find_datasets(data_dir):
         bag = os.path.join(bags, name + '.bag')
         if not os.path.exists(bag) or os.path.getmtime(bag) < os.path.getmtime(npz):
             run([PY, os.path.join(HERE, 'dataset_to_bag.py'), npz, bag])
-        gt = os.path.join(data_dir, 'groundtruth', name + '_imu_gt.tum')
-        cases.append((name, bag, gt if os.path.exists(gt) else None))
-    return sorted(cases, key=lambda case: case[2] is None)
+        cases.append((name, bag, gt))
+    return cases
 
 
 def main():
@@ -132,7 +141,8 @@ def main():
     for seed in args.seeds:
         prefix = os.path.join(bags, 'sim%d' % seed)
         if not os.path.exists(prefix + '.bag'):
-            run([PY, os.path.join(HERE, 'simulate_dataset.py'), '--seed', str(seed), '--out', prefix])
+            run([PY, os.path.join(HERE, 'simulate_dataset.py'), '--seed', str(seed),
+                 '--out', prefix])
             run([PY, os.path.join(HERE, 'dataset_to_bag.py'), prefix + '.npz', prefix + '.bag'])
         cases.append(('sim%d' % seed, prefix + '.bag', prefix + '_groundtruth.tum'))
     cases += dataset_cases(args.data, bags)

@@ -1,10 +1,11 @@
 #!/usr/bin/python3
 """The landmark study: SLAM accuracy and consistency against the fraction of landmark ids kept.
 
-    landmark_study.py [--data DIR] [--out DIR] [--fractions F ...] [--seeds N ...] [--config YAML]
-                      [--accel-noise SIGMA] [--jobs 2]
+    landmark_study.py [--data DIR] [--sequences NAME ...] [--out DIR] [--fractions F ...]
+                      [--seeds N ...] [--config YAML] [--accel-noise SIGMA] [--jobs 2]
 
-For 0027 and 0034 (with their ground truth), both twists (the file's own, "course", and one from
+For every dataset of the data folder with ground truth (NAME.npz and groundtruth/NAME_imu_gt.tum;
+on the course data 0027 and 0034), both twists (the file's own, "course", and one from
 the ground truth with 0.05 m/s / 0.005 rad/s white noise and a 0.001 rad/s gyro offset,
 "accurate"), every fraction and seed: scripts/make_variant.py, dataset_to_bag.py, vislam_offline
 in slam mode, and dead reckoning per twist and seed. Writes OUT/landmark_study.md (the regime
@@ -25,12 +26,11 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, '..', 'src'))
 sys.path.insert(0, HERE)
-from benchmark import consistency, offline_binary, run  # noqa: E402
+from benchmark import consistency, find_datasets, offline_binary, run  # noqa: E402
 from ekf_vislam_tools import metrics, trajectory, variants  # noqa: E402
 from ekf_vislam_tools.report import fmt, markdown_table  # noqa: E402
 
 PY = '/usr/bin/python3'
-SEQUENCES = ('0027', '0034')
 TWISTS = ('course', 'accurate')
 
 
@@ -71,9 +71,9 @@ def one_run(job, data, out, binary, config, accel_noise=None):
     return result
 
 
-def summarize(results, fractions):
+def summarize(results, sequences, fractions):
     rows, cells = [], []
-    for sequence in SEQUENCES:
+    for sequence in sequences:
         for twist in TWISTS:
             dr = [r['ate_m'] for r in results if r['sequence'] == sequence and
                   r['twist'] == twist and r['mode'] == 'deadreckoning']
@@ -105,12 +105,12 @@ def summarize(results, fractions):
     return rows, markdown_table(header, cells)
 
 
-def plot(rows, path):
+def plot(rows, sequences, path):
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
-    fig, axes = plt.subplots(1, len(SEQUENCES), figsize=(11, 4.2))
-    for ax, sequence in zip(np.atleast_1d(axes), SEQUENCES):
+    fig, axes = plt.subplots(1, len(sequences), figsize=(5.5 * len(sequences), 4.2))
+    for ax, sequence in zip(np.atleast_1d(axes), sequences):
         for twist, color in zip(TWISTS, ('tab:red', 'tab:blue')):
             sel = [r for r in rows if r['sequence'] == sequence and r['twist'] == twist]
             if not sel:
@@ -135,6 +135,8 @@ def main(argv):
     parser = argparse.ArgumentParser(prog='landmark_study.py', description=__doc__.split('\n')[0])
     parser.add_argument('--data', default=os.environ.get(
         'EKF_VISLAM_DATA', os.path.join(HERE, '..', '..', 'shared', 'data')))
+    parser.add_argument('--sequences', nargs='+', metavar='NAME',
+                        help='datasets of the data folder (default: every one with ground truth)')
     parser.add_argument('--out', default=os.path.join(HERE, '..', 'results', 'landmark_study'))
     parser.add_argument('--fractions', type=float, nargs='+',
                         default=[0.05, 0.1, 0.2, 0.4, 0.6, 0.8, 1.0])
@@ -147,14 +149,20 @@ def main(argv):
     parser.add_argument('--keep-bags', action='store_true',
                         help='keep each variant\'s bag under OUT/runs (about 70 MB each)')
     args = parser.parse_args(argv)
-    for sequence in SEQUENCES:
-        if not os.path.exists(os.path.join(args.data, sequence + '.npz')):
-            sys.exit('landmark_study.py: %s.npz not found in %s' % (sequence, args.data))
+    with_groundtruth = [name for name, _, gt in find_datasets(args.data) if gt]
+    sequences = args.sequences or with_groundtruth
+    if not sequences:
+        sys.exit('landmark_study.py: no NAME.npz with groundtruth/NAME_imu_gt.tum in %s'
+                 % args.data)
+    for sequence in sequences:
+        if sequence not in with_groundtruth:
+            sys.exit('landmark_study.py: %s.npz with groundtruth/%s_imu_gt.tum not found in %s'
+                     % (sequence, sequence, args.data))
     out = os.path.abspath(args.out)
     binary = offline_binary()
-    jobs = [(s, t, f, seed, 'slam') for s in SEQUENCES for t in TWISTS for f in args.fractions
+    jobs = [(s, t, f, seed, 'slam') for s in sequences for t in TWISTS for f in args.fractions
             for seed in args.seeds]
-    jobs += [(s, t, 1.0, seed, 'deadreckoning') for s in SEQUENCES for t in TWISTS
+    jobs += [(s, t, 1.0, seed, 'deadreckoning') for s in sequences for t in TWISTS
              for seed in args.seeds]
     # Dead reckoning shares the 100 % variant's bag: run it after the SLAM runs made it.
     start = time.monotonic()
@@ -172,9 +180,9 @@ def main(argv):
             bag = os.path.join(run_folder(out, job), 'data.bag')
             if os.path.exists(bag):
                 os.remove(bag)
-    rows, text = summarize(results, args.fractions)
+    rows, text = summarize(results, sequences, args.fractions)
     wall = time.monotonic() - start
-    plot(rows, os.path.join(out, 'landmark_study.png'))
+    plot(rows, sequences, os.path.join(out, 'landmark_study.png'))
     with open(os.path.join(out, 'landmark_study.md'), 'w') as f:
         f.write(text + '\n')
     with open(os.path.join(out, 'landmark_study.json'), 'w') as f:

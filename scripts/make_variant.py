@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Writes a regime variant of a course dataset.
 
-    make_variant.py DATA.npz --groundtruth GT.tum --twist course|accurate [--twist-noise V W]
+    make_variant.py DATA.npz --groundtruth GT --twist course|accurate [--twist-noise V W]
                     [--gyro-offset B] [--accel-noise SIGMA [--accel-bias B [B B]]]
                     [--keep-fraction F] [--seed N] --out OUT.npz
 
@@ -17,7 +17,9 @@ camera frame, not level, so "up" is taken as the normalized mean of the IMU's z 
 drive (a stand-in: right when the drive's roll and pitch average out to zero). Its noise has its
 own stream from --seed: the twist and the kept ids are the same with or without it.
 --keep-fraction keeps a seeded random subset of the landmark ids.
-Frames after the last ground-truth pose are cut off. Every other key is kept as it is (the 2019
+GT: a TUM file of world_T_imu, or a KITTI poses file of world_T_cam0 (a line per frame, turned
+into world_T_imu with the dataset's cam_T_imu, corrected as dataset_to_bag.py does). Frames after
+the last ground-truth pose are cut off. Every other key is kept as it is (the 2019
 files' cam_T_imu included: dataset_to_bag.py corrects it).
 """
 import argparse
@@ -26,14 +28,16 @@ import sys
 
 import numpy as np
 
-from ekf_vislam_tools import variants
+from ekf_vislam_tools import dataset, variants
 
 
 def main(argv):
     parser = argparse.ArgumentParser(prog='make_variant.py',
                                      description='Writes a regime variant of a course dataset.')
     parser.add_argument('dataset')
-    parser.add_argument('--groundtruth', required=True, metavar='GT.tum')
+    parser.add_argument('--groundtruth', required=True, metavar='GT',
+                        help='TUM file of world_T_imu, or KITTI poses (world_T_cam0, turned into '
+                        'world_T_imu with the dataset\'s frame times and cam_T_imu)')
     parser.add_argument('--twist', choices=('course', 'accurate'), required=True)
     parser.add_argument('--twist-noise', nargs=2, type=float, default=(0.05, 0.005),
                         metavar=('V', 'W'), help='per-sample std, m/s and rad/s')
@@ -56,12 +60,15 @@ def main(argv):
     if args.accel_bias is not None and args.accel_noise is None:
         parser.error('--accel-bias needs --accel-noise')
     try:
+        # Validated, and its cam_T_imu corrected as dataset_to_bag.py does (for KITTI poses).
+        checked = dataset.load_dataset(args.dataset, fix_twist_axes=False)
         with np.load(args.dataset, allow_pickle=False) as archive:
             data = {key: archive[key] for key in archive.files}
         out, notes = variants.make_variant(data, args.groundtruth, args.twist,
                                            tuple(args.twist_noise), args.gyro_offset,
                                            args.keep_fraction, args.seed, args.accel_noise,
-                                           0.0 if args.accel_bias is None else args.accel_bias)
+                                           0.0 if args.accel_bias is None else args.accel_bias,
+                                           cam_T_imu=checked.cam_T_imu)
         tmp = args.out + '.tmp.npz'
         np.savez(tmp, **out)
         os.replace(tmp, args.out)

@@ -1,10 +1,11 @@
 #!/usr/bin/python3
 """Error statistics of a dataset's feature tracks against ground-truth poses.
 
-    track_error_stats.py DATA.npz --groundtruth GT.tum [--json OUT.json]
+    track_error_stats.py DATA.npz --groundtruth GT [--json OUT.json]
     track_error_stats.py DATA.npz --poses RUN/trajectory.tum [--json OUT.json]
 
-GT.tum holds world_T_imu (frames matched to the dataset by time stamp). Without ground truth,
+GT holds world_T_imu (TUM; frames matched to the dataset by time stamp) or is a KITTI poses file
+(world_T_cam0, a line per dataset frame). Without ground truth,
 --poses takes the estimator's own trajectory (vislam_offline's trajectory.tum of a SLAM run): the
 correlation and the random-walk rate read nearly as against ground truth (the estimate's own
 error adds to the white part and the std). Each track gets the
@@ -28,7 +29,7 @@ from ekf_vislam_tools import dataset, metrics, track_errors, trajectory
 
 def camera_poses(data, groundtruth_path):
     """(T,4,4) cam_T_world per dataset frame, NaN where the ground truth has no pose."""
-    t_gt, world_T_imu = trajectory.read_tum(groundtruth_path)
+    t_gt, world_T_imu = trajectory.read_groundtruth(groundtruth_path, data.t, data.cam_T_imu)
     index_data, index_gt = metrics.associate(data.t, t_gt, 0.02)
     if index_data.size < 2:
         raise ValueError('%s: fewer than 2 poses match the dataset\'s time stamps'
@@ -88,8 +89,8 @@ def main(argv):
         '\n')[0])
     parser.add_argument('dataset')
     parser.add_argument('--groundtruth', '--poses', dest='groundtruth', required=True,
-                        metavar='GT.tum', help='world_T_imu poses: the ground truth, or the '
-                        'estimator\'s own trajectory.tum')
+                        metavar='GT', help='world_T_imu poses (TUM): the ground truth, or the '
+                        'estimator\'s own trajectory.tum; or KITTI poses of world_T_cam0')
     parser.add_argument('--json', metavar='OUT.json', help='also write the figures as JSON')
     args = parser.parse_args(argv)
     try:

@@ -93,9 +93,10 @@ def _accel_rng(seed):
 
 def make_variant(data, groundtruth_path, twist='course', twist_noise=(0.05, 0.005),
                  gyro_offset=0.001, keep_fraction=1.0, seed=0, accel_noise=None, accel_bias=0.0,
-                 up_world=None):
+                 up_world=None, cam_T_imu=None):
     """-> (dict of arrays, notes). `data` is a dict of the npz's arrays. Frames after the last
-    ground-truth pose are cut off (every key indexed by frame).
+    ground-truth pose are cut off (every key indexed by frame). The ground truth is a TUM file of
+    world_T_imu or, with the dataset's cam_T_imu (translation corrected), a KITTI poses file.
 
     accel_noise (m/s^2, per component and sample; None: no accelerometer, the npz's own
     specific_force, if any, is kept) writes ``specific_force`` (3,T) from the ground truth
@@ -107,7 +108,7 @@ def make_variant(data, groundtruth_path, twist='course', twist_noise=(0.05, 0.00
     time_key = _key(out, TIME_KEYS)
     angular_key = _key(out, ANGULAR_KEYS)
     t = np.asarray(out[time_key], dtype=float).ravel()
-    t_gt, world_T_imu_gt = trajectory.read_tum(groundtruth_path)
+    t_gt, world_T_imu_gt = trajectory.read_groundtruth(groundtruth_path, t, cam_T_imu)
     order = np.argsort(t_gt)
     t_gt, world_T_imu_gt = t_gt[order], world_T_imu_gt[order]
     notes = []

@@ -71,6 +71,25 @@ class MakeVariantTest(unittest.TestCase):
         np.testing.assert_array_equal(v['linear_velocity'], original['linear_velocity'])
         self.assertEqual(set(v), set(original))
 
+    def test_kitti_poses_give_the_twist_of_the_tum_file(self):
+        """A KITTI poses file (world_T_cam0, a line per frame) with the dataset's cam_T_imu."""
+        with np.load(self.prefix + '.npz') as data:
+            cam_T_imu = data['cam_T_imu']
+            num_frames = data['time_stamps'].size
+        _, T_gt = trajectory.read_tum(self.gt)
+        self.assertEqual(len(T_gt), num_frames)
+        kitti = os.path.join(self.tmp, 'poses.txt')
+        world_T_cam0 = np.einsum('nij,jk->nik', T_gt, se3.inverse(cam_T_imu))
+        np.savetxt(kitti, world_T_cam0[:, :3, :].reshape(-1, 12), fmt='%.12e')
+        from_tum = self.variant('from_tum', '--twist', 'accurate', '--seed', 5)
+        out = os.path.join(self.tmp, 'from_kitti.npz')
+        proc = ekf_test_paths.run_script('make_variant.py', self.prefix + '.npz', '--groundtruth',
+                                         kitti, '--out', out, '--twist', 'accurate', '--seed', 5)
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        with np.load(out) as from_kitti:
+            for key in ('linear_velocity', 'rotational_velocity'):
+                np.testing.assert_allclose(from_kitti[key], from_tum[key], atol=1e-5)
+
     def test_bad_input_is_one_line(self):
         proc = ekf_test_paths.run_script('make_variant.py', self.prefix + '.npz', '--groundtruth',
                                          self.gt, '--twist', 'course', '--keep-fraction', 0,

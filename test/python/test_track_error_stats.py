@@ -5,9 +5,12 @@ import os
 import sys
 import unittest
 
+import numpy as np
+
 import ekf_test_paths
 
 sys.path.insert(0, ekf_test_paths.SOURCE_DIR)
+from ekf_vislam_tools import se3, trajectory  # noqa: E402
 
 
 class TrackErrorStatsTest(unittest.TestCase):
@@ -91,6 +94,28 @@ class TrackErrorStatsTest(unittest.TestCase):
         self.assertLess(drift['random_walk']['rate_px_per_sqrt_s'], 1.8)
         self.assertGreater(drift['rho'], 0.7)
         self.assertLess(drift['rho'], 0.9)
+
+    def test_kitti_poses_read_as_the_tum_file(self):
+        """The ground truth as a KITTI poses file (world_T_cam0, a line per frame)."""
+        prefix = os.path.join(self.tmp, 'kitti')
+        proc = ekf_test_paths.run_script('simulate_dataset.py', '--seed', 5, '--frames', 60,
+                                         '--out', prefix)
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        with np.load(prefix + '.npz') as data:
+            cam_T_imu = data['cam_T_imu']
+        _, world_T_imu = trajectory.read_tum(prefix + '_groundtruth.tum')
+        kitti = prefix + '_poses.txt'
+        world_T_cam0 = np.einsum('nij,jk->nik', world_T_imu, se3.inverse(cam_T_imu))
+        np.savetxt(kitti, world_T_cam0[:, :3, :].reshape(-1, 12), fmt='%.12e')
+        figures = []
+        for poses in (prefix + '_groundtruth.tum', kitti):
+            proc = ekf_test_paths.run_script('track_error_stats.py', prefix + '.npz',
+                                             '--groundtruth', poses, '--json', prefix + '.json')
+            self.assertEqual(proc.returncode, 0, proc.stderr)
+            with open(prefix + '.json') as f:
+                figures.append(json.load(f))
+        np.testing.assert_allclose(figures[1]['std'], figures[0]['std'], rtol=1e-4)
+        self.assertAlmostEqual(figures[1]['rho'], figures[0]['rho'], places=4)
 
     def test_groundtruth_without_matching_stamps_is_refused(self):
         prefix = os.path.join(self.tmp, 'refused')

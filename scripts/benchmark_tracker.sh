@@ -22,7 +22,7 @@ while (($#)); do
 done
 DATA=${EKF_VISLAM_DATA:-${REPO}/../shared/data}
 FOLDER=${FOLDER:-${DATA}/kitti_clips/odometry_01_000000-000050}
-[[ -d "${FOLDER}/image_left" ]] || { echo "benchmark_tracker: no ${FOLDER}/image_left"; exit 2; }
+[[ -f "${FOLDER}/calib.txt" ]] || { echo "benchmark_tracker: no ${FOLDER}/calib.txt"; exit 2; }
 source "${REPO}/scripts/env.sh" >/dev/null 2>&1 || true
 TOOL=$(command -v track_stereo_images || true)
 [[ -n "${TOOL}" ]] || TOOL=$(ls "${EKF_VISLAM_WS:-${REPO}/build}"/devel/lib/ekf_vislam/track_stereo_images)
@@ -31,8 +31,7 @@ trap 'rm -rf "${TMP}"' EXIT
 PYTHONPATH="${REPO}/src" /usr/bin/python3 -c \
   'from ekf_vislam_tools.report import machine_description; print(machine_description())'
 for run in $(seq 1 "${REPEAT}"); do
-  "${TOOL}" --left "${FOLDER}/image_left" --right "${FOLDER}/image_right" --calib "${FOLDER}/calib.txt" \
-    --times "${FOLDER}/times.txt" --out "${TMP}/tracks.npz" --stats "${TMP}/stats_${run}.csv" --quiet "${CONFIG[@]}"
+  "${TOOL}" --folder "${FOLDER}" --out "${TMP}/tracks.npz" --stats "${TMP}/stats_${run}.csv" --quiet "${CONFIG[@]}"
   /usr/bin/python3 - "${TMP}/stats_${run}.csv" "${run}" "${FOLDER}" <<'PY'
 import csv, sys
 import numpy as np

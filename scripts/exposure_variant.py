@@ -21,6 +21,9 @@ import sys
 import cv2
 import numpy as np
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'src'))
+from ekf_vislam_tools import stereo_images  # noqa: E402
+
 PROG = 'exposure_variant.py'
 
 
@@ -42,9 +45,10 @@ def parse_args(argv):
 
 def main(argv):
     args = parse_args(argv)
-    names = sorted(os.listdir(os.path.join(args.folder, 'image_left')))
+    sources = dict(zip(('image_left', 'image_right'), stereo_images.image_folders(args.folder)))
+    names = sorted(os.listdir(sources['image_left']))
     if not names:
-        sys.exit(f'{PROG}: no images in {args.folder}/image_left')
+        sys.exit(f'{PROG}: no images in {sources["image_left"]}')
     rng = np.random.default_rng(args.seed)
     log_gain = rng.uniform(-args.jitter, args.jitter, len(names))
     log_right = rng.uniform(-args.right_jitter, args.right_jitter, len(names))
@@ -53,7 +57,7 @@ def main(argv):
     for k, name in enumerate(names):
         gain = np.exp(log_gain[k]) * (args.step_gain if 0 <= args.step_frame <= k else 1.0)
         for side in ('image_left', 'image_right'):
-            image = cv2.imread(os.path.join(args.folder, side, name), cv2.IMREAD_UNCHANGED)
+            image = cv2.imread(os.path.join(sources[side], name), cv2.IMREAD_UNCHANGED)
             if image is None:
                 sys.exit(f'{PROG}: cannot read {side}/{name}')
             g, offset = gain, 0.0

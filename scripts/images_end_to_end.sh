@@ -1,17 +1,19 @@
 #!/usr/bin/env bash
-# Stereo images to trajectory, offline: the tracker over a KITTI-layout folder (image_left/,
-# image_right/, calib.txt, times.txt, poses.txt), its features with the poses' accurate twist
+# Stereo images to trajectory, offline: the tracker over a KITTI-layout folder (image_left/ and
+# image_right/ or KITTI's image_0/ and image_1/, calib.txt, times.txt, poses.txt or --poses
+# FILE, e.g. KITTI's poses/NN.txt), its features with the poses' accurate twist
 # (0.05 m/s and 0.005 rad/s white noise, 0.001 rad/s gyro offset, seeded; --twist-noise V W and
 # --gyro-offset B choose others) as a bag, SLAM and dead reckoning through vislam_offline, and
 # evaluate.py against the poses. Prints one line per mode: ATE (m, after SE(3) alignment), RPE (%),
 # mean position NEES, and the path length.
-#   scripts/images_end_to_end.sh FOLDER [--out DIR] [--config estimator.yaml]
+#   scripts/images_end_to_end.sh FOLDER [--poses FILE] [--out DIR] [--config estimator.yaml]
 #                                [--tracker-config tracker.yaml] [--seed N] [--first-frame N]
 #                                [--twist-noise V W] [--gyro-offset B]
 set -eo pipefail
 export PATH=/usr/bin:/bin:${PATH}
 REPO=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 FOLDER=""
+POSES=""
 OUT=""
 SEED=0
 ESTIMATOR=()
@@ -21,23 +23,24 @@ TWIST=()
 while (($#)); do
   case "$1" in
     --out) OUT=$2; shift 2 ;;
+    --poses) POSES=$(readlink -f "$2"); shift 2 ;;
     --config) ESTIMATOR=(--config "$(readlink -f "$2")"); shift 2 ;;
     --tracker-config) TRACKER=(--config "$(readlink -f "$2")"); shift 2 ;;
     --seed) SEED=$2; shift 2 ;;
     --first-frame) FIRST=(--first-frame "$2"); shift 2 ;;
     --twist-noise) TWIST+=(--twist-noise "$2" "$3"); shift 3 ;;
     --gyro-offset) TWIST+=(--gyro-offset "$2"); shift 2 ;;
-    -h|--help) sed -n 2,10p "$0"; exit 0 ;;
+    -h|--help) sed -n 2,11p "$0"; exit 0 ;;
     *) FOLDER=$1; shift ;;
   esac
 done
-[[ -f "${FOLDER}/poses.txt" ]] || { echo "images_end_to_end: FOLDER with poses.txt needed" >&2; exit 2; }
+POSES=${POSES:-${FOLDER}/poses.txt}
+[[ -f "${POSES}" ]] || { echo "images_end_to_end: no ${POSES}: FOLDER/poses.txt or --poses FILE" >&2; exit 2; }
 source "${REPO}/scripts/env.sh" >/dev/null
 LIB=$(catkin_find --first-only --libexec ekf_vislam)
 OUT=${OUT:-$(mktemp -d)}
 mkdir -p "${OUT}"
-"${LIB}/track_stereo_images" --left "${FOLDER}/image_left" --right "${FOLDER}/image_right" \
-  --calib "${FOLDER}/calib.txt" --times "${FOLDER}/times.txt" --poses "${FOLDER}/poses.txt" \
+"${LIB}/track_stereo_images" --folder "${FOLDER}" --poses "${POSES}" \
   --out "${OUT}/tracks.npz" --time-offset 1000 --seed "${SEED}" --quiet "${TRACKER[@]}" "${FIRST[@]}" \
   "${TWIST[@]}" \
   >"${OUT}/tracker.log"

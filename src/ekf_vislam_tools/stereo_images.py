@@ -1,5 +1,6 @@
-"""Stereo image folders in the KITTI odometry layout (image_left/, image_right/, calib.txt with P0
-and P1, times.txt, optional poses.txt with world_T_cam0 per line) and the ground-truth twist of
+"""Stereo image folders in the KITTI odometry layout (image_left/ and image_right/, or KITTI's own
+image_0/ and image_1/; calib.txt with P0 and P1, times.txt, optional poses.txt with world_T_cam0
+per line) and the ground-truth twist of
 a vehicle frame (x along the direction of travel, y left, z up) rigidly attached at the left
 camera, as track_stereo_images writes it (sample k+1 drives [t_k, t_k+1]; white noise and a gyro
 offset)."""
@@ -85,10 +86,20 @@ def read_poses(path):
     return T
 
 
+def image_folders(folder):
+    """(left, right) image folders of a sequence folder: image_left/ and image_right/ when both
+    are there (the package's own layout), else KITTI's image_0/ and image_1/."""
+    own = [os.path.join(folder, side) for side in ('image_left', 'image_right')]
+    if all(os.path.isdir(path) for path in own):
+        return tuple(own)
+    return os.path.join(folder, 'image_0'), os.path.join(folder, 'image_1')
+
+
 def load_folder(folder=None, left=None, right=None, calib=None, times=None, poses=None):
     """A KITTI-layout folder (or its parts given one by one) -> StereoFolder."""
-    left = left or os.path.join(folder, 'image_left')
-    right = right or os.path.join(folder, 'image_right')
+    if folder is not None:
+        found_left, found_right = image_folders(folder)
+        left, right = left or found_left, right or found_right
     calib = calib or os.path.join(folder, 'calib.txt')
     times = times or os.path.join(folder, 'times.txt')
     if poses is None and folder is not None and os.path.exists(os.path.join(folder, 'poses.txt')):

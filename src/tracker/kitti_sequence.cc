@@ -186,6 +186,24 @@ bool listImages(const std::string& folder, std::vector<std::string>* paths, std:
   return true;
 }
 
+KittiFolder kittiFolderParts(const std::string& folder, KittiCameras cameras) {
+  namespace fs = std::filesystem;
+  const fs::path root(folder);
+  std::error_code ec;
+  KittiFolder parts;
+  const bool own_layout = cameras.left == 0 && cameras.right == 1 &&
+                          fs::is_directory(root / "image_left", ec) &&
+                          fs::is_directory(root / "image_right", ec);
+  parts.left =
+      (root / (own_layout ? "image_left" : "image_" + std::to_string(cameras.left))).string();
+  parts.right =
+      (root / (own_layout ? "image_right" : "image_" + std::to_string(cameras.right))).string();
+  parts.calib = (root / "calib.txt").string();
+  parts.times = (root / "times.txt").string();
+  if (fs::is_regular_file(root / "poses.txt", ec)) parts.poses = (root / "poses.txt").string();
+  return parts;
+}
+
 bool loadKittiSequence(const std::string& left_folder, const std::string& right_folder,
                        const std::string& calib_path, const std::string& times_path,
                        const std::string& poses_path, KittiSequence* sequence, std::string* error,

@@ -107,6 +107,38 @@ TEST(KittiSequence, ReadsTheColourCamerasAndMovesThePosesToTheLeftOne) {
   std::filesystem::remove_all(folder);
 }
 
+TEST(KittiSequence, FindsTheImagesOfEitherLayout) {
+  namespace fs = std::filesystem;
+  const fs::path own = kittiFolder("own_layout");
+  fs::rename(own / "left", own / "image_left");
+  fs::rename(own / "right", own / "image_right");
+  KittiFolder parts = kittiFolderParts(own.string());
+  EXPECT_EQ(parts.left, (own / "image_left").string());
+  EXPECT_EQ(parts.right, (own / "image_right").string());
+  EXPECT_EQ(parts.calib, (own / "calib.txt").string());
+  EXPECT_EQ(parts.times, (own / "times.txt").string());
+  EXPECT_EQ(parts.poses, (own / "poses.txt").string());
+  // The colour cameras are KITTI's image_2 and image_3, whatever else the folder holds.
+  EXPECT_EQ(kittiFolderParts(own.string(), {2, 3}).left, (own / "image_2").string());
+
+  const fs::path kitti = kittiFolder("kitti_layout");
+  fs::rename(kitti / "left", kitti / "image_0");
+  fs::rename(kitti / "right", kitti / "image_1");
+  fs::remove(kitti / "poses.txt");
+  parts = kittiFolderParts(kitti.string());
+  EXPECT_EQ(parts.left, (kitti / "image_0").string());
+  EXPECT_EQ(parts.right, (kitti / "image_1").string());
+  EXPECT_TRUE(parts.poses.empty());
+  KittiSequence sequence;
+  std::string error;
+  EXPECT_TRUE(loadKittiSequence(parts.left, parts.right, parts.calib, parts.times, parts.poses,
+                                &sequence, &error))
+      << error;
+  EXPECT_EQ(sequence.size(), 2u);
+  fs::remove_all(own);
+  fs::remove_all(kitti);
+}
+
 TEST(KittiSequence, NamesTheMissingProjection) {
   const std::string folder = kittiFolder("missing");
   StereoCalibration calibration;

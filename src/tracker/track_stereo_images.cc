@@ -32,8 +32,8 @@ namespace ekf_vislam {
 namespace {
 
 const char* kUsage =
-    "usage: track_stereo_images --left DIR --right DIR --calib calib.txt --times times.txt\n"
-    "           --out OUT.npz [--poses poses.txt] [--config tracker.yaml]\n"
+    "usage: track_stereo_images (--folder DIR | --left DIR --right DIR --calib calib.txt\n"
+    "           --times times.txt) --out OUT.npz [--poses poses.txt] [--config tracker.yaml]\n"
     "           [--twist-noise V W] [--gyro-offset B] [--seed N] [--time-offset S]\n"
     "           [--first-frame N] [--max-frames N] [--predict-with-twist] [--debug-dir DIR]\n"
     "           [--stats CSV] [--cameras L R] [--quiet]\n"
@@ -46,6 +46,10 @@ const char* kUsage =
     "sample and axis (default 0.05 0.005) and a constant gyro offset B rad/s (default 0.001),\n"
     "seeded by N (default 0)), cam_T_imu, and OUT_groundtruth.tum (world_T_imu), and prints the\n"
     "track quality against the poses. --time-offset adds S seconds to every time (default 0).\n"
+    "--folder: --left, --right, --calib and --times of a sequence folder: DIR/image_left and\n"
+    "DIR/image_right, or KITTI's own DIR/image_0 and DIR/image_1 (image_L and image_R with\n"
+    "--cameras), DIR/calib.txt, DIR/times.txt (each one given as well wins; --poses is not\n"
+    "taken from the folder: give it to get the twist).\n"
     "--first-frame: starts at frame N of the folder (images, times and poses; default 0).\n"
     "--predict-with-twist (needs --poses): the tracker predicts each image's motion from that\n"
     "twist, as the nodelet does from imu/twist.\n"
@@ -57,7 +61,7 @@ const char* kUsage =
     "from camera 0 to camera L).\n";
 
 struct Arguments {
-  std::string left, right, calib, times, out, poses, config, debug_dir, stats;
+  std::string folder, left, right, calib, times, out, poses, config, debug_dir, stats;
   TwistNoise noise;
   double time_offset = 0;
   long max_frames = -1;
@@ -74,12 +78,22 @@ struct PoseTwist {
   std::vector<Eigen::Vector3d> v, w;
 };
 
+/// --folder: the paths not given one by one.
+void fillFromFolder(Arguments* args) {
+  const KittiFolder parts = kittiFolderParts(args->folder, args->cameras);
+  for (auto [given, found] : {std::pair{&args->left, &parts.left},
+                              {&args->right, &parts.right},
+                              {&args->calib, &parts.calib},
+                              {&args->times, &parts.times}}) {
+    if (given->empty()) *given = *found;
+  }
+}
+
 bool parseArguments(int argc, char** argv, Arguments* args, std::string* error) {
   std::map<std::string, std::string*> paths = {
-      {"--left", &args->left},     {"--right", &args->right},
-      {"--calib", &args->calib},   {"--times", &args->times},
-      {"--out", &args->out},       {"--poses", &args->poses},
-      {"--config", &args->config}, {"--debug-dir", &args->debug_dir},
+      {"--folder", &args->folder}, {"--left", &args->left},     {"--right", &args->right},
+      {"--calib", &args->calib},   {"--times", &args->times},   {"--out", &args->out},
+      {"--poses", &args->poses},   {"--config", &args->config}, {"--debug-dir", &args->debug_dir},
       {"--stats", &args->stats}};
   auto number = [&](int i, double* value) {
     if (i >= argc) return false;
@@ -128,9 +142,10 @@ bool parseArguments(int argc, char** argv, Arguments* args, std::string* error) 
       return false;
     }
   }
+  if (!args->folder.empty()) fillFromFolder(args);
   if (args->left.empty() || args->right.empty() || args->calib.empty() || args->times.empty() ||
       args->out.empty()) {
-    *error = "--left, --right, --calib, --times and --out are required (see --help)";
+    *error = "--folder (or --left, --right, --calib, --times) and --out are required (see --help)";
     return false;
   }
   if (args->predict_with_twist && args->poses.empty()) {

@@ -379,6 +379,30 @@ class TrackStereoImagesTest(unittest.TestCase):
         self.assertEqual(refused.returncode, 2)
         self.assertIn('P2 and P3', refused.stderr)
 
+    def test_a_folder_in_kittis_own_layout(self):
+        # image_0/ and image_1/ (KITTI's names) found by --folder and by the Python tools.
+        folder = os.path.join(self.tmp, 'kitti_layout')
+        os.makedirs(folder)
+        for link, target in (('image_0', 'image_left'), ('image_1', 'image_right'),
+                             ('calib.txt', 'calib.txt'), ('times.txt', 'times.txt')):
+            os.symlink(os.path.join(self.folder, target), os.path.join(folder, link))
+        out = os.path.join(self.tmp, 'kitti_layout.npz')
+        subprocess.run([tool('track_stereo_images'), '--folder', folder, '--out', out,
+                        '--time-offset', '100'], check=True, stdout=subprocess.PIPE)
+        with np.load(self.npz) as drive, np.load(out) as found:
+            np.testing.assert_array_equal(found['features'], drive['features'])
+            self.assertNotIn('linear_velocity', found.files)  # --poses is never implied
+        loaded = stereo_images.load_folder(folder)
+        self.assertEqual([os.path.basename(p) for p in loaded.left],
+                         sorted(os.listdir(os.path.join(self.folder, 'image_left'))))
+        self.assertEqual(os.path.dirname(loaded.right[0]), os.path.join(folder, 'image_1'))
+        self.assertIsNone(loaded.world_T_cam)
+        missing = subprocess.run([tool('track_stereo_images'), '--folder', self.tmp, '--out', out],
+                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                 universal_newlines=True)
+        self.assertEqual(missing.returncode, 2)
+        self.assertIn(os.path.join(self.tmp, 'image_0'), missing.stderr)
+
     def test_bag_of_images(self):
         bag = os.path.join(self.tmp, 'drive.bag')
         result = paths.run_script('play_stereo_images.py', self.folder, '--bag', bag)

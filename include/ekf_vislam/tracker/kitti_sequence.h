@@ -46,6 +46,16 @@ bool readKittiPoses(const std::string& path, std::vector<Eigen::Matrix4d>* poses
 /// Image files (.png, .jpg, .pgm, .ppm) of a folder, sorted by name.
 bool listImages(const std::string& folder, std::vector<std::string>* paths, std::string* error);
 
+/// Where a sequence folder keeps its parts: image_left/ and image_right/ (the layout of the
+/// package's tools and clips) when both are there and `cameras` are 0 and 1, else KITTI's own
+/// image_<left>/ and image_<right>/ (image_0/ and image_1/, or image_2/ and image_3/ for the
+/// colour cameras); calib.txt, times.txt, and poses.txt when there is one (else empty: KITTI
+/// keeps its poses apart, in poses/NN.txt).
+struct KittiFolder {
+  std::string left, right, calib, times, poses;
+};
+KittiFolder kittiFolderParts(const std::string& folder, KittiCameras cameras = {});
+
 /// Everything together; checks that the counts agree (poses_path may be empty). The poses
 /// (camera 0's) are turned into the left camera's of `cameras`.
 bool loadKittiSequence(const std::string& left_folder, const std::string& right_folder,

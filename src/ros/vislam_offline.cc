@@ -48,9 +48,12 @@ const char* kUsage =
     "                      [--tf-static-topic T] [--imu-topic T] [--wheel-odometry-topic T]\n"
     "                      [--combiner-config FILE]\n"
     "Runs the EKF on a bag without a roscore and writes DIR/trajectory.tum (world_T_imu after\n"
-    "every feature frame), DIR/landmarks.csv and DIR/stats.json. --mode overrides the config's\n"
-    "mode; the default config is config/default.yaml of the ekf_vislam package. A bag with no\n"
-    "twist topic but a gyro (--imu-topic, /imu/data) and a wheel odometry\n"
+    "every feature frame), DIR/trajectory_covariance.txt (each pose's reported 6x6 covariance:\n"
+    "t, then 36 row-major entries, world axes x y z rx ry rz; evaluate.py reads it for the\n"
+    "NEES), DIR/landmarks.csv (id, x, y, z, sigmas, observations) and DIR/stats.json\n"
+    "(counters, per-frame ms, wall time, memory, online calibration). --mode overrides the\n"
+    "config's mode; the default config is config/default.yaml of the ekf_vislam package. A bag\n"
+    "with no twist topic but a gyro (--imu-topic, /imu/data) and a wheel odometry\n"
     "(--wheel-odometry-topic, /wheel/odometry) gets its twist combined from them (options:\n"
     "--combiner-config, default the built-in ones of config/twist_combiner.yaml).\n";
 

@@ -87,10 +87,11 @@ def read_poses(path):
 
 
 def image_folders(folder):
-    """(left, right) image folders of a sequence folder: image_left/ and image_right/ when both
-    are there (the package's own layout), else KITTI's image_0/ and image_1/."""
+    """(left, right) image folders of a sequence folder: image_left/ and image_right/ when either
+    is there (the package's own layout; a missing one is then named), else KITTI's image_0/ and
+    image_1/."""
     own = [os.path.join(folder, side) for side in ('image_left', 'image_right')]
-    if all(os.path.isdir(path) for path in own):
+    if any(os.path.isdir(path) for path in own):
         return tuple(own)
     return os.path.join(folder, 'image_0'), os.path.join(folder, 'image_1')
 

@@ -191,9 +191,10 @@ KittiFolder kittiFolderParts(const std::string& folder, KittiCameras cameras) {
   const fs::path root(folder);
   std::error_code ec;
   KittiFolder parts;
-  const bool own_layout = cameras.left == 0 && cameras.right == 1 &&
-                          fs::is_directory(root / "image_left", ec) &&
-                          fs::is_directory(root / "image_right", ec);
+  // Either folder of the own layout chooses it, so that a missing one is named.
+  const bool own_layout =
+      cameras.left == 0 && cameras.right == 1 &&
+      (fs::is_directory(root / "image_left", ec) || fs::is_directory(root / "image_right", ec));
   parts.left =
       (root / (own_layout ? "image_left" : "image_" + std::to_string(cameras.left))).string();
   parts.right =

@@ -120,6 +120,9 @@ TEST(KittiSequence, FindsTheImagesOfEitherLayout) {
   EXPECT_EQ(parts.poses, (own / "poses.txt").string());
   // The colour cameras are KITTI's image_2 and image_3, whatever else the folder holds.
   EXPECT_EQ(kittiFolderParts(own.string(), {2, 3}).left, (own / "image_2").string());
+  // One folder of the own layout missing: it is the one named, not KITTI's.
+  fs::remove_all(own / "image_right");
+  EXPECT_EQ(kittiFolderParts(own.string()).right, (own / "image_right").string());
 
   const fs::path kitti = kittiFolder("kitti_layout");
   fs::rename(kitti / "left", kitti / "image_0");

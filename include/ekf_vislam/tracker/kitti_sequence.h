@@ -47,7 +47,7 @@ bool readKittiPoses(const std::string& path, std::vector<Eigen::Matrix4d>* poses
 bool listImages(const std::string& folder, std::vector<std::string>* paths, std::string* error);
 
 /// Where a sequence folder keeps its parts: image_left/ and image_right/ (the layout of the
-/// package's tools and clips) when both are there and `cameras` are 0 and 1, else KITTI's own
+/// package's tools and clips) when either is there and `cameras` are 0 and 1, else KITTI's own
 /// image_<left>/ and image_<right>/ (image_0/ and image_1/, or image_2/ and image_3/ for the
 /// colour cameras); calib.txt, times.txt, and poses.txt when there is one (else empty: KITTI
 /// keeps its poses apart, in poses/NN.txt).

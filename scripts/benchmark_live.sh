@@ -1,13 +1,13 @@
 #!/usr/bin/env bash
 # Tracker and estimator live, faster than real time: a KITTI-layout folder (images, calib.txt,
-# times.txt, poses.txt for the twist) is written as a bag (play_stereo_images.py), played with
+# times.txt, poses.txt or --poses FILE for the twist) is written as a bag (play_stereo_images.py), played with
 # `rosbag play --clock -r RATE` (paused until every node is connected) into
 # launch/stereo_vislam.launch (one nodelet manager), and the features, twist and odometry are
 # recorded. Prints the machine, the pairs received, tracked and dropped, the frames the
 # estimator used, its update time and latency (diagnostics), the time the estimator finished
 # after the last pair, and whether vislam_offline on the recorded features reproduces the live
 # trajectory bit for bit (live = offline).
-#   scripts/benchmark_live.sh FOLDER [--rate R] [--config estimator.yaml]
+#   scripts/benchmark_live.sh FOLDER [--poses FILE] [--rate R] [--config estimator.yaml]
 #                             [--tracker-config tracker.yaml] [--standalone] [--out DIR]
 # --standalone: the two nodes (stereo_tracker_node, vislam_node) instead of one nodelet manager.
 # Needs no roscore running on port 11399 (it starts its own there).
@@ -20,9 +20,11 @@ CONFIG=""
 TRACKER_CONFIG=""
 STANDALONE=false
 OUT=""
+POSES=""
 while (($#)); do
   case "$1" in
     --rate) RATE=$2; shift 2 ;;
+    --poses) POSES=$(readlink -f "$2"); shift 2 ;;
     --config) CONFIG=$(readlink -f "$2"); shift 2 ;;
     --tracker-config) TRACKER_CONFIG=$(readlink -f "$2"); shift 2 ;;
     --standalone) STANDALONE=true; shift ;;
@@ -31,7 +33,8 @@ while (($#)); do
     *) FOLDER=$1; shift ;;
   esac
 done
-[[ -f "${FOLDER}/poses.txt" ]] || { echo "benchmark_live: FOLDER with poses.txt needed"; exit 2; }
+POSES=${POSES:-${FOLDER}/poses.txt}
+[[ -f "${POSES}" ]] || { echo "benchmark_live: no ${POSES}: FOLDER/poses.txt or --poses FILE"; exit 2; }
 source "${REPO}/scripts/env.sh" >/dev/null
 PYTHONPATH="${REPO}/src" /usr/bin/python3 -c \
   'from ekf_vislam_tools.report import machine_description; print(machine_description())'
@@ -39,7 +42,7 @@ export ROS_MASTER_URI=http://localhost:11399
 OUT=${OUT:-$(mktemp -d)}
 mkdir -p "${OUT}"
 OUT=$(readlink -f "${OUT}")
-/usr/bin/python3 "${REPO}/scripts/play_stereo_images.py" "${FOLDER}" --bag "${OUT}/images.bag" >/dev/null
+/usr/bin/python3 "${REPO}/scripts/play_stereo_images.py" "${FOLDER}" --poses "${POSES}" --bag "${OUT}/images.bag" >/dev/null
 roscore -p 11399 >"${OUT}/roscore.log" 2>&1 &
 CORE=$!
 trap 'kill -INT ${CORE} 2>/dev/null || true' EXIT

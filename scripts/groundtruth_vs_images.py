@@ -2,9 +2,10 @@
 """How far an image folder's ground-truth poses agree with its images, without any tracker.
 
     groundtruth_vs_images.py FOLDER [--first-frame N] [--max-frames N] [--json OUT.json]
+                             [--poses FILE]
 
-FOLDER is in the KITTI odometry layout (image_left/, calib.txt, times.txt, poses.txt with
-world_T_cam0). For each pair of consecutive left images, an essential matrix is fitted (OpenCV:
+FOLDER is in the KITTI odometry layout (image_left/ or KITTI's image_0/, calib.txt, times.txt,
+poses.txt with world_T_cam0, or --poses FILE). For each pair of consecutive left images, an essential matrix is fitted (OpenCV:
 up to 2000 Shi-Tomasi corners, pyramidal KLT with a forward-backward check, RANSAC at 0.5 px)
 and its rotation compared with the poses' relative rotation. Prints the difference per frame
 (degrees about the camera's x, y and z; y is the yaw of a forward-looking camera) and the
@@ -46,11 +47,11 @@ def rotation_from_images(first, second, K):
     return R
 
 
-def compare(folder, first_frame=0, max_frames=0):
+def compare(folder, first_frame=0, max_frames=0, poses=None):
     """(N-1, 3) rotation differences (deg) images against poses, NaN where no fit."""
-    data = stereo_images.load_folder(folder)
+    data = stereo_images.load_folder(folder, poses=poses)
     if data.world_T_cam is None:
-        raise ValueError('%s: no poses.txt' % folder)
+        raise ValueError('%s: no poses.txt (or --poses FILE)' % folder)
     last = len(data.left) if max_frames <= 0 else min(len(data.left), first_frame + max_frames)
     differences = []
     previous = cv2.imread(data.left[first_frame], cv2.IMREAD_GRAYSCALE)
@@ -70,9 +71,10 @@ def main():
     parser.add_argument('--first-frame', type=int, default=0)
     parser.add_argument('--max-frames', type=int, default=0)
     parser.add_argument('--json', help='writes the per-frame differences')
+    parser.add_argument('--poses', help='world_T_cam0 per line (default: FOLDER/poses.txt)')
     args = parser.parse_args()
     try:
-        differences = compare(args.folder, args.first_frame, args.max_frames)
+        differences = compare(args.folder, args.first_frame, args.max_frames, args.poses)
     except (ValueError, OSError, IndexError) as error:
         print('groundtruth_vs_images: %s' % error, file=sys.stderr)
         return 2

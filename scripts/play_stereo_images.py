@@ -2,11 +2,12 @@
 """Publish a stereo image folder (KITTI odometry layout) as a live stereo stream, or write it as
 a bag: what a stereo camera driver with rectification and a twist source would give.
 
-    play_stereo_images.py FOLDER --bag OUT.bag [--max-frames N]
-    play_stereo_images.py FOLDER --play [--rate R] [--loop]
+    play_stereo_images.py FOLDER --bag OUT.bag [--max-frames N] [--poses FILE]
+    play_stereo_images.py FOLDER --play [--rate R] [--loop] [--poses FILE]
 
-FOLDER holds image_left/, image_right/, calib.txt (P0, P1), times.txt and optionally poses.txt
-(world_T_cam0 per line). Topics: /stereo/left/image_rect and /stereo/right/image_rect
+FOLDER holds image_left/ and image_right/ (or KITTI's image_0/ and image_1/), calib.txt (P0,
+P1), times.txt and optionally poses.txt (world_T_cam0 per line; --poses FILE for poses kept
+elsewhere, as KITTI's poses/NN.txt). Topics: /stereo/left/image_rect and /stereo/right/image_rect
 (sensor_msgs/Image, mono8, frames camera_left / camera_right), /stereo/{left,right}/camera_info
 (rectified, right P[0,3] = -fx b), and with poses /imu/twist (the ground-truth body twist of a
 vehicle frame at the left camera, x along the poses' direction of travel, y left, z up, with the
@@ -48,6 +49,7 @@ def parse_args(argv):
     p.add_argument('--rate', type=float, default=1.0, help='--play speed factor (default 1)')
     p.add_argument('--loop', action='store_true', help='--play: start over at the end')
     p.add_argument('--max-frames', type=int, default=0, help='only the first N frames')
+    p.add_argument('--poses', help='world_T_cam0 per line (default: FOLDER/poses.txt if any)')
     p.add_argument('--start-time', type=float, default=1000.0, help='s added to every time')
     p.add_argument('--twist-noise', type=float, nargs=2, default=(0.05, 0.005),
                    metavar=('V', 'W'), help='white twist noise, m/s and rad/s per sample and axis')
@@ -145,12 +147,13 @@ def play(folder, args):
 def main(argv):
     args = parse_args(argv)
     try:
-        folder = stereo_images.load_folder(args.folder)
+        folder = stereo_images.load_folder(args.folder, poses=args.poses)
     except (OSError, ValueError) as exc:
         print('%s: %s' % (PROG, exc), file=sys.stderr)
         return 2
     if folder.world_T_cam is None and not args.no_twist:
-        print('%s: note: no poses.txt, so no /imu/twist (the estimator needs one)' % PROG,
+        print('%s: note: no poses (poses.txt, --poses), so no /imu/twist (the estimator needs '
+              'one)' % PROG,
               file=sys.stderr)
     try:
         if args.bag:

@@ -402,6 +402,18 @@ class TrackStereoImagesTest(unittest.TestCase):
                                  universal_newlines=True)
         self.assertEqual(missing.returncode, 2)
         self.assertIn(os.path.join(self.tmp, 'image_0'), missing.stderr)
+        # Poses kept apart (KITTI's poses/NN.txt) give the bag its twist.
+        bag = os.path.join(self.tmp, 'kitti_layout.bag')
+        for poses, twists in ((None, 0), (os.path.join(self.folder, 'poses.txt'), FRAMES)):
+            result = paths.run_script('play_stereo_images.py', folder, '--bag', bag,
+                                      *(['--poses', poses] if poses else []))
+            self.assertEqual(result.returncode, 0, result.stderr)
+            import rosbag
+            with rosbag.Bag(bag) as b:
+                counts = b.get_type_and_topic_info().topics
+            self.assertEqual(counts['/stereo/left/image_rect'].message_count, FRAMES)
+            twist = counts.get('/imu/twist')
+            self.assertEqual(twist.message_count if twist else 0, twists)
 
     def test_bag_of_images(self):
         bag = os.path.join(self.tmp, 'drive.bag')

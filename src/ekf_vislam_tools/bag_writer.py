@@ -10,7 +10,8 @@ Topics and frames (message time = header stamp = dataset time stamp):
 - per frame, in this order: ``/imu/twist`` (geometry_msgs/TwistStamped, frame ``imu``),
   ``/stereo/left/camera_info`` and ``/stereo/right/camera_info`` (sensor_msgs/CameraInfo,
   rectified), ``/stereo/features`` (ekf_vislam/StereoFeatureArray, frame ``camera_left``, the
-  observed features of the frame, id = column index of the features array);
+  observed features of the frame, id = column index of the features array; in column order, or
+  oldest track first when the columns are shared);
 - with twist type ``imu_odometry``, instead of ``/imu/twist``: ``/imu/data`` (sensor_msgs/Imu,
   frame ``imu``: the angular velocity) and ``/wheel/odometry`` (nav_msgs/Odometry, child
   ``base_link``: the linear velocity of that frame, placed at IMU_T_BASE; /tf_static then
@@ -290,9 +291,27 @@ def load_groundtruth(path, dataset):
 # ---------------------------------------------------------------------------------------------
 # Message stream and bag
 # ---------------------------------------------------------------------------------------------
+def features_by_age(observed):
+    """Per frame, the observed columns oldest track first: by the frame their run of consecutive
+    frames started, then by column. For a dataset whose columns hold several tracks, one after
+    the other (`Dataset.columns_shared`): the estimator starts waiting tracks in the message's
+    order when its state is full (landmarks/max_active), and a tracker lists its tracks oldest
+    first; with a column per id the tracker's npz gives that order by its columns."""
+    start = np.full(observed.shape[0], -1)
+    previous = np.zeros(observed.shape[0], dtype=bool)
+    for k in range(observed.shape[1]):
+        now = observed[:, k]
+        start[now & ~previous] = k
+        previous = now
+        ids = np.flatnonzero(now)
+        yield ids[np.lexsort((ids, start[ids]))]
+
+
 def _frame_messages(dataset, twist_type, twist_covariance, wheel_every=1, features_every=1):
     observed = dataset.observed()
+    by_age = features_by_age(observed) if dataset.columns_shared else None
     for k in range(dataset.num_frames):
+        ids = next(by_age) if by_age else np.flatnonzero(observed[:, k])
         stamp = to_ros_time(dataset.t[k])
         if twist_type == IMU_ODOMETRY:
             imu, odometry = imu_odometry_msgs(dataset, k, stamp, twist_covariance)
@@ -309,8 +328,7 @@ def _frame_messages(dataset, twist_type, twist_covariance, wheel_every=1, featur
         left, right = camera_info_msgs(dataset, stamp)
         yield stamp, 0, TOPIC_LEFT_INFO, left
         yield stamp, 0, TOPIC_RIGHT_INFO, right
-        yield stamp, 0, TOPIC_FEATURES, features_msg(dataset, k, stamp,
-                                                     np.flatnonzero(observed[:, k]))
+        yield stamp, 0, TOPIC_FEATURES, features_msg(dataset, k, stamp, ids)
 
 
 def _groundtruth_messages(groundtruth):

@@ -10,7 +10,8 @@ Two layouts exist (see the data README):
 - later course files: ``t`` or ``time_stamps``, ``angular_velocity`` instead of
   ``rotational_velocity`` and ``imu_T_cam`` instead of ``cam_T_imu`` (inverted, never "fixed").
 
-Optional extra keys: ``image_size`` = [width, height]; ``specific_force`` (3,T): the accelerometer,
+Optional extra keys: ``feature_columns_shared`` (a column may hold several tracks, one after the
+other; written by track_stereo_images for long sequences); ``image_size`` = [width, height]; ``specific_force`` (3,T): the accelerometer,
 m/s^2, IMU frame (x forward, y left, z up), sample k the mean specific force over (t_k-1, t_k]
 expressed in the body frame at t_k, gravity included (at rest and level (0, 0, +9.80665)).
 
@@ -34,6 +35,9 @@ from ekf_vislam_tools import se3, twist_axes
 
 #: Marker key written by our simulator: the stored cam_T_imu translation is already correct.
 TRANSLATION_CORRECT_KEY = 'cam_T_imu_translation_correct'
+#: Marker key written by track_stereo_images (--reuse-gap): a column of features may hold several
+#: tracks, one after the other, each run of consecutive frames a track of its own.
+COLUMNS_SHARED_KEY = 'feature_columns_shared'
 
 #: Value of all four coordinates of an unobserved feature.
 UNOBSERVED = -1.0
@@ -58,6 +62,8 @@ _DATASET_FIELDS = [
     'twist_axes',       # twist_axes.Verdict of the twist against the images, or None (not checked)
     'specific_force',   # (3, T) float64 accelerometer, m/s^2, IMU frame, mean over (t_k-1, t_k]
                         # in the body frame at t_k, gravity included; None when the file has none
+    'columns_shared',   # True when a column of features may hold several tracks, one after the
+                        # other (COLUMNS_SHARED_KEY); else each id is one track
 ]
 
 
@@ -323,6 +329,8 @@ def _load_from_archive(path, archive, fix_extrinsic):
     image_size = None if key is None else _image_size(path, key, raw)
     key, raw = field(['specific_force'], required=False)
     specific_force = None if key is None else _velocity(path, key, raw, num)
+    key, raw = field([COLUMNS_SHARED_KEY], required=False)
+    columns_shared = key is not None and _flag(path, key, raw)
 
     extrinsic_key, raw = field(['cam_T_imu', 'imu_T_cam'])
     stored = _rigid_transform(path, extrinsic_key, raw)
@@ -341,7 +349,8 @@ def _load_from_archive(path, archive, fix_extrinsic):
 
     return Dataset(path=path, layout=layout, t=t, features=features, v=v, w=w, K=K, b=b,
                    cam_T_imu=cam_T_imu, image_size=image_size, extrinsic_fixed=extrinsic_fixed,
-                   twist_axes=None, specific_force=specific_force)
+                   twist_axes=None, specific_force=specific_force,
+                   columns_shared=columns_shared)
 
 
 def extrinsic_fix_notice(dataset):

@@ -241,6 +241,25 @@ class RoundTripTest(unittest.TestCase):
                                        atol=1e-6)
 
 
+class FeatureOrderTest(unittest.TestCase):
+    def test_oldest_track_first_also_in_a_column_given_again(self):
+        # Columns 0-2 over 6 frames; column 0 holds a track in frames 0-1 and another from 4 on.
+        observed = np.zeros((3, 6), dtype=bool)
+        observed[0, [0, 1, 4, 5]] = True
+        observed[1, 0:6] = True
+        observed[2, 2:6] = True
+        order = [list(ids) for ids in bag_writer.features_by_age(observed)]
+        self.assertEqual(order, [[0, 1], [0, 1], [1, 2], [1, 2], [1, 2, 0], [1, 2, 0]])
+
+    def test_course_file_columns_keep_their_order(self):
+        # Ids that grow with time (the course files, the tracker's): the column order.
+        observed = np.zeros((4, 5), dtype=bool)
+        for j, (first, last) in enumerate(((0, 2), (0, 4), (1, 3), (3, 4))):
+            observed[j, first:last + 1] = True
+        for k, ids in enumerate(bag_writer.features_by_age(observed)):
+            np.testing.assert_array_equal(ids, np.flatnonzero(observed[:, k]))
+
+
 class TwistTypeTest(unittest.TestCase):
     """--twist-type writes /imu/twist as any of the three types the estimator takes, with the same
     values; --twist-covariance fills the covariance of the two that carry one."""

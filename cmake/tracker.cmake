@@ -27,6 +27,7 @@ add_library(ekf_vislam_tracker
   src/tracker/debug_drawing.cc
   src/tracker/kitti_sequence.cc
   src/tracker/npz_writer.cc
+  src/tracker/feature_columns.cc
   src/tracker/pose_twist.cc
   src/tracker/twist_motion_prior.cc
   src/tracker/track_quality.cc)
@@ -49,6 +50,7 @@ if(CATKIN_ENABLE_TESTING)
     src/tracker/image_mask_test.cc
     src/tracker/debug_drawing_test.cc
     src/tracker/npz_writer_test.cc
+    src/tracker/feature_columns_test.cc
     src/tracker/pose_twist_test.cc
     src/tracker/twist_motion_prior_test.cc
     src/tracker/klt_back_check_test.cc

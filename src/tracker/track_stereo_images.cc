@@ -4,6 +4,7 @@
 #include "ekf_vislam/core/se3.h"
 #include "ekf_vislam/core/yaml_parameter_source.h"
 #include "ekf_vislam/tracker/debug_drawing.h"
+#include "ekf_vislam/tracker/feature_columns.h"
 #include "ekf_vislam/tracker/frame_rate_limit.h"
 #include "ekf_vislam/tracker/image_mask.h"
 #include "ekf_vislam/tracker/kitti_sequence.h"
@@ -36,7 +37,7 @@ const char* kUsage =
     "           --times times.txt) --out OUT.npz [--poses poses.txt] [--config tracker.yaml]\n"
     "           [--twist-noise V W] [--gyro-offset B] [--seed N] [--time-offset S]\n"
     "           [--first-frame N] [--max-frames N] [--predict-with-twist] [--debug-dir DIR]\n"
-    "           [--stats CSV] [--cameras L R] [--quiet]\n"
+    "           [--stats CSV] [--cameras L R] [--reuse-gap N] [--quiet]\n"
     "Tracks the rectified stereo images (KITTI odometry layout: calib.txt with P0 and P1,\n"
     "times.txt, optional poses.txt with world_T_cam0) and writes OUT.npz in the course layout:\n"
     "features (4,M,T; -1 where unobserved), K, b, time_stamps (1,T), image_size. With --poses\n"
@@ -58,7 +59,11 @@ const char* kUsage =
     "--stats: writes the tracker's per-frame counters and times (ms) as CSV.\n"
     "--cameras: the left and right images are KITTI's cameras L and R: their projections PL and\n"
     "PR of calib.txt (default 0 1; 2 3 for KITTI's colour cameras, whose poses are then moved\n"
-    "from camera 0 to camera L).\n";
+    "from camera 0 to camera L).\n"
+    "--reuse-gap: a column of features is taken by a later id once N frames have passed without\n"
+    "its last id (the estimator starts an id that comes back as a new landmark); 0 gives every\n"
+    "id its own column, as the course files do. Default: 0, unless that array would pass 1 GiB\n"
+    "(a long sequence), then 10.\n";
 
 struct Arguments {
   std::string folder, left, right, calib, times, out, poses, config, debug_dir, stats;
@@ -66,6 +71,7 @@ struct Arguments {
   double time_offset = 0;
   long max_frames = -1;
   long first_frame = 0;
+  long reuse_gap = -1;  ///< -1: 0, or kColumnReuseGap when a column per id passes 1 GiB
   bool quiet = false;
   bool predict_with_twist = false;
   KittiCameras cameras;
@@ -134,6 +140,9 @@ bool parseArguments(int argc, char** argv, Arguments* args, std::string* error) 
                a != b && a == std::floor(a) && b == std::floor(b)) {
       args->cameras = {static_cast<int>(a), static_cast<int>(b)};
       i += 2;
+    } else if (arg == "--reuse-gap" && number(i + 1, &a) && a >= 0 && a == std::floor(a)) {
+      args->reuse_gap = static_cast<long>(a);
+      ++i;
     } else if (arg == "--max-frames" && number(i + 1, &a) && a >= 1) {
       args->max_frames = static_cast<long>(a);
       ++i;
@@ -171,20 +180,31 @@ bool loadOptions(const std::string& path, TrackerOptions* options, std::string* 
   return error->empty();
 }
 
-// (4, M, T) row-major, -1 where unobserved; column j = the j-th id in increasing order.
-std::vector<double> featureArray(const std::vector<StereoFrame>& frames, size_t* num_ids) {
-  std::map<uint32_t, size_t> column;
-  for (const StereoFrame& frame : frames) {
-    for (const TrackedFeature& f : frame.features) column.emplace(f.id, 0);
-  }
-  size_t j = 0;
-  for (auto& [id, c] : column) c = j++;
-  *num_ids = column.size();
-  const size_t M = column.size(), T = frames.size();
+/// The columns of the features array: --reuse-gap's, or by default one per id unless that
+/// array would pass kFreshColumnsMaxBytes (said on stderr).
+FeatureColumns featureColumns(const Arguments& args, const std::vector<StereoFrame>& frames) {
+  if (args.reuse_gap >= 0) return assignFeatureColumns(frames, args.reuse_gap);
+  const size_t ids = countIds(frames);
+  const size_t gap = defaultReuseGap(ids, frames.size());
+  FeatureColumns columns = assignFeatureColumns(frames, gap);
+  if (gap == 0) return columns;
+  const double fresh_bytes = freshColumnsBytes(ids, frames.size());
+  std::cerr << "track_stereo_images: note: " << columns.column_of_id.size() << " ids in "
+            << columns.columns << " columns of features (a column taken again after "
+            << kColumnReuseGap << " frames without its last id; one per id would take "
+            << fresh_bytes / (1024.0 * 1024.0 * 1024.0) << " GiB); --reuse-gap 0 gives each id "
+            << "its own\n";
+  return columns;
+}
+
+// (4, M, T) row-major, -1 where unobserved.
+std::vector<double> featureArray(const std::vector<StereoFrame>& frames,
+                                 const FeatureColumns& columns) {
+  const size_t M = columns.columns, T = frames.size();
   std::vector<double> data(4 * M * T, -1.0);
   for (size_t k = 0; k < T; ++k) {
     for (const TrackedFeature& f : frames[k].features) {
-      const size_t c = column[f.id];
+      const size_t c = columns.column_of_id.at(f.id);
       const double values[4] = {f.left.x, f.left.y, f.right.x, f.right.y};
       for (size_t row = 0; row < 4; ++row) data[(row * M + c) * T + k] = values[row];
     }
@@ -220,9 +240,12 @@ bool writeDataset(const Arguments& args, const KittiSequence& sequence,
   const size_t T = frames.size();
   const StereoCalibration& c = sequence.calibration;
   NpzWriter npz;
-  size_t M = 0;
-  const std::vector<double> features = featureArray(frames, &M);
-  npz.addDoubles("features", {4, M, T}, features);
+  const FeatureColumns columns = featureColumns(args, frames);
+  npz.addDoubles("features", {4, columns.columns, T}, featureArray(frames, columns));
+  // A column holds several tracks: the bag writer lists them by age (dataset.py).
+  if (columns.columns < columns.column_of_id.size()) {
+    npz.addInts("feature_columns_shared", {}, {1});
+  }
   npz.addDoubles("K", {3, 3}, {c.fx, 0, c.cx, 0, c.fy, c.cy, 0, 0, 1});
   npz.addDoubles("b", {}, {c.baseline});
   std::vector<double> stamps(T);

@@ -415,6 +415,39 @@ class TrackStereoImagesTest(unittest.TestCase):
             twist = counts.get('/imu/twist')
             self.assertEqual(twist.message_count if twist else 0, twists)
 
+    def test_columns_shared_after_a_gap_hold_the_same_tracks(self):
+        # --reuse-gap 3: fewer columns, each holding runs of consecutive frames at least 3 frames
+        # apart, and the same observations as one column per id.
+        out = os.path.join(self.tmp, 'shared_columns.npz')
+        subprocess.run(track_args(self.folder, out) +
+                       ['--poses', self.folder + '/poses.txt', '--twist-noise', '0', '0',
+                        '--gyro-offset', '0', '--time-offset', '100', '--reuse-gap', '3'],
+                       check=True, stdout=subprocess.PIPE)
+        with np.load(self.npz) as fresh, np.load(out) as shared:
+            F, S = fresh['features'], shared['features']
+        self.assertLess(S.shape[1], F.shape[1] * 0.75)
+        # Marked, so that dataset_to_bag.py lists a frame's tracks by age.
+        self.assertTrue(dataset.load_dataset(out, fix_twist_axes=False).columns_shared)
+        self.assertFalse(dataset.load_dataset(self.npz, fix_twist_axes=False).columns_shared)
+
+        def runs(features):
+            observed = features[0] >= 0
+            found = []
+            for j in range(features.shape[1]):
+                frames = np.flatnonzero(observed[j])
+                for run in np.split(frames, np.flatnonzero(np.diff(frames) != 1) + 1):
+                    if run.size:
+                        found.append((run[0], run[-1], tuple(features[:, j, run[0]])))
+            return found
+
+        shared_runs = runs(S)
+        self.assertEqual(sorted(shared_runs), sorted(runs(F)))
+        observed = S[0] >= 0
+        for j in range(S.shape[1]):
+            frames = np.flatnonzero(observed[j])
+            gaps = np.diff(frames)
+            self.assertTrue(np.all((gaps == 1) | (gaps > 3)), gaps)
+
     def test_bag_of_images(self):
         bag = os.path.join(self.tmp, 'drive.bag')
         result = paths.run_script('play_stereo_images.py', self.folder, '--bag', bag)

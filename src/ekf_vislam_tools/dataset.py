@@ -309,6 +309,10 @@ def _load_from_archive(path, archive, fix_extrinsic):
 
     # All keys first, so a missing one is named before any value problem.
     time_key = _pick_key(path, archive, ['time_stamps', 't'])
+    if 'linear_velocity' not in archive.files:
+        raise DatasetError("%s: missing field 'linear_velocity': no twist (track_stereo_images "
+                           "writes one, from the poses, only with --poses; a robot's comes from "
+                           "its IMU or wheel odometry)" % path)
     for names in (['features'], ['linear_velocity'], ['rotational_velocity', 'angular_velocity'],
                   ['K'], ['b'], ['cam_T_imu', 'imu_T_cam']):
         _pick_key(path, archive, names)

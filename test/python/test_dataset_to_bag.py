@@ -455,6 +455,8 @@ class ValidationTest(ConverterTestCase):
                     'b', 'cam_T_imu'):
             with self.subTest(key=key):
                 self.check(self.mutated(**{key: None}), "missing field '%s'" % key)
+        # The tracker's npz without --poses has no twist: the message says where one comes from.
+        self.check(self.mutated(linear_velocity=None), 'only with --poses')
 
     def test_shape_mismatch(self):
         good = synthetic_2019()

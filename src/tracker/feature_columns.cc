@@ -4,7 +4,6 @@
 #include <functional>
 #include <map>
 #include <queue>
-#include <unordered_set>
 #include <utility>
 
 namespace ekf_vislam {
@@ -28,14 +27,6 @@ std::map<uint32_t, Span> idSpans(const std::vector<StereoFrame>& frames) {
 }
 
 }  // namespace
-
-size_t countIds(const std::vector<StereoFrame>& frames) {
-  std::unordered_set<uint32_t> ids;
-  for (const StereoFrame& frame : frames) {
-    for (const TrackedFeature& f : frame.features) ids.insert(f.id);
-  }
-  return ids.size();
-}
 
 FeatureColumns assignFeatureColumns(const std::vector<StereoFrame>& frames, size_t reuse_gap) {
   const std::map<uint32_t, Span> spans = idSpans(frames);

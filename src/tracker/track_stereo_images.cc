@@ -184,11 +184,10 @@ bool loadOptions(const std::string& path, TrackerOptions* options, std::string* 
 /// array would pass kFreshColumnsMaxBytes (said on stderr).
 FeatureColumns featureColumns(const Arguments& args, const std::vector<StereoFrame>& frames) {
   if (args.reuse_gap >= 0) return assignFeatureColumns(frames, args.reuse_gap);
-  const size_t ids = countIds(frames);
-  const size_t gap = defaultReuseGap(ids, frames.size());
-  FeatureColumns columns = assignFeatureColumns(frames, gap);
-  if (gap == 0) return columns;
-  const double fresh_bytes = freshColumnsBytes(ids, frames.size());
+  FeatureColumns fresh = assignFeatureColumns(frames, 0);  // a column per id
+  if (defaultReuseGap(fresh.columns, frames.size()) == 0) return fresh;
+  const double fresh_bytes = freshColumnsBytes(fresh.columns, frames.size());
+  FeatureColumns columns = assignFeatureColumns(frames, kColumnReuseGap);
   std::cerr << "track_stereo_images: note: " << columns.column_of_id.size() << " ids in "
             << columns.columns << " columns of features (a column taken again after "
             << kColumnReuseGap << " frames without its last id; one per id would take "

@@ -34,9 +34,6 @@ struct FeatureColumns {
 /// longest once reuse_gap frames have passed after its last observation, else a new column.
 FeatureColumns assignFeatureColumns(const std::vector<StereoFrame>& frames, size_t reuse_gap);
 
-/// Ids of `frames` (their count, as columns with reuse_gap 0).
-size_t countIds(const std::vector<StereoFrame>& frames);
-
 /// Bytes of the float64 features array (4, ids, frames) with a column per id.
 inline double freshColumnsBytes(size_t ids, size_t frames) { return 32.0 * ids * frames; }
 /// The gap track_stereo_images uses unless told: 0 (a column per id) while that array stays

@@ -11,9 +11,10 @@ Two layouts exist (see the data README):
   ``rotational_velocity`` and ``imu_T_cam`` instead of ``cam_T_imu`` (inverted, never "fixed").
 
 Optional extra keys: ``feature_columns_shared`` (a column may hold several tracks, one after the
-other; written by track_stereo_images for long sequences); ``image_size`` = [width, height]; ``specific_force`` (3,T): the accelerometer,
-m/s^2, IMU frame (x forward, y left, z up), sample k the mean specific force over (t_k-1, t_k]
-expressed in the body frame at t_k, gravity included (at rest and level (0, 0, +9.80665)).
+other; written by track_stereo_images for long sequences); ``image_size`` = [width, height];
+``specific_force`` (3,T): the accelerometer, m/s^2, IMU frame (x forward, y left, z up), sample k
+the mean specific force over (t_k-1, t_k] expressed in the body frame at t_k, gravity included
+(at rest and level (0, 0, +9.80665)).
 
 The twist and the extrinsic must use the same IMU axes. A file whose twist turns the other way
 than its images (its y and z axes against the extrinsic's: a half turn about x, as in the
@@ -154,6 +155,13 @@ def _read_field(path, archive, key):
     return value
 
 
+#: What a missing required field's message adds.
+_MISSING_HINTS = {
+    'linear_velocity': ": no twist (track_stereo_images writes one, from the poses, only with "
+                       "--poses; a robot's comes from its IMU or wheel odometry)",
+}
+
+
 def _pick_key(path, archive, names, required=True):
     """The one of `names` present in the archive (None if optional and absent)."""
     present = [n for n in names if n in archive.files]
@@ -164,7 +172,8 @@ def _pick_key(path, archive, names, required=True):
         if not required:
             return None
         if len(names) == 1:
-            raise DatasetError("%s: missing field '%s'" % (path, names[0]))
+            raise DatasetError("%s: missing field '%s'%s"
+                               % (path, names[0], _MISSING_HINTS.get(names[0], '')))
         raise DatasetError("%s: missing field '%s' (or %s)"
                            % (path, names[0], ', '.join("'%s'" % n for n in names[1:])))
     return present[0]
@@ -309,10 +318,6 @@ def _load_from_archive(path, archive, fix_extrinsic):
 
     # All keys first, so a missing one is named before any value problem.
     time_key = _pick_key(path, archive, ['time_stamps', 't'])
-    if 'linear_velocity' not in archive.files:
-        raise DatasetError("%s: missing field 'linear_velocity': no twist (track_stereo_images "
-                           "writes one, from the poses, only with --poses; a robot's comes from "
-                           "its IMU or wheel odometry)" % path)
     for names in (['features'], ['linear_velocity'], ['rotational_velocity', 'angular_velocity'],
                   ['K'], ['b'], ['cam_T_imu', 'imu_T_cam']):
         _pick_key(path, archive, names)

@@ -250,7 +250,8 @@ bool StereoTracker::process(const cv::Mat& left, const cv::Mat& right, double st
   // make them while this one predicts the tracks and brings the previous pyramid to the new
   // exposure (the results are those made in turn, bit for bit). Declared before their futures,
   // which wait for them on every way out.
-  std::vector<cv::Mat> left_pyramid, right_pyramid;
+  std::vector<cv::Mat>& left_pyramid = left_pyramid_;
+  std::vector<cv::Mat>& right_pyramid = right_pyramid_;
   std::vector<cv::KeyPoint> corners_found;
   std::future<void> left_pyramid_built = std::async(std::launch::async, [&] {
     cv::buildOpticalFlowPyramid(left, left_pyramid, window, levels, true);
@@ -299,7 +300,7 @@ bool StereoTracker::process(const cv::Mat& left, const cv::Mat& right, double st
   summarizeStereoMatches(std::move(stereo_counts), calibration_, left.cols,
                          options_.row_tolerance_px, &stats);
 
-  prev_left_pyramid_ = std::move(left_pyramid);
+  std::swap(prev_left_pyramid_, left_pyramid_);
   image_size_ = left.size();
   if (has_prev_) last_dt_ = stamp - prev_stamp_;
   prev_stamp_ = stamp;
@@ -312,7 +313,7 @@ bool StereoTracker::process(const cv::Mat& left, const cv::Mat& right, double st
 
 StereoTracker::TemporalStart StereoTracker::startTemporal(const cv::Mat& left,
                                                           const CameraMotionPrior* prior, double dt,
-                                                          TrackerFrameStats* stats) const {
+                                                          TrackerFrameStats* stats) {
   const auto t = Clock::now();
   TemporalStart start;
   start.prev.resize(tracks_.size());
@@ -321,7 +322,7 @@ StereoTracker::TemporalStart StereoTracker::startTemporal(const cv::Mat& left,
   // search one pyramid level more.
   start.predicted = predictLeft(prior, dt, &start.prediction, &start.cur);
   stats->ms_temporal = msSince(t);
-  start.exposed_prev_pyramid = exposedPreviousPyramid(left, start.prev, start.cur, stats);
+  bringPreviousPyramidToExposure(left, start.prev, start.cur, stats);
   return start;
 }
 
@@ -329,8 +330,7 @@ std::vector<float> StereoTracker::trackTemporal(TemporalStart start,
                                                 const std::vector<cv::Mat>& left_pyramid,
                                                 TrackerFrameStats* stats) {
   const auto t = Clock::now();
-  const std::vector<cv::Mat>& prev_pyramid =
-      start.exposed_prev_pyramid.empty() ? prev_left_pyramid_ : start.exposed_prev_pyramid;
+  const std::vector<cv::Mat>& prev_pyramid = prev_left_pyramid_;
   if (!start.predicted && options_.predict_with_last_motion) {
     stats->predicted_from_first_matches =
         predictFromFirstMatches(prev_pyramid, left_pyramid, &start);
@@ -353,24 +353,23 @@ std::vector<float> StereoTracker::trackTemporal(TemporalStart start,
   return checkMotion(prev, cur, start.prediction, stats);
 }
 
-std::vector<cv::Mat> StereoTracker::exposedPreviousPyramid(const cv::Mat& left,
-                                                           const std::vector<cv::Point2f>& prev,
-                                                           const std::vector<cv::Point2f>& cur,
-                                                           TrackerFrameStats* stats) const {
-  std::vector<cv::Mat> pyramid;
-  if (!options_.exposure_compensation) return pyramid;
+void StereoTracker::bringPreviousPyramidToExposure(const cv::Mat& left,
+                                                   const std::vector<cv::Point2f>& prev,
+                                                   const std::vector<cv::Point2f>& cur,
+                                                   TrackerFrameStats* stats) {
+  if (!options_.exposure_compensation) return;
   const auto t = Clock::now();
   const cv::Mat& prev_image = prev_left_pyramid_[0];
   const std::optional<IntensityMap> map =
       fitIntensityMap(prev_image, prev, left, cur, options_.window_size, kMinExposurePoints);
   if (map) {
     stats->exposure_gain_temporal = map->gain;
-    cv::buildOpticalFlowPyramid(applyIntensityMap(prev_image, *map), pyramid,
-                                pyramidWindow(options_),
-                                static_cast<int>(prev_left_pyramid_.size() / 2) - 1, true);
+    // The mapped image is a copy: the pyramid it came from may be written over.
+    const cv::Mat exposed = applyIntensityMap(prev_image, *map);
+    const int levels = static_cast<int>(prev_left_pyramid_.size() / 2) - 1;
+    cv::buildOpticalFlowPyramid(exposed, prev_left_pyramid_, pyramidWindow(options_), levels, true);
   }
   stats->ms_pyramids += msSince(t);
-  return pyramid;
 }
 
 void StereoTracker::followTracks(const std::vector<cv::Mat>& prev_pyramid,

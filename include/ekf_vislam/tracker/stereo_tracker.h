@@ -62,24 +62,22 @@ class StereoTracker {
     CameraMotionPrior prediction;  ///< the motion the start points were predicted with
     bool predicted = false;        ///< false: start points unchanged (no prior, no last motion)
     std::vector<cv::Point2f> prev, cur;
-    std::vector<cv::Mat> exposed_prev_pyramid;  ///< empty: the stored one (no exposure map)
   };
   // Predicts the tracks' start points and brings the previous pyramid to the new left image's
   // exposure: needs the new image, not its pyramid.
   TemporalStart startTemporal(const cv::Mat& left, const CameraMotionPrior* prior, double dt,
-                              TrackerFrameStats* stats) const;
+                              TrackerFrameStats* stats);
   // KLT of the tracks into the new left image, forward-backward check, refinement, left mask
   // and RANSAC; drops the lost tracks and returns each survivor's predicted disparity (the
   // left-right KLT seed).
   std::vector<float> trackTemporal(TemporalStart start, const std::vector<cv::Mat>& left_pyramid,
                                    TrackerFrameStats* stats);
-  // The previous left pyramid rebuilt from the previous image brought to the new one's exposure
-  // (klt/exposure_compensation; a map fitted on the tracks `prev` -> `cur`); empty when off or
-  // without a map. Its time counts as the pyramids'.
-  std::vector<cv::Mat> exposedPreviousPyramid(const cv::Mat& left,
-                                              const std::vector<cv::Point2f>& prev,
-                                              const std::vector<cv::Point2f>& cur,
-                                              TrackerFrameStats* stats) const;
+  // Rebuilds the previous left pyramid, in place, from the previous image brought to the new
+  // one's exposure (klt/exposure_compensation; a map fitted on the tracks `prev` -> `cur`);
+  // unchanged when off or without a map. Its time counts as the pyramids'.
+  void bringPreviousPyramidToExposure(const cv::Mat& left, const std::vector<cv::Point2f>& prev,
+                                      const std::vector<cv::Point2f>& cur,
+                                      TrackerFrameStats* stats);
   // KLT from `prev` (start points *cur) into the new left image and the forward-backward check:
   // the tracks lost or outside the image border end (with their points in *prev, *cur).
   void followTracks(const std::vector<cv::Mat>& prev_pyramid,
@@ -138,7 +136,10 @@ class StereoTracker {
   StereoMasks masks_;
   GridFeatureDetector detector_;
   std::vector<Track> tracks_;
-  std::vector<cv::Mat> prev_left_pyramid_;
+  // The pyramids live from frame to frame, so that each frame builds them into the memory of the
+  // last: the new left one becomes the previous one by a swap, and the previous one is brought to
+  // the new exposure in place.
+  std::vector<cv::Mat> left_pyramid_, right_pyramid_, prev_left_pyramid_;
   cv::Size image_size_;
   double prev_stamp_ = 0;
   bool has_prev_ = false;

@@ -251,7 +251,7 @@ bool StereoTracker::process(const cv::Mat& left, const cv::Mat& right, double st
   // exposure (the results are those made in turn, bit for bit). Declared before their futures,
   // which wait for them on every way out.
   std::vector<cv::Mat>& left_pyramid = left_pyramid_;
-  std::vector<cv::Mat>& right_pyramid = right_pyramid_;
+  const std::vector<cv::Mat>& right_pyramid = right_pyramid_;
   std::vector<cv::KeyPoint> corners_found;
   std::future<void> left_pyramid_built = std::async(std::launch::async, [&] {
     cv::buildOpticalFlowPyramid(left, left_pyramid, window, levels, true);
@@ -263,30 +263,24 @@ bool StereoTracker::process(const cv::Mat& left, const cv::Mat& right, double st
   }
 
   std::optional<TemporalStart> temporal;
+  std::vector<float> predicted_disparity;
   if (has_prev_ && !tracks_.empty()) {
     temporal = startTemporal(left, prior, stamp - prev_stamp_, &stats);
+  } else {
+    tracks_.clear();
+    has_last_motion_ = false;
+    // Without tracks the stereo exposure map stands: the right pyramid is built while the left
+    // one is.
+    buildRightPyramid(left, right, predicted_disparity, levels, &stats);
   }
   auto t = Clock::now();
   left_pyramid_built.get();
   stats.ms_pyramids += msSince(t);
-  std::vector<float> predicted_disparity;
   if (temporal) {
     predicted_disparity = trackTemporal(std::move(*temporal), left_pyramid, &stats);
     endCrowdedTracks(&predicted_disparity, &stats);
-  } else {
-    tracks_.clear();
-    has_last_motion_ = false;
+    buildRightPyramid(left, right, predicted_disparity, levels, &stats);
   }
-  t = Clock::now();
-  if (options_.exposure_compensation) {
-    updateStereoExposure(left, right, predicted_disparity);
-    stats.exposure_gain_stereo = stereo_exposure_.gain;
-    cv::buildOpticalFlowPyramid(applyIntensityMap(right, stereo_exposure_), right_pyramid, window,
-                                levels, true);
-  } else {
-    cv::buildOpticalFlowPyramid(right, right_pyramid, window, levels, true);
-  }
-  stats.ms_pyramids += msSince(t);
   t = Clock::now();
   StereoMatchCounts stereo_counts;
   matchTracksInRight(left_pyramid, right_pyramid, predicted_disparity, &stereo_counts, &stats);
@@ -483,6 +477,21 @@ void StereoTracker::endCrowdedTracks(std::vector<float>* predicted_disparity,
   stats->crowded = static_cast<int>(std::count(keep.begin(), keep.end(), 0));
   keepSelected(keep, &tracks_);
   keepSelected(keep, predicted_disparity);
+}
+
+void StereoTracker::buildRightPyramid(const cv::Mat& left, const cv::Mat& right,
+                                      const std::vector<float>& predicted_disparity, int levels,
+                                      TrackerFrameStats* stats) {
+  const auto t = Clock::now();
+  if (options_.exposure_compensation) {
+    updateStereoExposure(left, right, predicted_disparity);
+    stats->exposure_gain_stereo = stereo_exposure_.gain;
+    cv::buildOpticalFlowPyramid(applyIntensityMap(right, stereo_exposure_), right_pyramid_,
+                                pyramidWindow(options_), levels, true);
+  } else {
+    cv::buildOpticalFlowPyramid(right, right_pyramid_, pyramidWindow(options_), levels, true);
+  }
+  stats->ms_pyramids += msSince(t);
 }
 
 void StereoTracker::updateStereoExposure(const cv::Mat& left, const cv::Mat& right,

@@ -115,6 +115,12 @@ class StereoTracker {
   std::vector<uint8_t> refineLeft(const cv::Mat& left, std::vector<cv::Point2f>* cur,
                                   TrackerFrameStats* stats);
   void setReference(const cv::Mat& left, Track* track) const;
+  // The right pyramid, from the right image brought to the left one's exposure (the stereo map
+  // refitted on the tracks at their predicted disparities, klt/exposure_compensation). Its time
+  // counts as the pyramids'.
+  void buildRightPyramid(const cv::Mat& left, const cv::Mat& right,
+                         const std::vector<float>& predicted_disparity, int levels,
+                         TrackerFrameStats* stats);
   // Fits stereo_exposure_ (right image to left) on the tracks and their predicted right points.
   void updateStereoExposure(const cv::Mat& left, const cv::Mat& right,
                             const std::vector<float>& predicted_disparity);

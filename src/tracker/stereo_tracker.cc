@@ -248,8 +248,9 @@ bool StereoTracker::process(const cv::Mat& left, const cv::Mat& right, double st
   const cv::Size window = pyramidWindow(options_);
   // The new left image's pyramid and FAST corners do not depend on the tracks: two more threads
   // make them while this one predicts the tracks and brings the previous pyramid to the new
-  // exposure (the results are those made in turn, bit for bit). Declared before their futures,
-  // which wait for them on every way out.
+  // exposure or, without tracks, builds the right pyramid (the results are those made in turn,
+  // bit for bit). What they write is declared before their futures, which wait for them on every
+  // way out.
   std::vector<cv::Mat>& left_pyramid = left_pyramid_;
   const std::vector<cv::Mat>& right_pyramid = right_pyramid_;
   std::vector<cv::KeyPoint> corners_found;

@@ -393,6 +393,38 @@ TEST(StereoTracker, RefusesBadInputWithoutLosingTracks) {
   EXPECT_GE(old, static_cast<int>(0.8 * n));
 }
 
+// The tracker keeps its pyramids' memory from pair to pair. After the image size changes, the
+// tracks restart and the pairs of the new size are tracked as a new tracker tracks them.
+TEST(StereoTracker, AfterASizeChangeTracksAsANewTracker) {
+  SlantedPlaneScene scene;
+  TrackerOptions options;
+  options.exposure_compensation = false;  // its stereo map is kept through a restart, by design
+  StereoTracker resized(options, scene.calibration()), fresh(options, scene.calibration());
+  StereoFrame frame, fresh_frame;
+  std::string why;
+  for (int k = 0; k < 3; ++k) {
+    const cv::Vec3d c = positionAt(k);
+    ASSERT_TRUE(
+        resized.process(scene.render(c, 0), scene.render(c, 0.5), k, nullptr, &frame, &why));
+  }
+  const cv::Rect crop(0, 0, 480, 200);  // from the origin: the calibration still holds
+  for (int k = 3; k < 6; ++k) {
+    SCOPED_TRACE(k);
+    const cv::Vec3d c = positionAt(k);
+    const cv::Mat left = scene.render(c, 0)(crop).clone(),
+                  right = scene.render(c, 0.5)(crop).clone();
+    ASSERT_TRUE(resized.process(left, right, k, nullptr, &frame, &why));
+    ASSERT_TRUE(fresh.process(left, right, k, nullptr, &fresh_frame, &why));
+    ASSERT_EQ(frame.features.size(), fresh_frame.features.size());
+    ASSERT_GT(frame.features.size(), 50u);
+    for (size_t i = 0; i < frame.features.size(); ++i) {
+      EXPECT_EQ(frame.features[i].left, fresh_frame.features[i].left) << i;
+      EXPECT_EQ(frame.features[i].right, fresh_frame.features[i].right) << i;
+      EXPECT_EQ(frame.features[i].age, fresh_frame.features[i].age) << i;
+    }
+  }
+}
+
 // The second pair has no motion to predict from (no twist, no last motion): the camera moved
 // 0.6 m sideways (30 px of flow at the plane's 8 m, 23-37 px over its slant). Returns the
 // features continued into it and the median error of their positions (px).

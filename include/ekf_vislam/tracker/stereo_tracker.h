@@ -57,7 +57,7 @@ class StereoTracker {
   bool predictLeft(const CameraMotionPrior* prior, double dt, CameraMotionPrior* used,
                    std::vector<cv::Point2f>* predicted) const;
   // What the tracks' KLT starts from: each track's point in the previous left image and its
-  // predicted one in the new image, and the previous pyramid to track from.
+  // predicted one in the new image (the previous pyramid is prev_left_pyramid_).
   struct TemporalStart {
     CameraMotionPrior prediction;  ///< the motion the start points were predicted with
     bool predicted = false;        ///< false: start points unchanged (no prior, no last motion)

@@ -3,8 +3,9 @@
 # 1241x376 highway clip ../shared/data/kitti_clips/odometry_01_000000-000050) and prints the
 # median and p99 milliseconds per stereo pair (tracking only: image decoding excluded), the
 # frame rate they mean and each stage's median, for each of --repeat runs, after a line naming
-# the machine, then the same over all runs' pairs together. --config: tracker options (default:
-# built-in).
+# the machine, then the same over all runs' pairs together, and the slowest of each pair's median
+# over the runs (the pairs' own cost, without the machine's stalls). --config: tracker options
+# (default: built-in).
 #   scripts/benchmark_tracker.sh [FOLDER] [--repeat N] [--config tracker.yaml]
 set -eo pipefail
 export PATH=/usr/bin:/bin:${PATH}
@@ -16,7 +17,7 @@ while (($#)); do
   case "$1" in
     --repeat) REPEAT=$2; shift 2 ;;
     --config) CONFIG=(--config "$2"); shift 2 ;;
-    -h|--help) sed -n 2,8p "$0"; exit 0 ;;
+    -h|--help) sed -n 2,9p "$0"; exit 0 ;;
     *) FOLDER=$1; shift ;;
   esac
 done
@@ -58,4 +59,11 @@ ms = np.array([float(r['ms_total']) for f in files for r in csv.DictReader(open(
 print('all %s runs: %d pairs: ms per pair median %.2f, p99 %.2f -> %.1f fps at p99; %.1f %% of the '
       'pairs over 33.3 ms' % (sys.argv[2], len(ms), np.median(ms), np.percentile(ms, 99),
                               1000 / np.percentile(ms, 99), 100 * np.mean(ms > 1000 / 30)))
+# Each pair's median over the runs: what the pair's content costs, without the machine's own
+# stalls (which land on other pairs in every run).
+runs = [[float(r['ms_total']) for r in csv.DictReader(open(f))] for f in files]
+if len(runs) > 1 and len(set(map(len, runs))) == 1:
+    per_pair = np.median(np.array(runs), axis=0)
+    print('each pair\'s median over the runs: slowest %.2f ms (pair %d), p99 %.2f ms'
+          % (per_pair.max(), per_pair.argmax(), np.percentile(per_pair, 99)))
 PY

@@ -55,13 +55,13 @@ done
 import csv, sys
 import numpy as np
 files = ['%s/stats_%d.csv' % (sys.argv[1], k) for k in range(1, int(sys.argv[2]) + 1)]
-ms = np.array([float(r['ms_total']) for f in files for r in csv.DictReader(open(f))])
+runs = [[float(r['ms_total']) for r in csv.DictReader(open(f))] for f in files]
+ms = np.concatenate(runs)
 print('all %s runs: %d pairs: ms per pair median %.2f, p99 %.2f -> %.1f fps at p99; %.1f %% of the '
       'pairs over 33.3 ms' % (sys.argv[2], len(ms), np.median(ms), np.percentile(ms, 99),
                               1000 / np.percentile(ms, 99), 100 * np.mean(ms > 1000 / 30)))
 # Each pair's median over the runs: what the pair's content costs, without the machine's own
 # stalls (which land on other pairs in every run).
-runs = [[float(r['ms_total']) for r in csv.DictReader(open(f))] for f in files]
 if len(runs) > 1 and len(set(map(len, runs))) == 1:
     per_pair = np.median(np.array(runs), axis=0)
     print('each pair\'s median over the runs: slowest %.2f ms (pair %d), p99 %.2f ms'

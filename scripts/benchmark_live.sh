@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Tracker and estimator live, faster than real time: a KITTI-layout folder (images, calib.txt,
-# times.txt, poses.txt or --poses FILE for the twist) is written as a bag (play_stereo_images.py), played with
-# `rosbag play --clock -r RATE` (paused until every node is connected) into
-# launch/stereo_vislam.launch (one nodelet manager), and the features, twist and odometry are
-# recorded. Prints the machine, the pairs received, tracked and dropped, the frames the
+# times.txt, poses.txt or --poses FILE for the twist) is written as a bag
+# (play_stereo_images.py), played with `rosbag play --clock -r RATE` (paused until every node is
+# connected) into launch/stereo_vislam.launch (one nodelet manager), and the features, twist and
+# odometry are recorded. Prints the machine, the pairs received, tracked and dropped, the frames the
 # estimator used, its update time and latency (diagnostics), the time the estimator finished
 # after the last pair, and whether vislam_offline on the recorded features reproduces the live
 # trajectory bit for bit (live = offline).

@@ -57,9 +57,10 @@ def main(argv):
     for k, name in enumerate(names):
         gain = np.exp(log_gain[k]) * (args.step_gain if 0 <= args.step_frame <= k else 1.0)
         for side in ('image_left', 'image_right'):
-            image = cv2.imread(os.path.join(sources[side], name), cv2.IMREAD_UNCHANGED)
+            path = os.path.join(sources[side], name)
+            image = cv2.imread(path, cv2.IMREAD_UNCHANGED)
             if image is None:
-                sys.exit(f'{PROG}: cannot read {side}/{name}')
+                sys.exit(f'{PROG}: cannot read {path}')
             g, offset = gain, 0.0
             if side == 'image_right':
                 g *= np.exp(log_right[k]) * args.right_gain

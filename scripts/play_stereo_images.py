@@ -153,8 +153,7 @@ def main(argv):
         return 2
     if folder.world_T_cam is None and not args.no_twist:
         print('%s: note: no poses (poses.txt, --poses), so no /imu/twist (the estimator needs '
-              'one)' % PROG,
-              file=sys.stderr)
+              'one)' % PROG, file=sys.stderr)
     try:
         if args.bag:
             write_bag(folder, args)

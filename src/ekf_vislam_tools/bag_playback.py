@@ -2,7 +2,9 @@
 
 `rosbag play` publishes as soon as it starts, while the nodes under test may not have connected
 to its topics yet: on a loaded machine the first frames were lost. Here the player starts paused
-and resumes only once every required subscriber has an open connection to it.
+and resumes only once every required subscriber has an open connection to it, and once the
+calling node's own subscriptions (`listening`: the outputs a test counts) are connected to their
+publishers, so that the first output is not lost either.
 """
 import subprocess
 import time
@@ -38,6 +40,17 @@ def publisher_connected(node, required):
     return all(set(nodes) <= outbound.get(topic, set()) for topic, nodes in required.items())
 
 
+def listening_connected(subscribers):
+    """True when each rospy Subscriber of `subscribers` is connected to every publisher the
+    master lists for its topic, and there is at least one."""
+    try:
+        publishers, _, _ = rosgraph.masterapi.Master('/bag_playback_check').getSystemState()
+    except Exception:  # the master is busy: ask again
+        return False
+    nodes = dict((topic, len(names)) for topic, names in publishers)
+    return all(0 < nodes.get(s.resolved_name, 0) <= s.get_num_connections() for s in subscribers)
+
+
 def start_player(bag, name, rate, extra_args=()):
     """`rosbag play --clock` of `bag` as node `name`, started paused; its outgoing queue holds the
     whole bag, so a stalled subscriber loses nothing."""
@@ -47,21 +60,26 @@ def start_player(bag, name, rate, extra_args=()):
                             stderr=subprocess.STDOUT, universal_newlines=True)
 
 
-def resume_when_connected(player_name, required, timeout=30.0):
+def resume_when_connected(player_name, required, timeout=30.0, listening=()):
     """Waits until the paused player is connected as `required` says (publisher_connected: no
-    message is lost at the start, however slow the machine), then resumes it."""
+    message is lost at the start, however slow the machine) and the subscribers of `listening`
+    to their publishers (listening_connected), then resumes it."""
     if not wait_until(lambda: publisher_connected(player_name, required), timeout, period=0.1):
         raise RuntimeError('%s: the nodes under test did not connect to the player' % player_name)
+    if not wait_until(lambda: listening_connected(listening), timeout, period=0.1):
+        raise RuntimeError('%s: not connected to the publishers of %s' % (
+            rospy.get_name(), ', '.join(s.resolved_name for s in listening)))
     rospy.wait_for_service(player_name + '/pause_playback', timeout=10.0)
     rospy.ServiceProxy(player_name + '/pause_playback', SetBool)(False)
 
 
-def play_bag(bag, name, rate, required, extra_args=(), timeout=120):
+def play_bag(bag, name, rate, required, extra_args=(), timeout=120, listening=()):
     """Plays `bag` (start_player), resumed once connected as `required` says (topic -> node
-    names); returns when the player has ended."""
+    names) and `listening` (rospy Subscribers of the caller) to its publishers; returns when the
+    player has ended."""
     player = start_player(bag, name, rate, extra_args)
     try:
-        resume_when_connected(name, required)
+        resume_when_connected(name, required, listening=listening)
         output, _ = player.communicate(timeout=timeout)
     except BaseException:
         player.kill()

@@ -75,15 +75,16 @@ class GroundRobotTest(unittest.TestCase):
                  'base_link', '--out', os.path.join(cls.tmp, 'offline_body')]).strip())
         cls.statuses, cls.twists, cls.updates, cls.tf = {}, [], [], []
         cls.estimator_statuses = {}
-        rospy.Subscriber('/vislam/odometry_update', Odometry, cls.updates.append, queue_size=5000)
+        counted = [rospy.Subscriber('/vislam/odometry_update', Odometry, cls.updates.append,
+                                    queue_size=5000)]
         rospy.Subscriber('/tf', TFMessage, lambda msg: cls.tf.extend(msg.transforms),
                          queue_size=5000)
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics, queue_size=100)
-        rospy.Subscriber('/imu/twist', TwistWithCovarianceStamped, cls.twists.append,
-                         queue_size=5000)
+        counted.append(rospy.Subscriber('/imu/twist', TwistWithCovarianceStamped,
+                                        cls.twists.append, queue_size=5000))
         cls.body_twists = []
-        rospy.Subscriber('/body/imu/twist', TwistWithCovarianceStamped, cls.body_twists.append,
-                         queue_size=5000)
+        counted.append(rospy.Subscriber('/body/imu/twist', TwistWithCovarianceStamped,
+                                        cls.body_twists.append, queue_size=5000))
         for service in ('/vislam/save', '/body/vislam/save'):
             rospy.wait_for_service(service, timeout=60.0)
         # Every tf listener connected too: the start does not depend on how fast /tf_static's
@@ -91,7 +92,8 @@ class GroundRobotTest(unittest.TestCase):
         required = {topic: ('/vislam_manager',) + BODY_NODES[topic] for topic in INPUTS}
         required['/tf_static'] = ('/vislam_manager',) + tuple(
             sorted({node for nodes in BODY_NODES.values() for node in nodes}))
-        play_bag(cls.bags['combined'], '/ground_robot_player', PLAY_RATE, required)
+        play_bag(cls.bags['combined'], '/ground_robot_player', PLAY_RATE, required,
+                 listening=counted)
         wait_until(lambda: len(cls.twists) >= FRAMES and len(cls.body_twists) >= FRAMES, 30.0)
         time.sleep(2.0)  # the estimator processes the last frame; one more diagnostics period
         for node, folder in (('/vislam', 'live'), ('/body/vislam', 'live_body')):

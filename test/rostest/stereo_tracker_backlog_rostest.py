@@ -39,7 +39,8 @@ class StereoTrackerBacklogTest(LiveFeatures, NewestStatuses, unittest.TestCase):
     def setUpClass(cls):
         bag = set_up_rendered_drive_test(cls, 'stereo_tracker_backlog_rostest', FRAMES)
         required = stereo_inputs_required(('/tracker', '/overloaded/tracker_overloaded'))
-        play_bag(bag, '/stereo_tracker_backlog_player', PLAY_RATE, required)
+        play_bag(bag, '/stereo_tracker_backlog_player', PLAY_RATE, required,
+                 listening=[cls.features_subscriber])
         # The synchronizer emits the last pair only once a later message comes: FRAMES - 1.
         wait_until(lambda: int(cls.value('pairs_tracked')) >= FRAMES - 1, 120.0)
         wait_until(lambda: cls.value('pairs_tracked', OVERLOADED) +

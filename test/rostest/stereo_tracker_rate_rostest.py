@@ -32,7 +32,7 @@ class StereoTrackerRateTest(LiveFeatures, NewestStatuses, unittest.TestCase):
     def setUpClass(cls):
         bag = set_up_rendered_drive_test(cls, 'stereo_tracker_rate_rostest', FRAMES)
         play_bag(bag, '/stereo_tracker_rate_player', PLAY_RATE,
-                 stereo_inputs_required(('/tracker',)))
+                 stereo_inputs_required(('/tracker',)), listening=[cls.features_subscriber])
         # The synchronizer emits the last pair (39, not due) only once a later message comes.
         wait_until(lambda: cls.value('pairs_tracked') + cls.value('pairs_skipped_rate') >=
                    FRAMES - 1, 30.0)

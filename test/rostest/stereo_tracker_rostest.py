@@ -54,13 +54,16 @@ class StereoTrackerPipelineTest(NewestStatuses, unittest.TestCase):
         cls.lock = threading.Lock()
         cls.features, cls.odometry, cls.groundtruth, cls.images = [], [], [], []
         cls.masked_features = []
-        rospy.Subscriber('/stereo/features', StereoFeatureArray, cls.keep(cls.features),
-                         queue_size=1000)
-        rospy.Subscriber('/masked/stereo/features', StereoFeatureArray,
-                         cls.keep(cls.masked_features), queue_size=1000)
-        rospy.Subscriber('/vislam/odometry', Odometry, cls.keep(cls.odometry), queue_size=1000)
-        rospy.Subscriber('/groundtruth/odometry', Odometry, cls.keep(cls.groundtruth),
-                         queue_size=1000)
+        # Counted outputs: connected before the bag plays (play_bag's listening).
+        counted = [
+            rospy.Subscriber('/stereo/features', StereoFeatureArray, cls.keep(cls.features),
+                             queue_size=1000),
+            rospy.Subscriber('/masked/stereo/features', StereoFeatureArray,
+                             cls.keep(cls.masked_features), queue_size=1000),
+            rospy.Subscriber('/vislam/odometry', Odometry, cls.keep(cls.odometry),
+                             queue_size=1000),
+            rospy.Subscriber('/groundtruth/odometry', Odometry, cls.keep(cls.groundtruth),
+                             queue_size=1000)]
         rospy.Subscriber('/stereo/left/image_rect', Image,
                          lambda m: cls.images.append(m.header.stamp), queue_size=1000)
         cls.listen_to_diagnostics()
@@ -71,7 +74,8 @@ class StereoTrackerPipelineTest(NewestStatuses, unittest.TestCase):
         required['/imu/twist'] = manager
         required['/stereo/left/image_rect'] = both + (rospy.get_name(),)
         cls.required = required
-        play_bag(cls.bag, '/stereo_tracker_rostest_player', PLAY_RATE, required)
+        play_bag(cls.bag, '/stereo_tracker_rostest_player', PLAY_RATE, required,
+                 listening=counted)
         cls.wait_for_last_image()
 
     @classmethod

@@ -133,8 +133,8 @@ class LiveFeatures:
     @classmethod
     def listen_to_features(cls):
         cls.features = {}
-        rospy.Subscriber('/stereo/features', StereoFeatureArray, cls.keep_features,
-                         queue_size=1000)
+        cls.features_subscriber = rospy.Subscriber('/stereo/features', StereoFeatureArray,
+                                                   cls.keep_features, queue_size=1000)
 
     @classmethod
     def keep_features(cls, msg):
@@ -285,7 +285,7 @@ class Recorder:
         self.path_lengths = []
         self.tf = []
         self.diagnostics = []
-        self.subscribers = [
+        self.outputs = [  # the estimators' own outputs (play_bag's listening)
             rospy.Subscriber(NODELET + '/odometry', Odometry, self.on_odometry, NODELET,
                              queue_size=5000),
             rospy.Subscriber(NODELET + '/odometry_update', Odometry, self.on_update,
@@ -293,7 +293,8 @@ class Recorder:
             rospy.Subscriber(NODE + '/odometry', Odometry, self.on_odometry, NODE,
                              queue_size=5000),
             rospy.Subscriber(NODELET + '/landmarks', MarkerArray, self.on_markers, queue_size=50),
-            rospy.Subscriber(NODELET + '/path', Path, self.on_path, queue_size=50),
+            rospy.Subscriber(NODELET + '/path', Path, self.on_path, queue_size=50)]
+        self.others = [
             rospy.Subscriber('/tf', TFMessage, self.on_tf, queue_size=5000),
             rospy.Subscriber('/diagnostics', DiagnosticArray, self.on_diagnostics,
                              queue_size=100),
@@ -382,7 +383,7 @@ class VislamPipelineTest(unittest.TestCase):
         """Plays the bag into both estimators, resumed once they are connected."""
         play_bag(cls.bag, '/vislam_rostest_player', PLAY_RATE,
                  {topic: ('/vislam_manager', NODE) for topic in ESTIMATOR_INPUTS}, extra_args,
-                 timeout)
+                 timeout, listening=cls.recorder.outputs)
 
     @classmethod
     def save(cls, name, folder):

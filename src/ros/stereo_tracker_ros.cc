@@ -111,7 +111,7 @@ bool StereoTrackerRos::post(std::function<void()> event, size_t image_bytes) {
     }
     inbox_image_bytes_ += image_bytes;
     peak_backlog_bytes_ = std::max(peak_backlog_bytes_, inbox_image_bytes_);
-    inbox_.push_back({std::move(event), image_bytes});
+    inbox_.push_back({std::move(event), image_bytes, steadyClockSeconds()});
   }
   inbox_cv_.notify_one();
   return true;
@@ -127,6 +127,7 @@ void StereoTrackerRos::trackingThread() {
     inbox_lock.unlock();
     {
       std::lock_guard<std::mutex> lock(mutex_);
+      event_arrival_ = event.arrival;
       try {
         event.run();
       } catch (const std::exception& e) {  // (OpenCV, cv_bridge) the thread and the node go on
@@ -228,7 +229,7 @@ void StereoTrackerRos::waitTimer(const ros::WallTimerEvent&) {
 }
 
 void StereoTrackerRos::processReadyPairs() {
-  const double now = steadyClockSeconds();
+  const double now = event_arrival_;
   while (!waiting_pairs_.empty() && pairReady(waiting_pairs_.front(), now)) {
     const ImagePair pair = waiting_pairs_.front();
     waiting_pairs_.pop_front();
@@ -337,8 +338,7 @@ std::optional<CameraMotionPrior> StereoTrackerRos::motionPrior(const std::string
 
 void StereoTrackerRos::imageCallback(const sensor_msgs::ImageConstPtr& left_msg,
                                      const sensor_msgs::ImageConstPtr& right_msg) {
-  const double arrival = steadyClockSeconds();
-  if (!post([this, left_msg, right_msg, arrival] { receivePair(left_msg, right_msg, arrival); },
+  if (!post([this, left_msg, right_msg] { receivePair(left_msg, right_msg); },
             left_msg->data.size() + right_msg->data.size())) {
     // Dropped from a full backlog (counted there): the pair did arrive, so its stamp leaves no
     // gap for pairs_missing, which counts what never came.
@@ -348,7 +348,7 @@ void StereoTrackerRos::imageCallback(const sensor_msgs::ImageConstPtr& left_msg,
 }
 
 void StereoTrackerRos::receivePair(const sensor_msgs::ImageConstPtr& left_msg,
-                                   const sensor_msgs::ImageConstPtr& right_msg, double arrival) {
+                                   const sensor_msgs::ImageConstPtr& right_msg) {
   ++pairs_received_;
   restartIfTimeJumped(0, left_msg->header.stamp);
   noteMissingPairs(left_msg->header.stamp.toSec());
@@ -362,7 +362,7 @@ void StereoTrackerRos::receivePair(const sensor_msgs::ImageConstPtr& left_msg,
     return;
   }
   if (!wellFormed(*left_msg, *right_msg)) return;
-  waiting_pairs_.push_back({left_msg, right_msg, arrival});
+  waiting_pairs_.push_back({left_msg, right_msg, event_arrival_});
   processReadyPairs();
 }
 

@@ -63,6 +63,7 @@ class StereoTrackerRos {
   struct InboxEvent {
     std::function<void()> run;  ///< on the tracking thread, under mutex_
     size_t image_bytes = 0;     ///< of the images it holds (ros/max_backlog_mb)
+    double arrival = 0.0;       ///< when it was posted (steadyClockSeconds)
   };
 
   /// Queues `event` for the tracking thread; false when it is not queued: a pair (image_bytes >
@@ -73,10 +74,12 @@ class StereoTrackerRos {
   void imageCallback(const sensor_msgs::ImageConstPtr& left,
                      const sensor_msgs::ImageConstPtr& right);
   /// A synchronized pair on the tracking thread: checked, then waits in waiting_pairs_ until
-  /// pairReady. `arrival`: when the synchronizer delivered it (steadyClockSeconds).
-  void receivePair(const sensor_msgs::ImageConstPtr& left, const sensor_msgs::ImageConstPtr& right,
-                   double arrival);
-  /// Tracks the waiting pairs that are ready, oldest first (caller holds mutex_).
+  /// pairReady.
+  void receivePair(const sensor_msgs::ImageConstPtr& left, const sensor_msgs::ImageConstPtr& right);
+  /// Tracks the waiting pairs that are ready, oldest first (caller holds mutex_). The waits are
+  /// judged at event_arrival_, not at the clock: everything that came before the event being
+  /// handled has been handled (the inbox keeps order), so a tracking thread that is late decides
+  /// what a prompt one would have, and gives up on no twist that has already come.
   void processReadyPairs();
   /// Both camera_info messages have arrived (nothing can be tracked before).
   bool hasCameraInfo() const { return left_info_ && right_info_; }
@@ -155,7 +158,8 @@ class StereoTrackerRos {
   std::mutex diagnostics_cache_mutex_;
   diagnostic_msgs::DiagnosticStatus diagnostics_cache_;  ///< left by the tracking thread
 
-  std::mutex mutex_;  ///< guards everything below: held by the tracking thread per event
+  std::mutex mutex_;            ///< guards everything below: held by the tracking thread per event
+  double event_arrival_ = 0.0;  ///< the arrival of the event being handled (InboxEvent)
   sensor_msgs::CameraInfoConstPtr left_info_, right_info_;
   std::deque<StampedTwist> twists_;      ///< imu/twist samples, stamp order
   std::string twist_frame_;              ///< their frame (the last one received)

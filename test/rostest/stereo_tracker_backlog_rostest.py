@@ -2,20 +2,18 @@
 """rostest of the tracker's backlog (see stereo_tracker_backlog.test): a rendered drive played
 10 times faster than real time into a tracker with 100-message ROS queues loses no pair, and its
 features are those of the offline tool (track_stereo_images) on the same images, bit for bit; a
-second tracker whose backlog holds 8 pairs drops pairs, counted as dropped and not as missing; a
-third one, whose twist comes late, predicts every pair from it however far behind it falls."""
+second tracker whose backlog holds 8 pairs drops pairs, counted as dropped and not as missing."""
 import os
 import shutil
 import sys
 import unittest
 
 import numpy as np
-import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticStatus
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import (DelayedRelay, LiveFeatures, NewestStatuses, log,  # noqa: E402
+from vislam_rostest import (LiveFeatures, NewestStatuses, log,  # noqa: E402
                             set_up_rendered_drive_test, stereo_inputs_required,
                             track_drive_offline)
 
@@ -31,12 +29,8 @@ FRAMES = 400
 PLAY_RATE = 10.0
 ROS_QUEUE = 100  # ros/queue_size in stereo_tracker_backlog.test
 PAIR_MB = 2 * 640 * 192 / 1e6  # two mono8 images of the rendered drive
-# The trackers' diagnostic status names: the second's ros/max_backlog_mb holds 8 pairs, the
-# third takes the twist TWIST_DELAY_S late (its ros/max_twist_wait is MAX_TWIST_WAIT_S).
+# The two trackers' diagnostic status names: the second's ros/max_backlog_mb holds 8 pairs.
 MAIN, OVERLOADED = 'tracker: stereo tracker', 'tracker_overloaded: stereo tracker'
-LATE_TWIST = 'tracker_late_twist: stereo tracker'
-TWIST_DELAY_S = 0.3
-MAX_TWIST_WAIT_S = 1.5
 
 
 class StereoTrackerBacklogTest(LiveFeatures, NewestStatuses, unittest.TestCase):
@@ -44,19 +38,9 @@ class StereoTrackerBacklogTest(LiveFeatures, NewestStatuses, unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         bag = set_up_rendered_drive_test(cls, 'stereo_tracker_backlog_rostest', FRAMES)
-        required = stereo_inputs_required(
-            ('/tracker', '/overloaded/tracker_overloaded', '/tracker_late_twist'))
-        required['/imu/twist'] = (rospy.get_name(),)
-        required['/tf_static'] = ('/tracker_late_twist',)
-        relay = DelayedRelay('/imu/twist', '/late/imu/twist', TWIST_DELAY_S)
-        try:
-            if not wait_until(lambda: relay.publisher.get_num_connections() > 0, 30.0):
-                raise RuntimeError('tracker_late_twist did not connect to the twist relay')
-            play_bag(bag, '/stereo_tracker_backlog_player', PLAY_RATE, required,
-                     listening=[cls.features_subscriber])
-            wait_until(lambda: int(cls.value('pairs_tracked', LATE_TWIST)) >= FRAMES - 1, 120.0)
-        finally:
-            relay.close()
+        required = stereo_inputs_required(('/tracker', '/overloaded/tracker_overloaded'))
+        play_bag(bag, '/stereo_tracker_backlog_player', PLAY_RATE, required,
+                 listening=[cls.features_subscriber])
         # The synchronizer emits the last pair only once a later message comes: FRAMES - 1.
         wait_until(lambda: int(cls.value('pairs_tracked')) >= FRAMES - 1, 120.0)
         wait_until(lambda: cls.value('pairs_tracked', OVERLOADED) +
@@ -107,20 +91,6 @@ class StereoTrackerBacklogTest(LiveFeatures, NewestStatuses, unittest.TestCase):
         self.assertEqual(self.value('pairs_missing', OVERLOADED), 0)
         self.assertLessEqual(self.value('backlog_mb_peak', OVERLOADED), 2.0)
         self.assertEqual(self.latest_status(OVERLOADED)[0].level, DiagnosticStatus.WARN)
-
-    def test_a_late_twist_predicts_every_pair_however_late_tracking_is(self):
-        wait_until(lambda: self.value('backlog_events', LATE_TWIST) == 0, 10.0)
-        values = self.latest_status(LATE_TWIST)[1]
-        log('tracker with the twist %.1f s late: %s' % (TWIST_DELAY_S, values))
-        tracked = int(self.value('pairs_tracked', LATE_TWIST))
-        self.assertGreaterEqual(tracked, FRAMES - 1)
-        self.assertEqual(self.value('pairs_missing', LATE_TWIST), 0)
-        self.assertEqual(self.value('twist_predictions', LATE_TWIST), tracked - 1)
-        # It fell behind by more than MAX_TWIST_WAIT_S of arrivals (100 pairs a second): judged
-        # by the clock when the pair is handled, rather than when its event came, pairs would
-        # have stopped waiting for a twist already queued behind them.
-        self.assertGreater(self.value('backlog_mb_peak', LATE_TWIST),
-                           MAX_TWIST_WAIT_S * 10.0 * PLAY_RATE * PAIR_MB)
 
     def test_live_features_are_the_offline_tools_bit_for_bit(self):
         compared = self.assert_live_features_equal(self.offline, last_may_be_missing=True)

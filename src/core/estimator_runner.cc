@@ -71,17 +71,31 @@ double EstimatorRunner::wallSeconds(double without_wall_clock) const {
 
 void EstimatorRunner::updatePreview(const TwistData& twist) {
   if (preview_stale_) {
-    // The filter as it is now, propagated with every twist it has not integrated yet (this one
-    // included: it is in the sequencer already).
-    preview_estimator_ = estimator_;
-    for (const TwistData& waiting : waiting_twists_) preview_estimator_.feedTwist(waiting);
-    for (const TwistData& buffered : sequencer_.bufferedTwists()) {
-      preview_estimator_.feedTwist(buffered);
-    }
-    preview_stale_ = false;
+    rebuildPreview();
   } else {
     preview_estimator_.feedTwist(twist);
+    copyPreview();
   }
+}
+
+void EstimatorRunner::refreshStalePreview() {
+  // A frame the last twist released is in the filter now: the copy made before it is not shown.
+  if (preview_enabled_ && preview_stale_ && preview_.valid) rebuildPreview();
+}
+
+void EstimatorRunner::rebuildPreview() {
+  // The filter as it is now, propagated with every twist it has not integrated yet (the one just
+  // pushed included: it is in the sequencer already).
+  preview_estimator_ = estimator_;
+  for (const TwistData& waiting : waiting_twists_) preview_estimator_.feedTwist(waiting);
+  for (const TwistData& buffered : sequencer_.bufferedTwists()) {
+    preview_estimator_.feedTwist(buffered);
+  }
+  preview_stale_ = false;
+  copyPreview();
+}
+
+void EstimatorRunner::copyPreview() {
   if (!preview_estimator_.initialized()) return;
   preview_.valid = true;
   preview_.stamp = preview_estimator_.time();
@@ -94,6 +108,7 @@ void EstimatorRunner::updatePreview(const TwistData& twist) {
 size_t EstimatorRunner::processReady(const Observer& observer) {
   const std::vector<Measurement> ready = sequencer_.popReady(wallSeconds(kNoWallClock));
   for (const Measurement& m : ready) feed(m, observer);
+  refreshStalePreview();
   return ready.size();
 }
 
@@ -101,6 +116,7 @@ size_t EstimatorRunner::flush(const Observer& observer) {
   const std::vector<Measurement> ready = sequencer_.flush();
   for (const Measurement& m : ready) feed(m, observer);
   integrateWaitingTwists(std::numeric_limits<double>::infinity(), observer);
+  refreshStalePreview();
   return ready.size();
 }
 

@@ -289,6 +289,32 @@ TEST(EstimatorRunner, PropagatedCopyFollowsEveryTwistAndNeverChangesTheFilter) {
   }
 }
 
+TEST(EstimatorRunner, PropagatedCopyShowsTheFrameItsTwistReleased) {
+  // Each frame comes before the twist of its stamp and waits for it in the sequencer: the twist
+  // releases it, and the copy then shows the updated filter, not the one before the frame.
+  const testing::Scenario& s = shortDrive();
+  EstimatorRunner runner = startedRunner();
+  runner.enablePreview(true);
+  for (size_t k = 0; k < 20; ++k) {
+    runner.push(s.frames[k]);
+    runner.processReady();
+    const size_t frames_before = runner.trajectory().size();
+    runner.push(s.twists[k]);
+    runner.processReady();
+    ASSERT_EQ(runner.trajectory().size(), frames_before + 1) << k;  // the frame went in
+    const EstimatorRunner::Preview& preview = runner.preview();
+    if (!preview.valid) continue;  // (before the filter starts)
+    EXPECT_EQ(preview.stamp, runner.estimator().time()) << k;
+    EXPECT_LT((preview.world_T_imu.matrix() - runner.estimator().worldTImu().matrix()).norm(),
+              1e-12)
+        << k;
+    EXPECT_LT((preview.pose_covariance_world - runner.estimator().poseCovarianceWorld()).norm(),
+              1e-12)
+        << k;
+  }
+  EXPECT_TRUE(runner.preview().valid);
+}
+
 TEST(EstimatorRunner, FlagsFramesWithoutCalibration) {
   EstimatorRunner runner{VislamOptions(), MeasurementSequencer::Options()};
   int without = 0;

@@ -67,8 +67,9 @@ class EstimatorRunner {
   /// Off (the default, a recorded log read at once): message time alone. Call processReady()
   /// now and then while messages are buffered, so that wall time is acted on without new input.
   void enableWallClockWait(bool enable) { wall_clock_wait_ = enable; }
-  /// The propagated copy after the last pushed twist (kept only when enabled: it costs a copy of
-  /// the filter per frame and a second prediction per twist; off by default).
+  /// The propagated copy after the last pushed twist and what processReady() or flush() fed since
+  /// (kept only when enabled: it costs a copy of the filter per frame and a second prediction per
+  /// twist; off by default).
   const Preview& preview() const { return preview_; }
   void enablePreview(bool enable) { preview_enabled_ = enable; }
   /// Feeds what the sequencer releases; `observer` (optional) sees each one after it was fed.
@@ -116,7 +117,14 @@ class EstimatorRunner {
   void feedFrame(const FeatureFrame& frame, const Observer& observer);
   /// Integrates the waiting twists up to `stamp` (all of them when stamp is +inf).
   void integrateWaitingTwists(double stamp, const Observer& observer);
+  /// The propagated copy after a pushed twist: rebuilt from the filter once a frame made it
+  /// stale, else advanced by the twist.
   void updatePreview(const TwistData& twist);
+  /// After processing: a frame that went into the filter (released by the twist just pushed, say)
+  /// makes the copy stale; it is rebuilt at once, so preview() never shows the filter before it.
+  void refreshStalePreview();
+  void rebuildPreview();
+  void copyPreview();  ///< preview_ from preview_estimator_
   void noteStamp(double stamp);
 
   /// The steady clock in s (the sequencer's wall time), or `without_wall_clock` when it is off.

@@ -3,10 +3,7 @@
 drive played at 20x, its twist relayed TWIST_DELAY_S late in wall time; every pair but the first
 is predicted from the twist, though the tracker falls behind by more than ros/max_twist_wait."""
 import os
-import shutil
 import sys
-import tempfile
-import threading
 import time
 import unittest
 
@@ -14,8 +11,8 @@ import rospy
 import rostest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import (DelayedRelay, NewestStatuses, log,  # noqa: E402
-                            rendered_drive_bag, stereo_inputs_required)
+from vislam_rostest import (DelayedRelay, OneTrackerStatus, log,  # noqa: E402
+                            set_up_rendered_drive_test, stereo_inputs_required)
 
 from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
 
@@ -25,19 +22,13 @@ PLAY_RATE = 20.0  # 200 pairs a second, 2 s in all: the tracker falls seconds be
 PAIR_MB = 2 * 640 * 192 / 1e6  # two mono8 images of the rendered drive
 TWIST_DELAY_S = 0.3  # wall time; 6 s of message time at PLAY_RATE
 MAX_TWIST_WAIT_S = 2.0  # ros/max_twist_wait in stereo_tracker_late_twist.test
-STATUS = 'tracker: stereo tracker'
 
 
-class StereoTrackerLateTwistTest(NewestStatuses, unittest.TestCase):
+class StereoTrackerLateTwistTest(OneTrackerStatus, unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
-        rospy.init_node('stereo_tracker_late_twist_rostest', anonymous=True)
-        cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_late_twist_')
-        bag = rendered_drive_bag(cls.tmp, FRAMES)
-        cls.lock = threading.Lock()
-        cls.listen_to_diagnostics()
-        wait_until(lambda: rospy.get_param('/use_sim_time', False), 5.0)
+        bag = set_up_rendered_drive_test(cls, 'stereo_tracker_late_twist_rostest', FRAMES)
         required = stereo_inputs_required(('/tracker',))
         required['/imu/twist'] = (rospy.get_name(),)
         required['/tf_static'] = ('/tracker',)
@@ -54,17 +45,9 @@ class StereoTrackerLateTwistTest(NewestStatuses, unittest.TestCase):
         finally:
             relay.close()
 
-    @classmethod
-    def tearDownClass(cls):
-        shutil.rmtree(cls.tmp, ignore_errors=True)
-
-    @classmethod
-    def value(cls, key):
-        return float(cls.latest_status(STATUS)[1].get(key, 0))
-
     def test_every_pair_but_the_first_is_predicted_from_the_late_twist(self):
         log('tracker, its twist %.1f s late, done %.1f s after the last pair came: %s' % (
-            TWIST_DELAY_S, self.behind_s, self.latest_status(STATUS)[1]))
+            TWIST_DELAY_S, self.behind_s, self.latest_status(self.STATUS)[1]))
         tracked = int(self.value('pairs_tracked'))
         self.assertGreaterEqual(tracked, FRAMES - 1)
         self.assertEqual(self.value('pairs_missing'), 0)

@@ -3,7 +3,6 @@
 played into a tracker limited to 4 Hz gives every second pair, counted skips and no fault, and
 the features of track_stereo_images run with the same input/max_rate_hz, bit for bit."""
 import os
-import shutil
 import sys
 import unittest
 
@@ -12,7 +11,7 @@ import rostest
 from diagnostic_msgs.msg import DiagnosticStatus
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import (LiveFeatures, NewestStatuses,  # noqa: E402
+from vislam_rostest import (LiveFeatures, OneTrackerStatus,  # noqa: E402
                             set_up_rendered_drive_test, stereo_inputs_required,
                             track_drive_offline)
 
@@ -23,10 +22,9 @@ FRAMES = 40
 PLAY_RATE = 2.0
 MAX_RATE_HZ = 4.0  # input/max_rate_hz in stereo_tracker_rate.test: pairs 0.2 s apart pass
 TRACKED = FRAMES // 2  # pairs 0, 2, ..., 38
-STATUS = 'tracker: stereo tracker'
 
 
-class StereoTrackerRateTest(LiveFeatures, NewestStatuses, unittest.TestCase):
+class StereoTrackerRateTest(LiveFeatures, OneTrackerStatus, unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
@@ -43,16 +41,8 @@ class StereoTrackerRateTest(LiveFeatures, NewestStatuses, unittest.TestCase):
         cls.offline = os.path.join(cls.tmp, 'offline.npz')
         track_drive_offline(cls.tmp, cls.offline, ['--config', config])
 
-    @classmethod
-    def tearDownClass(cls):
-        shutil.rmtree(cls.tmp, ignore_errors=True)
-
-    @classmethod
-    def value(cls, key):
-        return float(cls.latest_status(STATUS)[1].get(key, 0))
-
     def test_every_second_pair_is_tracked_and_the_rest_counted_as_skipped(self):
-        status, values = self.latest_status(STATUS)
+        status, values = self.latest_status(self.STATUS)
         self.assertEqual(int(values['pairs_tracked']), TRACKED, values)
         self.assertGreaterEqual(int(values['pairs_skipped_rate']), FRAMES - 1 - TRACKED, values)
         self.assertEqual(int(values['pairs_missing']), 0, values)

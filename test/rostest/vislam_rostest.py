@@ -111,16 +111,17 @@ def track_drive_offline(tmp, out, extra_args=()):
 
 
 def set_up_rendered_drive_test(cls, node_name, frames):
-    """The start of setUpClass for a class with NewestStatuses and LiveFeatures: this test node,
+    """The start of setUpClass for a class with NewestStatuses (and LiveFeatures): this test node,
     a temporary folder cls.tmp holding rendered_drive_bag's drive of `frames` pairs, the lock, the
-    /diagnostics and /stereo/features subscriptions, and /use_sim_time set by the launch file.
+    /diagnostics (and /stereo/features) subscriptions, and /use_sim_time set by the launch file.
     Returns the drive's bag."""
     rospy.init_node(node_name, anonymous=True)
     cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_%s_' % node_name)
     bag = rendered_drive_bag(cls.tmp, frames)
     cls.lock = threading.Lock()
     cls.listen_to_diagnostics()
-    cls.listen_to_features()
+    if hasattr(cls, 'listen_to_features'):
+        cls.listen_to_features()
     wait_until(lambda: rospy.get_param('/use_sim_time', False), 5.0)
     return bag
 
@@ -192,6 +193,21 @@ class NewestStatuses:
                 if name_part in name:
                     return status, {kv.key: kv.value for kv in status.values}
         return None, {}
+
+
+class OneTrackerStatus(NewestStatuses):
+    """Mixin for a test class of one tracker node named tracker over set_up_rendered_drive_test's
+    folder: value(key) reads its newest status; the folder goes at the end."""
+
+    STATUS = 'tracker: stereo tracker'
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.tmp, ignore_errors=True)
+
+    @classmethod
+    def value(cls, key):
+        return float(cls.latest_status(cls.STATUS)[1].get(key, 0))
 
 
 class EstimatorStatusCollector:

@@ -257,7 +257,7 @@ class StereoTrackerPipelineTest(NewestStatuses, unittest.TestCase):
             required = dict(self.required)
             del required['/imu/twist']
             required['/imu/twist_recorded'] = (rospy.get_name(),)
-            self.assertTrue(wait_until(lambda: relay.publisher.get_num_connections() > 0, 30.0))
+            relay.wait_for_subscriber()
             play_bag(self.bag, '/stereo_tracker_replay_player', PLAY_RATE, required,
                      ['/imu/twist:=/imu/twist_recorded'])
             self.wait_for_last_image(odometry_from=odometry_before, features_from=features_before)

@@ -23,8 +23,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from vislam_rostest import (ESTIMATOR_INPUTS, DelayedRelay, log, read_tum, run,  # noqa: E402
                             simulated_bag)
 
-from ekf_vislam_tools.bag_playback import (resume_when_connected, start_player,  # noqa: E402
-                                           wait_until)
+from ekf_vislam_tools.bag_playback import resume_when_connected, start_player  # noqa: E402
 
 PKG = 'ekf_vislam'
 NODELET = '/vislam'
@@ -128,8 +127,7 @@ class LoadTest(unittest.TestCase):
             required['/imu/twist_recorded'] = (rospy.get_name(),)
             name = '/vislam_late_twist_player'
             player = start_player(cls.bag, name, RATE, ['/imu/twist:=/imu/twist_recorded'])
-            if not wait_until(lambda: relay.publisher.get_num_connections() > 0, 30.0):
-                raise RuntimeError('the nodelet did not connect to the twist relay')
+            relay.wait_for_subscriber()
             try:
                 resume_when_connected(name, required)
                 player.communicate(timeout=240)

@@ -273,6 +273,12 @@ class DelayedRelay:
         with self.lock:
             self.pending.append((time.time() + self.delay, msg))
 
+    def wait_for_subscriber(self, timeout=30.0):
+        """Returns once a node subscribes to the relayed topic; raises after `timeout` s."""
+        if not wait_until(lambda: self.publisher.get_num_connections() > 0, timeout):
+            raise RuntimeError('nothing subscribed to %s within %.0f s' % (
+                self.publisher.resolved_name, timeout))
+
     def forward(self):
         while not self.stop.is_set() or self.pending:
             with self.lock:

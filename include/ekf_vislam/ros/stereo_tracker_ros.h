@@ -57,7 +57,7 @@ class StereoTrackerRos {
 
   struct ImagePair {
     sensor_msgs::ImageConstPtr left, right;
-    double arrival;  ///< when the synchronizer delivered it (steadyClockSeconds)
+    double arrival;  ///< when the synchronizer delivered it (its InboxEvent's arrival)
   };
 
   struct InboxEvent {

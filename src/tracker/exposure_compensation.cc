@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 namespace ekf_vislam {
 
@@ -13,8 +14,9 @@ constexpr double kMinGain = 0.25, kMaxGain = 4.0;
 // Gray levels: a window with less contrast (flat, or saturated) gives no gain.
 constexpr double kMinDeviation = 2.0;
 
-// Mean and standard deviation of the box x box window centred on p, or false when the window
-// does not lie inside the image.
+// Mean and standard deviation of the box x box window centred on p (of an 8-bit image), or
+// false when the window does not lie inside the image. The sums are exact integers, and the
+// result is cv::meanStdDev's, bit for bit, without its per-call dispatch.
 bool boxStatistics(const cv::Mat& image, const cv::Point2f& p, int box, double* mean,
                    double* deviation) {
   const int half = box / 2;
@@ -22,10 +24,17 @@ bool boxStatistics(const cv::Mat& image, const cv::Point2f& p, int box, double* 
   if (!(u - half >= 0 && v - half >= 0 && u + half < image.cols && v + half < image.rows)) {
     return false;
   }
-  cv::Scalar m, d;
-  cv::meanStdDev(image(cv::Rect(u - half, v - half, 2 * half + 1, 2 * half + 1)), m, d);
-  *mean = m[0];
-  *deviation = d[0];
+  int64_t sum = 0, sum_squares = 0;
+  for (int r = v - half; r <= v + half; ++r) {
+    const uint8_t* row = image.ptr<uint8_t>(r) + (u - half);
+    for (int c = 0; c < 2 * half + 1; ++c) {
+      sum += row[c];
+      sum_squares += row[c] * row[c];
+    }
+  }
+  const double scale = 1.0 / ((2 * half + 1) * (2 * half + 1));
+  *mean = sum * scale;
+  *deviation = std::sqrt(std::max(sum_squares * scale - *mean * *mean, 0.0));
   return true;
 }
 

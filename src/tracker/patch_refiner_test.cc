@@ -138,6 +138,33 @@ TEST(PatchRefiner, StereoModelRecoversTheDisparityOfASlantedPlane) {
   EXPECT_FLOAT_EQ(warp.A(1, 1), 1.f);
 }
 
+TEST(PatchRefiner, APatchAtTheImageBottomAlignsAsAnywhere) {
+  // align() samples eight pixels at a time where the image holds a row below every sample's
+  // lower row, one at a time nearer the bottom: the same patch aligned in the full image (the
+  // first way) and in a 30-row crop that puts it at the crop's bottom (the second) must agree.
+  const BlobTexture texture(6);
+  ReferencePatch patch;
+  ASSERT_TRUE(patch.create(texture.render(Eigen::Affine2d::Identity()), cv::Point2f(100, 100), 15,
+                           WarpModel::kAffine));
+  Eigen::Matrix2d linear;
+  linear << 1.01, 0.01, -0.01, 1.01;
+  const cv::Mat full = texture.render(mapAbout(linear, Eigen::Vector2d(0.4, 0.2)).inverse());
+  const int top = 79;  // the truth at row 21.2 of the crop, the patch down to row 28.9
+  const cv::Mat crop = full.rowRange(top, top + 30).clone();
+  AffineWarp in_full, in_crop;
+  in_full.t = Eigen::Vector2f(100.6f, 100.3f);
+  in_crop.t = in_full.t - Eigen::Vector2f(0, top);
+  const RefineResult full_result = patch.align(full, PatchRefinerOptions(), &in_full);
+  const RefineResult crop_result = patch.align(crop, PatchRefinerOptions(), &in_crop);
+  ASSERT_TRUE(full_result.inside && crop_result.inside);
+  EXPECT_TRUE(full_result.converged);
+  EXPECT_EQ(full_result.iterations, crop_result.iterations);
+  EXPECT_NEAR(full_result.zncc, crop_result.zncc, 1e-6);
+  EXPECT_LT((in_crop.t + Eigen::Vector2f(0, top) - in_full.t).norm(), 1e-4);
+  EXPECT_LT((in_crop.A - in_full.A).cwiseAbs().maxCoeff(), 1e-5);
+  EXPECT_LT((in_full.t - Eigen::Vector2f(100.4f, 100.2f)).norm(), 0.1) << in_full.t.transpose();
+}
+
 TEST(PatchRefiner, AnUnrelatedImageCorrelatesPoorlyAndBordersAreRefused) {
   const BlobTexture texture(4), other(5);
   ReferencePatch patch;

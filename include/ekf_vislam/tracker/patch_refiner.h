@@ -64,8 +64,10 @@ class ReferencePatch {
   WarpModel model_ = WarpModel::kAffine;
   cv::Point2f center_;
   Eigen::Vector2f offset_ = Eigen::Vector2f::Zero();  ///< nearest pixel minus the centre
-  std::vector<float> values_;                         ///< zero-mean samples, row-major
-  std::vector<float> steepest_;  ///< per sample, the gradient times the warp Jacobian (6)
+  Eigen::VectorXf values_;                            ///< zero-mean samples, row after row
+  /// Per sample (row), the gradient times the warp Jacobian (6 columns), with the samples'
+  /// mean and the patch projected out.
+  Eigen::Matrix<float, Eigen::Dynamic, 6> steepest_;
   Eigen::Matrix<float, 6, 6> inverse_hessian_ = Eigen::Matrix<float, 6, 6>::Zero();
   float norm_ = 0;  ///< sqrt of the sum of squared zero-mean samples
 };

@@ -13,6 +13,7 @@ add_library(ekf_vislam_tracker
   src/tracker/feature_detector.cc
   src/tracker/image_mask.cc
   src/tracker/klt_back_check.cc
+  src/tracker/pyramidal_klt.cc
   src/tracker/exposure_compensation.cc
   src/tracker/stereo_matcher.cc
   src/tracker/stereo_rig_check.cc
@@ -54,6 +55,7 @@ if(CATKIN_ENABLE_TESTING)
     src/tracker/pose_twist_test.cc
     src/tracker/twist_motion_prior_test.cc
     src/tracker/klt_back_check_test.cc
+    src/tracker/pyramidal_klt_test.cc
     src/tracker/pnp_ransac_test.cc
     src/tracker/disparity_offset_fit_test.cc
     src/tracker/stereo_roll_fit_test.cc

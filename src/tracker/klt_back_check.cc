@@ -1,7 +1,5 @@
 #include "ekf_vislam/tracker/klt_back_check.h"
 
-#include <opencv2/video/tracking.hpp>
-
 #include <algorithm>
 
 namespace ekf_vislam {
@@ -26,9 +24,7 @@ std::vector<uint8_t> backCheck(const std::vector<cv::Mat>& moved_pyramid,
     back[j] = origin[candidates[j]];
   }
   std::vector<uint8_t> status;
-  std::vector<float> error;
-  cv::calcOpticalFlowPyrLK(moved_pyramid, origin_pyramid, from, back, status, error, klt.window,
-                           klt.levels, klt.criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+  trackPyramidalKlt(moved_pyramid, origin_pyramid, from, &back, &status, klt);
   for (size_t j = 0; j < candidates.size(); ++j) {
     const size_t i = candidates[j];
     passed[i] = status[j] && cv::norm(back[j] - origin[i]) <= tolerance_px;

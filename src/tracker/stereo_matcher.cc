@@ -4,7 +4,6 @@
 #include "ekf_vislam/tracker/klt_back_check.h"
 #include "ekf_vislam/tracker/patch_refiner.h"
 
-#include <opencv2/video/tracking.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -70,9 +69,7 @@ std::vector<cv::Point2f> matchStereo(const std::vector<cv::Mat>& left_pyramid,
                                   options.max_iterations, options.epsilon);
   const KltSettings klt{window, options.stereo_pyramid_levels, criteria};
   std::vector<uint8_t> status;
-  std::vector<float> error;
-  cv::calcOpticalFlowPyrLK(left_pyramid, right_pyramid, left, right, status, error, klt.window,
-                           klt.levels, klt.criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+  trackPyramidalKlt(left_pyramid, right_pyramid, left, &right, &status, klt);
 
   // The checks on the match itself first: only what passes them is matched back.
   const cv::Size size = left_pyramid[0].size();

@@ -94,9 +94,7 @@ TemporalKltResult temporalKlt(const std::vector<cv::Mat>& prev_pyramid,
   TemporalKltResult result;
   if (prev.empty()) return result;
   std::vector<uint8_t> status;
-  std::vector<float> error;
-  cv::calcOpticalFlowPyrLK(prev_pyramid, left_pyramid, prev, *cur, status, error, klt.window,
-                           klt.levels, klt.criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+  trackPyramidalKlt(prev_pyramid, left_pyramid, prev, cur, &status, klt);
   const cv::Size size = left_pyramid[0].size();
   std::vector<size_t> candidates;
   candidates.reserve(prev.size());

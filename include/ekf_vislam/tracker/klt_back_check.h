@@ -5,18 +5,13 @@
 // one it would get in a call over all points. No ROS.
 #pragma once
 
+#include "ekf_vislam/tracker/pyramidal_klt.h"
+
 #include <opencv2/core.hpp>
 
 #include <vector>
 
 namespace ekf_vislam {
-
-/// KLT settings shared by the forward and the backward pass.
-struct KltSettings {
-  cv::Size window;
-  int levels = 0;  ///< pyramid levels above the full image
-  cv::TermCriteria criteria;
-};
 
 /// The backward pass's settings: the forward pass's with at most `levels` pyramid levels above
 /// the full image. The backward KLT starts where a consistent match returns to, so it needs none

@@ -39,13 +39,13 @@ std::string clipsFolder() {
 struct ClipBounds {
   const char* folder;
   size_t first_frame;  // frames before it are left out
-  // Measured ages 1 / 2 / 5: 0.653 / 1.145 / 2.730 px (06), 0.966 / 1.791 / 4.452 px (01) at
-  // 179746e built on an Intel Xeon; 0.656 / 1.178 / 2.702 and 0.980 / 1.843 / 4.405 px at
+  // Measured ages 1 / 2 / 5: 0.660 / 1.163 / 2.713 px (06), 0.967 / 1.809 / 4.395 px (01) at
+  // 958738e built on an Intel Xeon; 0.656 / 1.178 / 2.702 and 0.980 / 1.843 / 4.405 px at
   // 11a40a8 built on an AMD EPYC (the figures move with the build's rounding).
   double age1_px, age2_px, age5_px;
-  int min_observations;        // measured 172 (06), 153 (01, its second pair: 142 before that
+  int min_observations;        // measured 171 (06), 153 (01, its second pair: 142 before that
                                // pair's motion was fitted first)
-  double mean_track_length;    // measured 3.95 (06), 5.41 (01); 3.91, 5.47 at 11a40a8 on the
+  double mean_track_length;    // measured 3.92 (06), 5.56 (01); 3.91, 5.47 at 11a40a8 on the
                                // AMD EPYC. The 01 length moves with any change to the set of
                                // tracks: 5.33-5.99 over the tracker changes measured, 5.34-5.63
                                // with eight settings moved in their fourth digit (so its bound
@@ -62,7 +62,7 @@ struct ClipBounds {
 const ClipBounds kClips[] = {
     {"odometry_06_000000-000050", 0, 0.75, 1.35, 3.05, 150, 3.7, false, -0.025, -0.005},
     {"odometry_01_000000-000050", 0, 1.05, 2.00, 4.80, 145, 5.2, true, -0.056, -0.036},
-    // Measured 0.441 / 0.737 / 1.489 px, at least 173 observations, 3.78 frames (0.439 / 0.732 /
+    // Measured 0.440 / 0.729 / 1.465 px, at least 168 observations, 3.78 frames (0.439 / 0.732 /
     // 1.466 px at 11a40a8 on the AMD EPYC; 1.465-1.493 px at age 5 with settings moved in their
     // fourth digit).
     {"odometry_06_000000-000050", 12, 0.5, 0.8, 1.5, 150, 3.5, false, -0.025, -0.005},

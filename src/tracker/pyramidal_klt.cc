@@ -68,12 +68,12 @@ inline void loadBytes(const uchar* row, __m256i* pixels, __m256i* right) {
   *right = _mm256_cvtepu8_epi16(_mm_srli_si128(bytes, 1));
 }
 
-// Bilinear value of sixteen 8-bit pixels, in OpenCV's scale (x 32), as 16-bit lanes.
-inline __m256i interpolateBytes(const uchar* row, size_t step, const Weights& w) {
-  __m256i p0, p1, q0, q1;
-  loadBytes(row, &p0, &p1);
-  loadBytes(row + step, &q0, &q1);
-  const __m256i round = _mm256_set1_epi32(1 << 8);
+// Bilinear interpolation in 16-bit lanes: p0 and p1 hold values and their right neighbours in a
+// row, q0 and q1 in the row below; the weighted sum descaled by kShift bits (OpenCV's
+// CV_DESCALE), in the lanes' order.
+template <int kShift>
+inline __m256i bilinear(__m256i p0, __m256i p1, __m256i q0, __m256i q1, const Weights& w) {
+  const __m256i round = _mm256_set1_epi32(1 << (kShift - 1));
   const __m256i lo = _mm256_add_epi32(
       _mm256_add_epi32(_mm256_madd_epi16(_mm256_unpacklo_epi16(p0, p1), w.top()),
                        _mm256_madd_epi16(_mm256_unpacklo_epi16(q0, q1), w.bottom())),
@@ -82,7 +82,15 @@ inline __m256i interpolateBytes(const uchar* row, size_t step, const Weights& w)
       _mm256_add_epi32(_mm256_madd_epi16(_mm256_unpackhi_epi16(p0, p1), w.top()),
                        _mm256_madd_epi16(_mm256_unpackhi_epi16(q0, q1), w.bottom())),
       round);
-  return _mm256_packs_epi32(_mm256_srai_epi32(lo, 9), _mm256_srai_epi32(hi, 9));
+  return _mm256_packs_epi32(_mm256_srai_epi32(lo, kShift), _mm256_srai_epi32(hi, kShift));
+}
+
+// Bilinear value of sixteen 8-bit pixels, in OpenCV's scale (x 32), as 16-bit lanes.
+inline __m256i interpolateBytes(const uchar* row, size_t step, const Weights& w) {
+  __m256i p0, p1, q0, q1;
+  loadBytes(row, &p0, &p1);
+  loadBytes(row + step, &q0, &q1);
+  return bilinear<9>(p0, p1, q0, q1, w);
 }
 
 // Eight (dx, dy) pixels as 32-bit lanes, and their right neighbours: `next` holds the eight
@@ -91,22 +99,6 @@ inline __m256i rightNeighbours(__m256i pixels, __m256i next) {
   const __m256i shift = _mm256_setr_epi32(1, 2, 3, 4, 5, 6, 7, 0);
   return _mm256_blend_epi32(_mm256_permutevar8x32_epi32(pixels, shift),
                             _mm256_permutevar8x32_epi32(next, _mm256_setzero_si256()), 0x80);
-}
-
-// Bilinear (dx, dy) of eight pixels (interleaved 16-bit lanes), from the pixels and their right
-// neighbours in the row and the row below.
-inline __m256i interpolateDerivatives(__m256i p0, __m256i p1, __m256i q0, __m256i q1,
-                                      const Weights& w) {
-  const __m256i round = _mm256_set1_epi32(1 << 13);
-  const __m256i lo = _mm256_add_epi32(
-      _mm256_add_epi32(_mm256_madd_epi16(_mm256_unpacklo_epi16(p0, p1), w.top()),
-                       _mm256_madd_epi16(_mm256_unpacklo_epi16(q0, q1), w.bottom())),
-      round);
-  const __m256i hi = _mm256_add_epi32(
-      _mm256_add_epi32(_mm256_madd_epi16(_mm256_unpackhi_epi16(p0, p1), w.top()),
-                       _mm256_madd_epi16(_mm256_unpackhi_epi16(q0, q1), w.bottom())),
-      round);
-  return _mm256_packs_epi32(_mm256_srai_epi32(lo, 14), _mm256_srai_epi32(hi, 14));
 }
 
 // The sum of eight 32-bit lanes, in 64 bits: a lane holds at most 30 products of 16-bit values
@@ -143,14 +135,12 @@ void takeWindow(const cv::Mat& image, const cv::Mat& deriv, const cv::Point& cor
     const __m256i p_hi = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(d0 + 32));
     const __m256i q_lo = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(d0 + dstep));
     const __m256i q_hi = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(d0 + dstep + 32));
-    const __m256i lo =
-        _mm256_and_si256(interpolateDerivatives(p_lo, rightNeighbours(p_lo, p_hi), q_lo,
-                                                rightNeighbours(q_lo, q_hi), w),
-                         keep_lo);
-    const __m256i hi =
-        _mm256_and_si256(interpolateDerivatives(p_hi, rightNeighbours(p_hi, p_hi), q_hi,
-                                                rightNeighbours(q_hi, q_hi), w),
-                         keep_hi);
+    const __m256i lo = _mm256_and_si256(
+        bilinear<14>(p_lo, rightNeighbours(p_lo, p_hi), q_lo, rightNeighbours(q_lo, q_hi), w),
+        keep_lo);
+    const __m256i hi = _mm256_and_si256(
+        bilinear<14>(p_hi, rightNeighbours(p_hi, p_hi), q_hi, rightNeighbours(q_hi, q_hi), w),
+        keep_hi);
     window->derivs_lo[y] = lo;
     window->derivs_hi[y] = hi;
     // dx * dx, dy * dy and dx * dy of every pixel, by pairs of 16-bit products.

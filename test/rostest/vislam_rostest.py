@@ -301,7 +301,8 @@ class Recorder:
     def __init__(self):
         self.lock = threading.Lock()
         self.odometry = {NODELET: [], NODE: []}
-        self.updates = 0
+        self.updates = 0  # the nodelet's ~odometry_update messages
+        self.last_update_stamp = {NODELET: 0.0, NODE: 0.0}
         self.marker_counts = []  # (wall, all landmarks, active landmarks)
         self.marker_actions = []
         self.path_lengths = []
@@ -310,7 +311,9 @@ class Recorder:
         self.outputs = [  # the estimators' own outputs (play_bag's listening)
             rospy.Subscriber(NODELET + '/odometry', Odometry, self.on_odometry, NODELET,
                              queue_size=5000),
-            rospy.Subscriber(NODELET + '/odometry_update', Odometry, self.on_update,
+            rospy.Subscriber(NODELET + '/odometry_update', Odometry, self.on_update, NODELET,
+                             queue_size=5000),
+            rospy.Subscriber(NODE + '/odometry_update', Odometry, self.on_update, NODE,
                              queue_size=5000),
             rospy.Subscriber(NODE + '/odometry', Odometry, self.on_odometry, NODE,
                              queue_size=5000),
@@ -326,9 +329,17 @@ class Recorder:
         with self.lock:
             self.odometry[name].append((time.time(), msg))
 
-    def on_update(self, msg):
+    def on_update(self, msg, name):
         with self.lock:
-            self.updates += 1
+            if name == NODELET:
+                self.updates += 1
+            self.last_update_stamp[name] = max(self.last_update_stamp[name],
+                                               msg.header.stamp.to_sec())
+
+    def updated_to(self, stamp):
+        """Whether both estimators published an update at `stamp` (s) or later."""
+        with self.lock:
+            return min(self.last_update_stamp.values()) >= stamp - 1e-6
 
     def on_markers(self, msg):
         with self.lock:
@@ -383,8 +394,18 @@ class VislamPipelineTest(unittest.TestCase):
             rospy.wait_for_service(name + '/save', timeout=60.0)
         t0 = time.time()
         cls.play([])
-        log('bag played in %.1f s' % (time.time() - t0))
-        # The last frame is processed once its twist arrived; wait for the outputs to settle.
+        played = time.time()
+        log('bag played in %.1f s' % (played - t0))
+        # The last frame is processed once its twist arrived or the twist's wait ran out: wait
+        # until both estimators updated at its stamp (however loaded the machine), then for the
+        # outputs to settle.
+        last_frame = read_tum(os.path.join(cls.offline_dir, 'trajectory.tum'))[0][-1]
+        if wait_until(lambda: cls.recorder.updated_to(last_frame), 60.0):
+            log('both estimators updated at the last frame %.1f s after the player ended' % (
+                time.time() - played))
+        else:
+            log('not every estimator updated at the last frame (%.3f s) within 60 s: %s' % (
+                last_frame, cls.recorder.last_update_stamp))
         wait_until(lambda: time.time() - cls.recorder.last_odometry_wall() > 1.5, 10.0)
         time.sleep(1.0)  # one more landmark/path publication (2 Hz)
 

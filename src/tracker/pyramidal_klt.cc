@@ -19,12 +19,16 @@ constexpr int kMaxWindow = 15;
 // The fast path reads sixteen bytes (image) or pixels (derivatives) from a window row's first
 // column: that many columns of border right of the image, the window's height below it.
 constexpr int kRightBorder = 15;
+// OpenCV's scale of the window sums (its FLT_SCALE).
+constexpr float kSumScale = 1.f / (1 << 20);
 
 struct Level {
   const cv::Mat* prev;   // 8-bit image
   const cv::Mat* deriv;  // its Scharr derivatives, 16-bit (dx, dy)
   const cv::Mat* next;   // 8-bit image
 };
+
+#if defined(__AVX2__)
 
 // How many levels above the full image a pyramid from cv::buildOpticalFlowPyramid with
 // derivatives holds (-1: not such a pyramid).
@@ -44,8 +48,6 @@ bool bordersHold(const cv::Mat& image, const cv::Size& window) {
          whole.width - offset.x - image.cols >= std::max(kRightBorder, window.width) &&
          whole.height - offset.y - image.rows >= window.height;
 }
-
-#if defined(__AVX2__)
 
 // The fixed-point bilinear weights of OpenCV's KLT (14 bits) for the fractions a, b.
 struct Weights {
@@ -155,10 +157,9 @@ void takeWindow(const cv::Mat& image, const cv::Mat& deriv, const cv::Point& cor
                            _mm256_add_epi32(_mm256_madd_epi16(lo, _mm256_slli_epi32(dx_lo, 16)),
                                             _mm256_madd_epi16(hi, _mm256_slli_epi32(dx_hi, 16))));
   }
-  constexpr float kScale = 1.f / (1 << 20);
-  window->a11 = static_cast<float>(sum64(a11)) * kScale;
-  window->a12 = static_cast<float>(sum64(a12)) * kScale;
-  window->a22 = static_cast<float>(sum64(a22)) * kScale;
+  window->a11 = static_cast<float>(sum64(a11)) * kSumScale;
+  window->a12 = static_cast<float>(sum64(a12)) * kSumScale;
+  window->a22 = static_cast<float>(sum64(a22)) * kSumScale;
 }
 
 // The mismatch vector b = sum of (J - I) * (dx, dy) over the window, at the next image's corner.
@@ -180,9 +181,8 @@ void mismatch(const cv::Mat& next, const cv::Point& corner, const Weights& w, in
         _mm256_add_epi32(_mm256_madd_epi16(window.derivs_lo[y], _mm256_slli_epi32(even_lo, 16)),
                          _mm256_madd_epi16(window.derivs_hi[y], _mm256_slli_epi32(even_hi, 16))));
   }
-  constexpr float kScale = 1.f / (1 << 20);
-  *b1 = static_cast<float>(sum64(sum1)) * kScale;
-  *b2 = static_cast<float>(sum64(sum2)) * kScale;
+  *b1 = static_cast<float>(sum64(sum1)) * kSumScale;
+  *b2 = static_cast<float>(sum64(sum2)) * kSumScale;
 }
 
 // One point at one level, as OpenCV's LKTrackerInvoker: false where the point is lost there.
@@ -234,16 +234,16 @@ bool trackAtLevel(const Level& level, const cv::Point2f& prev_point, cv::Point2f
 
 #endif  // __AVX2__
 
-}  // namespace
-
-bool pyramidalKltFastPath(const std::vector<cv::Mat>& prev_pyramid,
-                          const std::vector<cv::Mat>& next_pyramid, const KltSettings& klt) {
+// The levels above the full image the fast path tracks through for these pyramids and settings,
+// or -1 where it does not apply (OpenCV's function runs).
+int fastPathLevels(const std::vector<cv::Mat>& prev_pyramid,
+                   const std::vector<cv::Mat>& next_pyramid, const KltSettings& klt) {
 #if defined(__AVX2__)
   const int prev_levels = derivativePyramidLevels(prev_pyramid);
   const int next_levels = derivativePyramidLevels(next_pyramid);
   if (klt.window.width > kMaxWindow || klt.window.height > kMaxWindow || klt.window.width <= 2 ||
       klt.window.height <= 2 || prev_levels < 0 || next_levels < 0) {
-    return false;
+    return -1;
   }
   const int levels = std::min({klt.levels, prev_levels, next_levels});
   for (int l = 0; l <= levels; ++l) {
@@ -251,23 +251,31 @@ bool pyramidalKltFastPath(const std::vector<cv::Mat>& prev_pyramid,
     if (prev.size() != next_pyramid[2 * l].size() || !bordersHold(prev, klt.window) ||
         !bordersHold(prev_pyramid[2 * l + 1], klt.window) ||
         !bordersHold(next_pyramid[2 * l], klt.window)) {
-      return false;
+      return -1;
     }
   }
-  return true;
+  return levels;
 #else
   (void)prev_pyramid;
   (void)next_pyramid;
   (void)klt;
-  return false;
+  return -1;
 #endif
+}
+
+}  // namespace
+
+bool pyramidalKltFastPath(const std::vector<cv::Mat>& prev_pyramid,
+                          const std::vector<cv::Mat>& next_pyramid, const KltSettings& klt) {
+  return fastPathLevels(prev_pyramid, next_pyramid, klt) >= 0;
 }
 
 void trackPyramidalKlt(const std::vector<cv::Mat>& prev_pyramid,
                        const std::vector<cv::Mat>& next_pyramid,
                        const std::vector<cv::Point2f>& prev, std::vector<cv::Point2f>* next,
                        std::vector<uint8_t>* status, const KltSettings& klt) {
-  if (!pyramidalKltFastPath(prev_pyramid, next_pyramid, klt)) {
+  const int max_level = fastPathLevels(prev_pyramid, next_pyramid, klt);
+  if (max_level < 0) {
     std::vector<float> error;
     cv::calcOpticalFlowPyrLK(prev_pyramid, next_pyramid, prev, *next, *status, error, klt.window,
                              klt.levels, klt.criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
@@ -283,8 +291,6 @@ void trackPyramidalKlt(const std::vector<cv::Mat>& prev_pyramid,
                          ? 0.01
                          : std::min(std::max(criteria.epsilon, 0.), 10.);
   criteria.epsilon *= criteria.epsilon;
-  const int max_level = std::min(
-      {klt.levels, derivativePyramidLevels(prev_pyramid), derivativePyramidLevels(next_pyramid)});
   std::vector<Level> levels(max_level + 1);
   for (int l = 0; l <= max_level; ++l) {
     levels[l] = {&prev_pyramid[2 * l], &prev_pyramid[2 * l + 1], &next_pyramid[2 * l]};

@@ -4,7 +4,6 @@
 #include "ekf_vislam/tracker/klt_back_check.h"
 #include "ekf_vislam/tracker/patch_refiner.h"
 
-
 #include <algorithm>
 #include <cmath>
 

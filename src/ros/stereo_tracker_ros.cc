@@ -49,7 +49,6 @@ StereoTrackerRos::StereoTrackerRos(const ros::NodeHandle& nh, const ros::NodeHan
   ROS_INFO("%s: tracker options (from %s):\n%s", name_.c_str(), source.describe().c_str(),
            describeOptions(options_).c_str());
   time_jumps_ = TimeJumpDetector(ros_options_.time_jump_reset, 2);
-  rig_check_ = StereoRigCheck(options_.row_tolerance_px);
 
   features_pub_ = nh_.advertise<ekf_vislam::StereoFeatureArray>("stereo/features", kFeatureQueue);
   debug_pub_ = image_transport_.advertise("stereo/debug_image", 1);
@@ -199,7 +198,6 @@ bool StereoTrackerRos::restartIfTimeJumped(int stream, const ros::Time& stamp) {
       name_.c_str(), stream == 0 ? "the images" : "imu/twist", time_jumps_.lastJump(),
       stamp.toSec(), static_cast<unsigned long>(time_jump_resets_));
   if (tracker_) tracker_->reset();
-  rig_check_.reset();
   pair_gaps_.reset();
   waiting_pairs_.clear();
   twists_.clear();
@@ -398,7 +396,6 @@ void StereoTrackerRos::trackPair(const ImagePair& pair) {
   }
   if (!tracker_ || !sameRectifiedPair(stereo, stereo_)) {
     tracker_ = std::make_unique<StereoTracker>(options_, stereo, masks_);  // (new) calibration
-    rig_check_.reset();
     stereo_ = stereo;
     prev_stamp_ = -1;
   }
@@ -417,8 +414,7 @@ void StereoTrackerRos::trackPair(const ImagePair& pair) {
   if (frame.stats.predicted_from_first_matches) ++first_fit_predictions_;
   tracks_crowded_ += static_cast<uint64_t>(frame.stats.crowded);
   last_stats_ = frame.stats;
-  rig_check_.add(frame.stats);
-  if (const std::string hint = rig_check_.hint(); !hint.empty()) {
+  if (const std::string hint = tracker_->rigCheck().hint(); !hint.empty()) {
     ROS_WARN_THROTTLE(kWarnPeriod, "%s: %s", name_.c_str(), hint.c_str());
   }
   publish(*left_msg, left, right, frame);
@@ -446,6 +442,11 @@ void StereoTrackerRos::publish(const sensor_msgs::Image& left_msg, const cv::Mat
                              drawStereoTracks(left, right, frame, masks_));
     debug_pub_.publish(debug.toImageMsg());
   }
+}
+
+const StereoRigCheck& StereoTrackerRos::rigCheck() const {
+  static const StereoRigCheck kNoPairYet(0.0);
+  return tracker_ ? tracker_->rigCheck() : kNoPairYet;
 }
 
 void StereoTrackerRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) {
@@ -495,7 +496,7 @@ void StereoTrackerRos::fillDiagnostics(uint64_t dropped_from_backlog,
                    std::string(kNoCameraInfo) + ": pairs wait");
   } else if (pairs_tracked_ == 0) {
     status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "no pair tracked (see counters)");
-  } else if (const std::string hint = rig_check_.hint(); !hint.empty()) {
+  } else if (const std::string hint = rigCheck().hint(); !hint.empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, hint);
   } else if (bad > 0) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "running; some pairs skipped");
@@ -523,13 +524,15 @@ void StereoTrackerRos::fillDiagnostics(uint64_t dropped_from_backlog,
   status.add("track_ms_last", last_stats_.ms_total);
   status.add("exposure_gain_last", last_stats_.exposure_gain_temporal);
   status.add("stereo_exposure_gain_last", last_stats_.exposure_gain_stereo);
-  status.add("stereo_row_offset_px", rig_check_.medianRowOffsetPx());
-  status.add("stereo_row_failed_fraction", rig_check_.rowFailedFraction());
-  status.add("stereo_negative_disparity_fraction", rig_check_.negativeDisparityFraction());
-  status.add("disparity_offset_px", rig_check_.medianDisparityOffsetPx());
-  status.add("disparity_offset_pairs", rig_check_.disparityOffsetPairs());
-  status.add("stereo_roll_deg", rig_check_.medianStereoRollDeg());
-  status.add("stereo_roll_edge_px", rig_check_.medianRollEdgePx());
+  const StereoRigCheck& rig_check = rigCheck();
+  status.add("stereo_row_offset_px", rig_check.medianRowOffsetPx());
+  status.add("stereo_row_failed_fraction", rig_check.rowFailedFraction());
+  status.add("stereo_negative_disparity_fraction", rig_check.negativeDisparityFraction());
+  status.add("disparity_offset_px", rig_check.medianDisparityOffsetPx());
+  status.add("disparity_offset_pairs", rig_check.disparityOffsetPairs());
+  status.add("disparity_offset_corrected_px", last_stats_.disparity_offset_corrected_px);
+  status.add("stereo_roll_deg", rig_check.medianStereoRollDeg());
+  status.add("stereo_roll_edge_px", rig_check.medianRollEdgePx());
 }
 
 }  // namespace ekf_vislam

@@ -10,7 +10,8 @@
 
 namespace ekf_vislam {
 
-StereoRigCheck::StereoRigCheck(double row_tolerance_px) : row_tolerance_px_(row_tolerance_px) {}
+StereoRigCheck::StereoRigCheck(double row_tolerance_px, bool offset_corrected)
+    : row_tolerance_px_(row_tolerance_px), offset_corrected_(offset_corrected) {}
 
 void StereoRigCheck::add(const TrackerFrameStats& stats) {
   constexpr float kNone = std::numeric_limits<float>::quiet_NaN();
@@ -21,6 +22,16 @@ void StereoRigCheck::add(const TrackerFrameStats& stats) {
        stats.stereo_row_offset_px, offset_told ? stats.disparity_offset_px : kNone,
        roll_told ? stats.stereo_roll_deg : kNone, roll_told ? stats.stereo_roll_edge_px : kNone});
   if (pairs_.size() > static_cast<size_t>(kWindowPairs)) pairs_.pop_front();
+  if (disparityOffsetPairs() < kMinOffsetPairs) return;  // the correction holds (a stop)
+  const double offset_px = medianDisparityOffsetPx();
+  correcting_ = correcting_ || std::abs(offset_px) > kOffsetHintPx;
+  if (correcting_) correction_px_ = offset_px;
+}
+
+void StereoRigCheck::reset() {
+  pairs_.clear();
+  correcting_ = false;
+  correction_px_ = 0;
 }
 
 int StereoRigCheck::matchesHeld() const {
@@ -99,10 +110,14 @@ std::string StereoRigCheck::hint() const {
         "the tracks' motion fits best with every measured disparity %.2f px %s the "
         "true one (median over %d pairs): the rectification or the right camera's principal "
         "point (cx in P of its camera_info) disagrees with its images, and every stereo depth "
-        "is too %s. Recalibrate the rig, or set intrinsic/estimate_disparity_offset: "
-        "true in the estimator's configuration",
+        "%s too %s. %s",
         std::abs(offset_px), offset_px < 0 ? "below" : "above", offset_pairs,
-        offset_px < 0 ? "large" : "small");
+        offset_corrected_ ? "would be" : "is", offset_px < 0 ? "large" : "small",
+        offset_corrected_
+            ? "The published disparities are corrected by it "
+              "(stereo/correct_disparity_offset); recalibrating the rig is better"
+            : "Recalibrate the rig, set stereo/correct_disparity_offset: true in the tracker's "
+              "configuration, or intrinsic/estimate_disparity_offset: true in the estimator's");
     return text;
   }
   const double roll_deg = medianStereoRollDeg();

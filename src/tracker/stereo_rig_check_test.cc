@@ -103,6 +103,27 @@ TEST(StereoRigCheck, OffsetsWithinHalfAPixelOrNotToldApartGiveNoHint) {
   EXPECT_NE(check.hint().find("too small"), std::string::npos) << check.hint();
 }
 
+// The correction the tracker applies (stereo/correct_disparity_offset): none within the hint's
+// half pixel; beyond it the median, which it then follows, holding it where no pair is fitted.
+TEST(StereoRigCheck, TheCorrectionStartsBeyondHalfAPixelAndThenFollowsTheMedian) {
+  StereoRigCheck check(1.0, true);
+  for (int k = 0; k < 30; ++k) check.add(offsetPair(-0.4f, 0.04f));
+  EXPECT_EQ(check.disparityCorrectionPx(), 0.0);  // an ordinary rig
+  for (int k = 0; k < 50; ++k) check.add(offsetPair(-1.2f, 0.04f));
+  EXPECT_NEAR(check.disparityCorrectionPx(), -1.2, 1e-6);
+  EXPECT_NE(check.hint().find("are corrected by it"), std::string::npos) << check.hint();
+  // Back within half a pixel, it follows rather than switching off.
+  for (int k = 0; k < 50; ++k) check.add(offsetPair(-0.45f, 0.04f));
+  EXPECT_NEAR(check.disparityCorrectionPx(), -0.45, 1e-6);
+  EXPECT_EQ(check.hint(), "");
+  // A stop: no fit is told apart, the correction holds.
+  for (int k = 0; k < 50; ++k) check.add(offsetPair(-200.f, 80.f));
+  EXPECT_EQ(check.disparityOffsetPairs(), 0);
+  EXPECT_NEAR(check.disparityCorrectionPx(), -0.45, 1e-6);
+  check.reset();
+  EXPECT_EQ(check.disparityCorrectionPx(), 0.0);
+}
+
 TrackerFrameStats rollPair(float roll_deg, float sigma_deg, float half_width_px = 620.f) {
   TrackerFrameStats stats = pair(300, 12, 3, 0.05f);
   stats.stereo_roll_deg = roll_deg;

@@ -155,10 +155,15 @@ void summarizeStereoMatches(StereoMatchCounts counts, const StereoCalibration& c
 
 StereoTracker::StereoTracker(const TrackerOptions& options, const StereoCalibration& calibration,
                              StereoMasks masks)
-    : options_(options), calibration_(calibration), masks_(std::move(masks)), detector_(options) {}
+    : options_(options),
+      calibration_(calibration),
+      masks_(std::move(masks)),
+      detector_(options),
+      rig_check_(options.row_tolerance_px, options.correct_disparity_offset) {}
 
 void StereoTracker::reset() {
   tracks_.clear();
+  rig_check_.reset();
   prev_left_pyramid_.clear();
   has_prev_ = false;
   has_last_motion_ = false;
@@ -298,6 +303,10 @@ bool StereoTracker::process(const cv::Mat& left, const cv::Mat& right, double st
   if (has_prev_) last_dt_ = stamp - prev_stamp_;
   prev_stamp_ = stamp;
   has_prev_ = true;
+  rig_check_.add(stats);
+  if (options_.correct_disparity_offset) {
+    stats.disparity_offset_corrected_px = static_cast<float>(rig_check_.disparityCorrectionPx());
+  }
   stats.ms_total = msSince(start);
   frame->stats = stats;
   fillFrame(stamp, frame);
@@ -644,7 +653,8 @@ void StereoTracker::fillFrame(double stamp, StereoFrame* frame) {
     TrackedFeature feature;
     feature.id = track.id;
     feature.left = track.left;
-    feature.right = track.right;
+    // The tracks keep the measured columns (the rig check fits the offset on them).
+    feature.right = track.right + cv::Point2f(frame->stats.disparity_offset_corrected_px, 0.f);
     feature.age = track.age - options_.confirm_frames;
     feature.trail = track.trail;
     frame->features.push_back(std::move(feature));

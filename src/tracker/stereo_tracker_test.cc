@@ -425,6 +425,52 @@ TEST(StereoTracker, AfterASizeChangeTracksAsANewTracker) {
   }
 }
 
+// A rig whose right image lies `right_shift_px` right of where its calibration puts it (every
+// measured disparity that much too small), driven forward 20 pairs. Returns the last pair's
+// correction and the median error of its published disparities against the true ones (px).
+std::pair<double, double> disparityErrorWithRightShift(double right_shift_px,
+                                                       const TrackerOptions& options) {
+  SlantedPlaneScene scene;
+  StereoTracker tracker(options, scene.calibration());
+  StereoFrame frame;
+  std::string why;
+  const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, right_shift_px, 0, 1, 0);
+  cv::Vec3d c;
+  for (int k = 0; k < 20; ++k) {
+    c = positionAt(k);
+    cv::Mat right;
+    cv::warpAffine(scene.render(c, 0.5), right, shift, scene.size(), cv::INTER_LINEAR,
+                   cv::BORDER_REFLECT);
+    EXPECT_TRUE(tracker.process(scene.render(c, 0), right, 0.1 * k, nullptr, &frame, &why)) << why;
+  }
+  std::vector<double> errors;
+  for (const TrackedFeature& f : frame.features) {
+    const double depth = scene.pointAt(c, f.left.x, f.left.y)[2] - c[2];
+    errors.push_back(scene.calibration().fx * 0.5 / depth - (f.left.x - f.right.x));
+  }
+  EXPECT_GE(errors.size(), 100u);
+  std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+  return {frame.stats.disparity_offset_corrected_px, errors[errors.size() / 2]};
+}
+
+// stereo/correct_disparity_offset: the rig check's offset, once beyond half a pixel, is taken out
+// of the published right columns; a rig that agrees with its calibration is left as it is.
+TEST(StereoTracker, ARigsDisparityOffsetIsTakenOutOfThePublishedFeatures) {
+  TrackerOptions options;
+  const auto [correction, error] = disparityErrorWithRightShift(1.0, options);
+  std::printf("right image 1 px right: correction %.3f px, median disparity error %.3f px\n",
+              correction, error);
+  EXPECT_NEAR(correction, -1.0, 0.15);
+  EXPECT_LT(std::abs(error), 0.15);
+  const auto [no_correction, rig_error] = disparityErrorWithRightShift(0.0, options);
+  EXPECT_EQ(no_correction, 0.0);
+  EXPECT_LT(std::abs(rig_error), 0.1);
+  options.correct_disparity_offset = false;
+  const auto [off, off_error] = disparityErrorWithRightShift(1.0, options);
+  EXPECT_EQ(off, 0.0);
+  EXPECT_NEAR(off_error, 1.0, 0.15);
+}
+
 // The second pair has no motion to predict from (no twist, no last motion): the camera moved
 // 0.6 m sideways (30 px of flow at the plane's 8 m, 23-37 px over its slant). Returns the
 // features continued into it and the median error of their positions (px).

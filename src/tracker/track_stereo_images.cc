@@ -286,7 +286,7 @@ bool writeStats(const std::string& path, const std::vector<StereoFrame>& frames,
          "exposure_gain_temporal,exposure_gain_stereo,stereo_converged,stereo_row_failed,"
          "stereo_negative_disparity,stereo_row_offset_px,predicted_from_first_matches,crowded,"
          "disparity_offset_px,disparity_offset_sigma_px,stereo_roll_deg,stereo_roll_sigma_deg,"
-         "stereo_roll_edge_px\n";
+         "stereo_roll_edge_px,disparity_offset_corrected_px\n";
   out.precision(10);
   for (size_t k = 0; k < frames.size(); ++k) {
     const TrackerFrameStats& s = frames[k].stats;
@@ -301,7 +301,7 @@ bool writeStats(const std::string& path, const std::vector<StereoFrame>& frames,
         << s.stereo_row_offset_px << "," << s.predicted_from_first_matches << "," << s.crowded
         << "," << s.disparity_offset_px << "," << s.disparity_offset_sigma_px << ","
         << s.stereo_roll_deg << "," << s.stereo_roll_sigma_deg << "," << s.stereo_roll_edge_px
-        << "\n";
+        << "," << s.disparity_offset_corrected_px << "\n";
   }
   if (!out) *error = path + ": cannot write";
   return static_cast<bool>(out);
@@ -322,22 +322,6 @@ PoseTwist poseTwist(const Arguments& args, const KittiSequence& sequence,
   return result;
 }
 
-// The stereo rig check (stereo_rig_check.h) over the run: its first hint, on stderr. Returns the
-// check as it stands after the last pair.
-StereoRigCheck checkTheRig(const std::vector<StereoFrame>& frames, const TrackerOptions& options) {
-  StereoRigCheck check(options.row_tolerance_px);
-  bool warned = false;
-  for (size_t k = 0; k < frames.size(); ++k) {
-    check.add(frames[k].stats);
-    if (warned) continue;
-    const std::string hint = check.hint();
-    if (hint.empty()) continue;
-    std::cerr << "track_stereo_images: warning from frame " << k << ": " << hint << "\n";
-    warned = true;
-  }
-  return check;
-}
-
 // What the run gives on stdout: time per frame, the rig check's figures and, with poses, the
 // track quality.
 void printSummary(const Arguments& args, const KittiSequence& sequence,
@@ -356,6 +340,15 @@ void printSummary(const Arguments& args, const KittiSequence& sequence,
       rig_check.medianDisparityOffsetPx(), rig_check.disparityOffsetPairs(),
       rig_check.medianRowOffsetPx(), rig_check.medianStereoRollDeg(), rig_check.stereoRollPairs(),
       rig_check.medianRollEdgePx());
+  if (T > 0 && frames.back().stats.disparity_offset_corrected_px != 0) {
+    const auto corrected = std::count_if(frames.begin(), frames.end(), [](const StereoFrame& f) {
+      return f.stats.disparity_offset_corrected_px != 0;
+    });
+    std::printf(
+        "stereo rig: published right columns moved by the offset in %ld of %zu frames, by %.3f "
+        "px in the last (stereo/correct_disparity_offset)\n",
+        static_cast<long>(corrected), T, frames.back().stats.disparity_offset_corrected_px);
+  }
   if (!sequence.world_T_cam.empty()) {
     std::vector<Eigen::Matrix4d> poses(sequence.world_T_cam.begin(),
                                        sequence.world_T_cam.begin() + T);
@@ -413,6 +406,7 @@ int run(int argc, char** argv) {
   std::vector<StereoFrame> frames;
   ProcessingTimes ms;
   cv::Size image_size;
+  bool rig_warned = false;  // the rig check's first hint goes to stderr
   for (size_t k = 0; k < T; ++k) {
     const cv::Mat left = cv::imread(sequence.left_images[k], cv::IMREAD_GRAYSCALE);
     const cv::Mat right = cv::imread(sequence.right_images[k], cv::IMREAD_GRAYSCALE);
@@ -430,6 +424,10 @@ int run(int argc, char** argv) {
     }
     image_size = left.size();
     ms.add(frame.stats.ms_total);
+    if (const std::string hint = tracker.rigCheck().hint(); !rig_warned && !hint.empty()) {
+      std::cerr << "track_stereo_images: warning from frame " << k << ": " << hint << "\n";
+      rig_warned = true;
+    }
     if (!args.debug_dir.empty()) {
       char name[32];
       std::snprintf(name, sizeof(name), "/%06zu.png", k);
@@ -437,13 +435,12 @@ int run(int argc, char** argv) {
     }
     frames.push_back(std::move(frame));
   }
-  const StereoRigCheck rig_check = checkTheRig(frames, options);
   if (!writeDataset(args, sequence, frames, pose_twist, image_size, &error) ||
       (!args.stats.empty() && !writeStats(args.stats, frames, &error))) {
     std::cerr << "track_stereo_images: " << error << "\n";
     return 1;
   }
-  if (!args.quiet) printSummary(args, sequence, frames, rig_check, ms);
+  if (!args.quiet) printSummary(args, sequence, frames, tracker.rigCheck(), ms);
   return 0;
 }
 

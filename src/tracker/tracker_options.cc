@@ -52,6 +52,7 @@ void visitTrackerOptions(Options& o, Visitor& v) {
   v.number("stereo/back_check_px", o.stereo_back_check_px, Bound::kPositive);
   v.number("stereo/disparity_check_px", o.disparity_check_px, Bound::kNonNegative);
   v.number("stereo/disparity_check_relative", o.disparity_check_relative, Bound::kNonNegative);
+  v.flag("stereo/correct_disparity_offset", o.correct_disparity_offset);
   v.choice("ransac/type", o.outlier_check, kCheckNames);
   v.number("ransac/threshold_px", o.ransac_threshold_px, Bound::kPositive);
   v.number("ransac/confidence", o.ransac_confidence, Bound::kOpenUnit);

@@ -10,7 +10,7 @@ TEST(TrackerOptions, ShippedFileEqualsTheDefaults) {
   YamlParameterSource source(std::string(EKF_VISLAM_SOURCE_DIR) + "/config/tracker.yaml");
   ASSERT_TRUE(source.ok()) << source.error();
   const std::vector<OptionKeyList::Key> keys = trackerOptionKeys();
-  EXPECT_EQ(keys.size(), 43u);
+  EXPECT_EQ(keys.size(), 44u);
   for (const OptionKeyList::Key& key : keys) {
     EXPECT_TRUE(source.has(key.name)) << key.name << " is not documented in config/tracker.yaml";
   }

@@ -122,6 +122,8 @@ class StereoTrackerRos {
   /// the backlog count among the skipped pairs of its summary.
   void fillDiagnostics(uint64_t dropped_from_backlog,
                        diagnostic_updater::DiagnosticStatusWrapper& status) const;
+  /// The tracker's rig check, or an empty one before the first pair (caller holds mutex_).
+  const StereoRigCheck& rigCheck() const;
   /// On the tracking thread after each event: the status for a callback that found it busy.
   void cacheDiagnosticsIfRequested();
   /// Every 0.1 s of wall time: tracks the pairs whose wait for the twist stream is over.
@@ -176,7 +178,6 @@ class StereoTrackerRos {
   TimeJumpDetector time_jumps_{0.0, 2};  ///< images 0, twist 1 (set from ros/time_jump_reset)
   StampGapDetector pair_gaps_;           ///< pairs missing, from gaps in the left stamps
   TrackerFrameStats last_stats_;         ///< of the last pair tracked (diagnostics)
-  StereoRigCheck rig_check_{0.0};        ///< over the last pairs tracked (diagnostics, warning)
 };
 
 }  // namespace ekf_vislam

@@ -16,13 +16,14 @@ namespace ekf_vislam {
 
 class StereoRigCheck {
  public:
-  /// `row_tolerance_px`: the tracker's stereo/row_tolerance_px (named in the hint).
-  explicit StereoRigCheck(double row_tolerance_px);
+  /// `row_tolerance_px`: the tracker's stereo/row_tolerance_px (named in the hint);
+  /// `offset_corrected`: its stereo/correct_disparity_offset (what the hint says of an offset).
+  explicit StereoRigCheck(double row_tolerance_px, bool offset_corrected = false);
 
   /// Adds one tracked pair's figures; the check reads the last kWindowPairs pairs.
   void add(const TrackerFrameStats& stats);
-  /// Forgets every pair (a tracker restart).
-  void reset() { pairs_.clear(); }
+  /// Forgets every pair and the correction (a tracker restart).
+  void reset();
 
   /// Over the pairs held: of the left-right matches the KLT ended inside the right image, the
   /// fraction whose rows lie further apart than the tolerance; of the rest, the fraction with
@@ -36,6 +37,13 @@ class StereoRigCheck {
   /// fitted within kMaxOffsetSigmaPx (pairs that move forward); 0 without one. And their count.
   double medianDisparityOffsetPx() const;
   int disparityOffsetPairs() const;
+  /// What a tracker that corrects the offset moves the right columns by (px, added to u_right so
+  /// that u_left - u_right is the true disparity). 0 until the median offset, over at least
+  /// kMinOffsetPairs fits, lies beyond kOffsetHintPx (where the hint names it): rigs whose
+  /// images agree with their calibration read up to 0.4 px, and are left as they are. From then
+  /// on it is the median after every pair with kMinOffsetPairs fits held, and holds between
+  /// (a stop gives no fit), so it neither switches on and off nor drops at a stop.
+  double disparityCorrectionPx() const { return correction_px_; }
   /// The median of the held pairs' roll of the right image against the left (degrees, positive
   /// clockwise as displayed), of those fitted within kMaxRollSigmaDeg; 0 without one. The median
   /// of the rows' difference it makes at the side edge farther from the principal point (px).
@@ -84,7 +92,10 @@ class StereoRigCheck {
   int countFinite(float Pair::*figure) const;
 
   double row_tolerance_px_;
+  bool offset_corrected_;
   std::deque<Pair> pairs_;
+  bool correcting_ = false;  ///< an offset beyond kOffsetHintPx has been read
+  double correction_px_ = 0;
 };
 
 }  // namespace ekf_vislam

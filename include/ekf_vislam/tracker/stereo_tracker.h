@@ -9,6 +9,7 @@
 #include "ekf_vislam/tracker/motion_check.h"
 #include "ekf_vislam/tracker/patch_refiner.h"
 #include "ekf_vislam/tracker/stereo_matcher.h"
+#include "ekf_vislam/tracker/stereo_rig_check.h"
 #include "ekf_vislam/tracker/tracker_options.h"
 #include "ekf_vislam/tracker/tracker_types.h"
 
@@ -33,8 +34,14 @@ class StereoTracker {
   bool process(const cv::Mat& left, const cv::Mat& right, double stamp,
                const CameraMotionPrior* prior, StereoFrame* frame, std::string* why);
 
-  /// Ends every track (the next pair starts afresh; ids continue).
+  /// Ends every track and forgets the rig check's pairs (the next pair starts afresh; ids
+  /// continue).
   void reset();
+
+  /// The rig check over the last pairs tracked (stereo_rig_check.h). With
+  /// stereo/correct_disparity_offset, its disparityCorrectionPx() is added to every published
+  /// right column (TrackerFrameStats::disparity_offset_corrected_px).
+  const StereoRigCheck& rigCheck() const { return rig_check_; }
 
   const StereoCalibration& calibration() const { return calibration_; }
   const TrackerOptions& options() const { return options_; }
@@ -156,6 +163,7 @@ class StereoTracker {
   double last_dt_ = 0;
   // klt/exposure_compensation: the map from the right image's intensities to the left's.
   IntensityMap stereo_exposure_;
+  StereoRigCheck rig_check_;
 };
 
 }  // namespace ekf_vislam

@@ -83,6 +83,8 @@ struct TrackerOptions {
   double disparity_check_px = 2.0;    ///< a track's disparity may differ from the one its previous
                                       ///< depth and the estimated motion predict by this much plus
   double disparity_check_relative = 0.05;  ///< this fraction of the prediction (0 and 0 = off)
+  bool correct_disparity_offset = true;    ///< publish the disparities less the rig's offset once
+                                           ///< the rig check reads one beyond its warning level
 
   // ransac/
   TemporalOutlierCheck outlier_check = TemporalOutlierCheck::kPnp;

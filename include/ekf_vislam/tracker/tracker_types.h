@@ -56,6 +56,9 @@ struct TrackerFrameStats {
   /// pair's motion (disparity_offset_fit.h), for the rig check; NaN without a fit.
   float disparity_offset_px = std::numeric_limits<float>::quiet_NaN();
   float disparity_offset_sigma_px = std::numeric_limits<float>::quiet_NaN();
+  /// What the published right columns were moved by (px; the rig check's offset once it reads one
+  /// beyond its warning level, stereo/correct_disparity_offset), 0 when not.
+  float disparity_offset_corrected_px = 0;
   int detected = 0;               ///< new corners found
   int new_tracks = 0;             ///< of them, matched in the right image (new ids)
   int published = 0;              ///< features of the frame

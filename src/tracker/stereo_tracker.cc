@@ -164,6 +164,7 @@ StereoTracker::StereoTracker(const TrackerOptions& options, const StereoCalibrat
 void StereoTracker::reset() {
   tracks_.clear();
   rig_check_.reset();
+  correcting_ = false;
   prev_left_pyramid_.clear();
   has_prev_ = false;
   has_last_motion_ = false;
@@ -303,14 +304,29 @@ bool StereoTracker::process(const cv::Mat& left, const cv::Mat& right, double st
   if (has_prev_) last_dt_ = stamp - prev_stamp_;
   prev_stamp_ = stamp;
   has_prev_ = true;
-  rig_check_.add(stats);
-  if (options_.correct_disparity_offset) {
-    stats.disparity_offset_corrected_px = static_cast<float>(rig_check_.disparityCorrectionPx());
-  }
+  correctDisparityOffset(&stats);
   stats.ms_total = msSince(start);
   frame->stats = stats;
   fillFrame(stamp, frame);
   return true;
+}
+
+void StereoTracker::correctDisparityOffset(TrackerFrameStats* stats) {
+  rig_check_.add(*stats);
+  if (!options_.correct_disparity_offset) return;
+  const double correction_px = rig_check_.disparityCorrectionPx();
+  if (correction_px != 0 && !correcting_) {
+    // Every published track goes on under a new id: the estimator made its landmark from
+    // disparities with the offset in, and starts the new id from the corrected ones.
+    for (Track& track : tracks_) {
+      if (!track.has_id) continue;
+      track.has_id = false;
+      track.age = options_.confirm_frames;
+      ++stats->ids_renewed;
+    }
+  }
+  correcting_ = correction_px != 0;
+  stats->disparity_offset_corrected_px = static_cast<float>(correction_px);
 }
 
 StereoTracker::TemporalStart StereoTracker::startTemporal(const cv::Mat& left,

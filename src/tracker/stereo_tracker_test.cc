@@ -428,6 +428,7 @@ TEST(StereoTracker, AfterASizeChangeTracksAsANewTracker) {
 // A rig whose right image lies `right_shift_px` right of where its calibration puts it (every
 // measured disparity that much too small), driven forward 20 pairs. Returns the last pair's
 // correction and the median error of its published disparities against the true ones (px).
+// Asserts that no id published before the correction started is published after it.
 std::pair<double, double> disparityErrorWithRightShift(double right_shift_px,
                                                        const TrackerOptions& options) {
   SlantedPlaneScene scene;
@@ -436,13 +437,24 @@ std::pair<double, double> disparityErrorWithRightShift(double right_shift_px,
   std::string why;
   const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, right_shift_px, 0, 1, 0);
   cv::Vec3d c;
+  std::set<uint32_t> ids_uncorrected;
+  int renewed = 0;
   for (int k = 0; k < 20; ++k) {
     c = positionAt(k);
     cv::Mat right;
     cv::warpAffine(scene.render(c, 0.5), right, shift, scene.size(), cv::INTER_LINEAR,
                    cv::BORDER_REFLECT);
     EXPECT_TRUE(tracker.process(scene.render(c, 0), right, 0.1 * k, nullptr, &frame, &why)) << why;
+    renewed += frame.stats.ids_renewed;
+    for (const TrackedFeature& f : frame.features) {
+      if (frame.stats.disparity_offset_corrected_px == 0) {
+        ids_uncorrected.insert(f.id);
+      } else {
+        EXPECT_EQ(ids_uncorrected.count(f.id), 0u) << "id " << f.id << " at pair " << k;
+      }
+    }
   }
+  EXPECT_EQ(renewed > 100, frame.stats.disparity_offset_corrected_px != 0) << renewed;
   std::vector<double> errors;
   for (const TrackedFeature& f : frame.features) {
     const double depth = scene.pointAt(c, f.left.x, f.left.y)[2] - c[2];
@@ -454,7 +466,8 @@ std::pair<double, double> disparityErrorWithRightShift(double right_shift_px,
 }
 
 // stereo/correct_disparity_offset: the rig check's offset, once beyond half a pixel, is taken out
-// of the published right columns; a rig that agrees with its calibration is left as it is.
+// of the published right columns, and the tracks go on under new ids; a rig that agrees with its
+// calibration is left as it is.
 TEST(StereoTracker, ARigsDisparityOffsetIsTakenOutOfThePublishedFeatures) {
   TrackerOptions options;
   const auto [correction, error] = disparityErrorWithRightShift(1.0, options);

@@ -286,7 +286,7 @@ bool writeStats(const std::string& path, const std::vector<StereoFrame>& frames,
          "exposure_gain_temporal,exposure_gain_stereo,stereo_converged,stereo_row_failed,"
          "stereo_negative_disparity,stereo_row_offset_px,predicted_from_first_matches,crowded,"
          "disparity_offset_px,disparity_offset_sigma_px,stereo_roll_deg,stereo_roll_sigma_deg,"
-         "stereo_roll_edge_px,disparity_offset_corrected_px\n";
+         "stereo_roll_edge_px,disparity_offset_corrected_px,ids_renewed\n";
   out.precision(10);
   for (size_t k = 0; k < frames.size(); ++k) {
     const TrackerFrameStats& s = frames[k].stats;
@@ -301,7 +301,7 @@ bool writeStats(const std::string& path, const std::vector<StereoFrame>& frames,
         << s.stereo_row_offset_px << "," << s.predicted_from_first_matches << "," << s.crowded
         << "," << s.disparity_offset_px << "," << s.disparity_offset_sigma_px << ","
         << s.stereo_roll_deg << "," << s.stereo_roll_sigma_deg << "," << s.stereo_roll_edge_px
-        << "," << s.disparity_offset_corrected_px << "\n";
+        << "," << s.disparity_offset_corrected_px << "," << s.ids_renewed << "\n";
   }
   if (!out) *error = path + ": cannot write";
   return static_cast<bool>(out);
@@ -344,10 +344,13 @@ void printSummary(const Arguments& args, const KittiSequence& sequence,
     const auto corrected = std::count_if(frames.begin(), frames.end(), [](const StereoFrame& f) {
       return f.stats.disparity_offset_corrected_px != 0;
     });
+    int renewed = 0;
+    for (const StereoFrame& f : frames) renewed += f.stats.ids_renewed;
     std::printf(
         "stereo rig: published right columns moved by the offset in %ld of %zu frames, by %.3f "
-        "px in the last (stereo/correct_disparity_offset)\n",
-        static_cast<long>(corrected), T, frames.back().stats.disparity_offset_corrected_px);
+        "px in the last (stereo/correct_disparity_offset); %d tracks went on under new ids\n",
+        static_cast<long>(corrected), T, frames.back().stats.disparity_offset_corrected_px,
+        renewed);
   }
   if (!sequence.world_T_cam.empty()) {
     std::vector<Eigen::Matrix4d> poses(sequence.world_T_cam.begin(),

@@ -40,7 +40,8 @@ class StereoTracker {
 
   /// The rig check over the last pairs tracked (stereo_rig_check.h). With
   /// stereo/correct_disparity_offset, its disparityCorrectionPx() is added to every published
-  /// right column (TrackerFrameStats::disparity_offset_corrected_px).
+  /// right column (TrackerFrameStats::disparity_offset_corrected_px), and in the pair where it
+  /// starts every published track goes on under a new id.
   const StereoRigCheck& rigCheck() const { return rig_check_; }
 
   const StereoCalibration& calibration() const { return calibration_; }
@@ -141,6 +142,9 @@ class StereoTracker {
                     const std::vector<cv::Mat>& right_pyramid,
                     const std::vector<cv::KeyPoint>* found, StereoMatchCounts* counts,
                     TrackerFrameStats* stats);
+  // Adds the pair to the rig check and, with stereo/correct_disparity_offset, sets the correction
+  // fillFrame applies; where it starts, the published tracks get new ids (ids_renewed).
+  void correctDisparityOffset(TrackerFrameStats* stats);
   cv::Point3f pointOf(const Track& track) const;
   void fillFrame(double stamp, StereoFrame* frame);
 
@@ -164,6 +168,7 @@ class StereoTracker {
   // klt/exposure_compensation: the map from the right image's intensities to the left's.
   IntensityMap stereo_exposure_;
   StereoRigCheck rig_check_;
+  bool correcting_ = false;  ///< the last pair's features were corrected
 };
 
 }  // namespace ekf_vislam

@@ -59,6 +59,8 @@ struct TrackerFrameStats {
   /// What the published right columns were moved by (px; the rig check's offset once it reads one
   /// beyond its warning level, stereo/correct_disparity_offset), 0 when not.
   float disparity_offset_corrected_px = 0;
+  /// Tracks that went on under a new id because the correction started in this pair.
+  int ids_renewed = 0;
   int detected = 0;               ///< new corners found
   int new_tracks = 0;             ///< of them, matched in the right image (new ids)
   int published = 0;              ///< features of the frame

@@ -395,7 +395,9 @@ void StereoTrackerRos::trackPair(const ImagePair& pair) {
     return;
   }
   if (!tracker_ || !sameRectifiedPair(stereo, stereo_)) {
-    tracker_ = std::make_unique<StereoTracker>(options_, stereo, masks_);  // (new) calibration
+    // A (new) calibration: the tracks restart, the ids go on (never used twice).
+    const uint32_t first_id = tracker_ ? tracker_->nextId() : 0;
+    tracker_ = std::make_unique<StereoTracker>(options_, stereo, masks_, first_id);
     stereo_ = stereo;
     prev_stamp_ = -1;
   }

@@ -154,11 +154,12 @@ void summarizeStereoMatches(StereoMatchCounts counts, const StereoCalibration& c
 }  // namespace
 
 StereoTracker::StereoTracker(const TrackerOptions& options, const StereoCalibration& calibration,
-                             StereoMasks masks)
+                             StereoMasks masks, uint32_t first_id)
     : options_(options),
       calibration_(calibration),
       masks_(std::move(masks)),
       detector_(options),
+      next_id_(first_id),
       rig_check_(options.row_tolerance_px, options.correct_disparity_offset) {}
 
 void StereoTracker::reset() {

@@ -425,6 +425,28 @@ TEST(StereoTracker, AfterASizeChangeTracksAsANewTracker) {
   }
 }
 
+// A tracker built to replace another (the node does so for a new calibration) starts its ids
+// where the other's would have gone on.
+TEST(StereoTracker, AReplacingTrackerContinuesTheIds) {
+  SlantedPlaneScene scene;
+  StereoTracker first(TrackerOptions(), scene.calibration());
+  StereoFrame frame;
+  std::string why;
+  uint32_t largest = 0;
+  for (int k = 0; k < 3; ++k) {
+    const cv::Vec3d c = positionAt(k);
+    ASSERT_TRUE(first.process(scene.render(c, 0), scene.render(c, 0.5), k, nullptr, &frame, &why));
+    for (const TrackedFeature& f : frame.features) largest = std::max(largest, f.id);
+  }
+  ASSERT_GT(frame.features.size(), 100u);
+  EXPECT_EQ(first.nextId(), largest + 1);
+  StereoTracker second(TrackerOptions(), scene.calibration(), StereoMasks(), first.nextId());
+  const cv::Vec3d c = positionAt(3);
+  ASSERT_TRUE(second.process(scene.render(c, 0), scene.render(c, 0.5), 3, nullptr, &frame, &why));
+  ASSERT_GT(frame.features.size(), 100u);
+  for (const TrackedFeature& f : frame.features) EXPECT_GT(f.id, largest);
+}
+
 // A rig whose right image lies `right_shift_px` right of where its calibration puts it (every
 // measured disparity that much too small), driven forward 20 pairs. Returns the last pair's
 // correction and the median error of its published disparities against the true ones (px).

@@ -23,9 +23,11 @@ namespace ekf_vislam {
 class StereoTracker {
  public:
   /// `options` must pass validate() and `calibration` must pass validate() (checked by the
-  /// callers); `masks` (loadStereoMasks) keep features off parts of the images.
+  /// callers); `masks` (loadStereoMasks) keep features off parts of the images. Ids start at
+  /// `first_id`: a tracker that replaces another (a new calibration) starts at its nextId(), so
+  /// that no id is used twice.
   StereoTracker(const TrackerOptions& options, const StereoCalibration& calibration,
-                StereoMasks masks = StereoMasks());
+                StereoMasks masks = StereoMasks(), uint32_t first_id = 0);
 
   /// Processes one rectified pair (8-bit single channel, same size, that of the masks) taken at
   /// `stamp` (s). `prior` (optional) predicts the KLT start points. On bad input returns false,
@@ -44,6 +46,8 @@ class StereoTracker {
   /// starts every published track goes on under a new id.
   const StereoRigCheck& rigCheck() const { return rig_check_; }
 
+  /// The id the next published track gets.
+  uint32_t nextId() const { return next_id_; }
   const StereoCalibration& calibration() const { return calibration_; }
   const TrackerOptions& options() const { return options_; }
 

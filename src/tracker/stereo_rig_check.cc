@@ -23,9 +23,13 @@ void StereoRigCheck::add(const TrackerFrameStats& stats) {
        roll_told ? stats.stereo_roll_deg : kNone, roll_told ? stats.stereo_roll_edge_px : kNone});
   if (pairs_.size() > static_cast<size_t>(kWindowPairs)) pairs_.pop_front();
   if (disparityOffsetPairs() < kMinOffsetPairs) return;  // the correction holds (a stop)
-  const double offset_px = medianDisparityOffsetPx();
-  correcting_ = correcting_ || std::abs(offset_px) > kOffsetHintPx;
-  if (correcting_) correction_px_ = offset_px;
+  correcting_ = correcting_ || offsetBeyondHint();
+  if (correcting_) correction_px_ = medianDisparityOffsetPx();
+}
+
+bool StereoRigCheck::offsetBeyondHint() const {
+  return disparityOffsetPairs() >= kMinOffsetPairs &&
+         std::abs(medianDisparityOffsetPx()) > kOffsetHintPx;
 }
 
 void StereoRigCheck::reset() {
@@ -102,9 +106,9 @@ std::string StereoRigCheck::hint() const {
                   100.0 * negativeDisparityFraction());
     return text;
   }
-  const double offset_px = medianDisparityOffsetPx();
-  const int offset_pairs = disparityOffsetPairs();
-  if (offset_pairs >= kMinOffsetPairs && std::abs(offset_px) > kOffsetHintPx) {
+  if (offsetBeyondHint()) {
+    const double offset_px = medianDisparityOffsetPx();
+    const int offset_pairs = disparityOffsetPairs();
     std::snprintf(
         text, sizeof(text),
         "the tracks' motion fits best with every measured disparity %.2f px %s the "

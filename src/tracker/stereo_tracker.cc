@@ -165,7 +165,6 @@ StereoTracker::StereoTracker(const TrackerOptions& options, const StereoCalibrat
 void StereoTracker::reset() {
   tracks_.clear();
   rig_check_.reset();
-  correcting_ = false;
   prev_left_pyramid_.clear();
   has_prev_ = false;
   has_last_motion_ = false;
@@ -313,10 +312,10 @@ bool StereoTracker::process(const cv::Mat& left, const cv::Mat& right, double st
 }
 
 void StereoTracker::correctDisparityOffset(TrackerFrameStats* stats) {
+  const bool was_correcting = rig_check_.correcting();
   rig_check_.add(*stats);
   if (!options_.correct_disparity_offset) return;
-  const double correction_px = rig_check_.disparityCorrectionPx();
-  if (correction_px != 0 && !correcting_) {
+  if (rig_check_.correcting() && !was_correcting) {
     // Every published track goes on under a new id: the estimator made its landmark from
     // disparities with the offset in, and starts the new id from the corrected ones.
     for (Track& track : tracks_) {
@@ -326,8 +325,7 @@ void StereoTracker::correctDisparityOffset(TrackerFrameStats* stats) {
       ++stats->ids_renewed;
     }
   }
-  correcting_ = correction_px != 0;
-  stats->disparity_offset_corrected_px = static_cast<float>(correction_px);
+  stats->disparity_offset_corrected_px = static_cast<float>(rig_check_.disparityCorrectionPx());
 }
 
 StereoTracker::TemporalStart StereoTracker::startTemporal(const cv::Mat& left,

@@ -44,6 +44,8 @@ class StereoRigCheck {
   /// on it is the median after every pair with kMinOffsetPairs fits held, and holds between
   /// (a stop gives no fit), so it neither switches on and off nor drops at a stop.
   double disparityCorrectionPx() const { return correction_px_; }
+  /// Whether that correction has started (and not been reset since).
+  bool correcting() const { return correcting_; }
   /// The median of the held pairs' roll of the right image against the left (degrees, positive
   /// clockwise as displayed), of those fitted within kMaxRollSigmaDeg; 0 without one. The median
   /// of the rows' difference it makes at the side edge farther from the principal point (px).
@@ -90,6 +92,9 @@ class StereoRigCheck {
   double medianOfFinite(float Pair::*figure) const;
   // How many held pairs have a finite figure.
   int countFinite(float Pair::*figure) const;
+  // At least kMinOffsetPairs offsets held, their median beyond kOffsetHintPx: the hint names the
+  // offset, and a correction starts.
+  bool offsetBeyondHint() const;
 
   double row_tolerance_px_;
   bool offset_corrected_;

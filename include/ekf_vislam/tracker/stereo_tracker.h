@@ -172,7 +172,6 @@ class StereoTracker {
   // klt/exposure_compensation: the map from the right image's intensities to the left's.
   IntensityMap stereo_exposure_;
   StereoRigCheck rig_check_;
-  bool correcting_ = false;  ///< the last pair's features were corrected
 };
 
 }  // namespace ekf_vislam

@@ -40,6 +40,9 @@ cv::Mat drawStereoTracks(const cv::Mat& left, const cv::Mat& right, const Stereo
   cv::Mat canvas;
   cv::vconcat(toBgr(left, masks.left), toBgr(right, masks.right), canvas);
   const cv::Point2f down(0.f, static_cast<float>(left.rows));
+  // The right match as measured in the image: the published column holds the rig's disparity
+  // correction (stereo/correct_disparity_offset).
+  const cv::Point2f corrected(frame.stats.disparity_offset_corrected_px, 0.f);
   for (const TrackedFeature& f : frame.features) {
     const cv::Scalar color = ageColor(f.age);
     for (size_t i = 0; i < f.trail.size(); ++i) {
@@ -47,8 +50,9 @@ cv::Mat drawStereoTracks(const cv::Mat& left, const cv::Mat& right, const Stereo
       cv::line(canvas, f.trail[i], next, color, 1, cv::LINE_AA);
     }
     cv::circle(canvas, f.left, 3, color, 1, cv::LINE_AA);
-    cv::line(canvas, f.left + down, f.right + down, cv::Scalar(0, 200, 255), 1, cv::LINE_AA);
-    cv::circle(canvas, f.right + down, 3, color, 1, cv::LINE_AA);
+    const cv::Point2f right_in_image = f.right - corrected + down;
+    cv::line(canvas, f.left + down, right_in_image, cv::Scalar(0, 200, 255), 1, cv::LINE_AA);
+    cv::circle(canvas, right_in_image, 3, color, 1, cv::LINE_AA);
   }
   char text[160];
   std::snprintf(text, sizeof(text),

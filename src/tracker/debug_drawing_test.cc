@@ -23,5 +23,20 @@ TEST(DebugDrawing, LeftAboveRightAndMaskedPixelsDimmed) {
             cv::Vec3b(210, 210, 210));
 }
 
+// The right match is drawn where the image has it, not moved by the rig's disparity correction.
+TEST(DebugDrawing, TheRightMatchIsDrawnWhereTheImageHasIt) {
+  const cv::Mat left(60, 80, CV_8UC1, cv::Scalar(90)), right(60, 80, CV_8UC1, cv::Scalar(90));
+  StereoFrame frame;
+  frame.stats.disparity_offset_corrected_px = -10.f;
+  TrackedFeature feature;
+  feature.left = cv::Point2f(40.f, 30.f);
+  feature.right = cv::Point2f(15.f, 30.f);  // published: measured at u = 25, moved by -10 px
+  frame.features.push_back(feature);
+  const cv::Mat canvas = drawStereoTracks(left, right, frame);
+  const cv::Vec3b gray(90, 90, 90);
+  EXPECT_NE(canvas.at<cv::Vec3b>(90, 22), gray);  // the circle about the measured match
+  EXPECT_EQ(canvas.at<cv::Vec3b>(90, 12), gray);  // none about the published column
+}
+
 }  // namespace
 }  // namespace ekf_vislam

@@ -22,14 +22,28 @@ void StereoRigCheck::add(const TrackerFrameStats& stats) {
        stats.stereo_row_offset_px, offset_told ? stats.disparity_offset_px : kNone,
        roll_told ? stats.stereo_roll_deg : kNone, roll_told ? stats.stereo_roll_edge_px : kNone});
   if (pairs_.size() > static_cast<size_t>(kWindowPairs)) pairs_.pop_front();
-  if (disparityOffsetPairs() < kMinOffsetPairs) return;  // the correction holds (a stop)
+  // The correction holds where no offset is fitted (a stop).
+  if (!offset_told || disparityOffsetPairs() < kMinEarlyOffsetPairs) return;
   correcting_ = correcting_ || offsetBeyondHint();
   if (correcting_) correction_px_ = medianDisparityOffsetPx();
 }
 
 bool StereoRigCheck::offsetBeyondHint() const {
-  return disparityOffsetPairs() >= kMinOffsetPairs &&
-         std::abs(medianDisparityOffsetPx()) > kOffsetHintPx;
+  const int fits = disparityOffsetPairs();
+  if (fits < kMinEarlyOffsetPairs) return false;
+  const double beyond_px = std::abs(medianDisparityOffsetPx()) - kOffsetHintPx;
+  if (fits >= kMinOffsetPairs) return beyond_px > 0;
+  // Fewer fits: beyond by kEarlyOffsetSigmas standard errors of their median (1.253 sigma /
+  // sqrt(n) for normal scatter), the scatter read from their median absolute deviation.
+  std::vector<float> deviations;
+  const double median_px = medianDisparityOffsetPx();
+  for (const Pair& pair : pairs_) {
+    if (std::isfinite(pair.disparity_offset_px)) {
+      deviations.push_back(static_cast<float>(std::abs(pair.disparity_offset_px - median_px)));
+    }
+  }
+  const double scatter_px = std::max(1.4826 * upperMedian(&deviations), kMinOffsetScatterPx);
+  return beyond_px > kEarlyOffsetSigmas * 1.253 * scatter_px / std::sqrt(fits);
 }
 
 void StereoRigCheck::reset() {

@@ -75,14 +75,13 @@ TrackerFrameStats offsetPair(float offset_px, float sigma_px) {
 
 TEST(StereoRigCheck, ADisparityOffsetAsksForTheRightCamerasCalibration) {
   StereoRigCheck check(1.0);
-  for (int k = 0; k < StereoRigCheck::kMinOffsetPairs - 1; ++k) {
-    check.add(offsetPair(k % 2 ? -1.1f : -1.2f, 0.04f));
-  }
+  check.add(offsetPair(-1.2f, 0.04f));
+  check.add(offsetPair(-1.1f, 0.04f));
   EXPECT_EQ(check.hint(), "");  // too few pairs yet
   check.add(offsetPair(-1.3f, 0.04f));
   EXPECT_NEAR(check.medianDisparityOffsetPx(), -1.2, 1e-6);
   const std::string hint = check.hint();
-  EXPECT_NE(hint.find("1.20 px below the true one (median over 10 pairs)"), std::string::npos)
+  EXPECT_NE(hint.find("1.20 px below the true one (median over 3 pairs)"), std::string::npos)
       << hint;
   EXPECT_NE(hint.find("too large"), std::string::npos) << hint;
   EXPECT_NE(hint.find("estimate_disparity_offset"), std::string::npos) << hint;
@@ -101,6 +100,33 @@ TEST(StereoRigCheck, OffsetsWithinHalfAPixelOrNotToldApartGiveNoHint) {
   for (int k = 0; k < 30; ++k) check.add(offsetPair(0.8f, 0.05f));
   EXPECT_NE(check.hint().find("0.80 px above"), std::string::npos) << check.hint();
   EXPECT_NE(check.hint().find("too small"), std::string::npos) << check.hint();
+}
+
+// Before kMinOffsetPairs fits, an offset counts only where it lies beyond half a pixel by two
+// standard errors of the fits' median, their scatter taken as at least 0.15 px.
+TEST(StereoRigCheck, FewFitsCountOnlyWellBeyondHalfAPixel) {
+  // The KITTI 01 clip's first three fits: the correction starts at the third.
+  StereoRigCheck clip(1.0, true);
+  clip.add(offsetPair(-0.752f, 0.042f));
+  clip.add(offsetPair(-0.868f, 0.039f));
+  EXPECT_FALSE(clip.correcting());
+  clip.add(offsetPair(-0.828f, 0.033f));
+  EXPECT_TRUE(clip.correcting());
+  EXPECT_NEAR(clip.disparityCorrectionPx(), -0.828, 1e-6);
+  // 0.6 px, as steady as can be: 2 x 1.253 x 0.15 / sqrt(9) = 0.125 px > 0.1 px beyond, so the
+  // tenth fit starts it.
+  StereoRigCheck marginal(1.0, true);
+  for (int k = 0; k < StereoRigCheck::kMinOffsetPairs - 1; ++k)
+    marginal.add(offsetPair(-0.6f, 0.04f));
+  EXPECT_FALSE(marginal.correcting());
+  EXPECT_EQ(marginal.hint(), "");
+  marginal.add(offsetPair(-0.6f, 0.04f));
+  EXPECT_NEAR(marginal.disparityCorrectionPx(), -0.6, 1e-6);
+  // Fits that scatter (median 0.9 px, deviations 0 / 0.7 / 0.7 px) wait for more.
+  StereoRigCheck scattered(1.0, true);
+  for (float offset_px : {-0.9f, -0.2f, -1.6f}) scattered.add(offsetPair(offset_px, 0.04f));
+  EXPECT_FALSE(scattered.correcting());
+  EXPECT_EQ(scattered.hint(), "");
 }
 
 // The correction the tracker applies (stereo/correct_disparity_offset): none within the hint's

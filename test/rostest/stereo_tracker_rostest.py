@@ -244,6 +244,62 @@ class StereoTrackerPipelineTest(NewestStatuses, unittest.TestCase):
         self.assertEqual(values['pairs_waiting'], '0')
         self.assertEqual(status.level, 2)  # ERROR: no pair tracked
 
+    def test_04c_new_calibration_continues_the_ids(self):
+        """The second tracker then gets a rectified camera_info pair and textured pairs, then
+        another calibration (fx 300 -> 310) and more pairs: the tracker built for the new
+        calibration numbers its tracks on from the first one's, never reusing an id."""
+        features = []
+        rospy.Subscriber('/nocalib/stereo/features', StereoFeatureArray, features.append,
+                         queue_size=100)
+        left = rospy.Publisher('/nocalib/stereo/left/image_rect', Image, queue_size=10)
+        right = rospy.Publisher('/nocalib/stereo/right/image_rect', Image, queue_size=10)
+        infos = [rospy.Publisher('/nocalib/stereo/%s/camera_info' % side, CameraInfo,
+                                 queue_size=1, latch=True) for side in ('left', 'right')]
+        rng = np.random.default_rng(7)
+        texture = rng.integers(0, 256, size=(196, 660)).astype(float)
+        texture = sum(np.roll(np.roll(texture, dy, 0), dx, 1)
+                      for dy in (-1, 0, 1) for dx in (-1, 0, 1)) / 9.0
+
+        def play(fx, first_stamp):
+            for side, publisher in zip(('left', 'right'), infos):
+                info = CameraInfo()
+                info.header.frame_id = 'camera_' + side
+                info.width, info.height = 640, 192
+                tx = -fx * 0.5 if side == 'right' else 0.0
+                info.P = [fx, 0.0, 320.0, tx, 0.0, fx, 96.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+                publisher.publish(info)
+            time.sleep(0.5)
+            for k in range(6):  # the scene moves 2 px left per pair, 8 px of disparity
+                for publisher, column in ((left, 2 * k), (right, 2 * k + 8)):
+                    msg = Image()
+                    msg.header.stamp = rospy.Time(first_stamp + 0.1 * k)
+                    msg.header.frame_id = 'camera_left'
+                    msg.width, msg.height, msg.encoding, msg.step = 640, 192, 'mono8', 640
+                    msg.data = texture[2:194, column:column + 640].astype(np.uint8).tobytes()
+                    publisher.publish(msg)
+                time.sleep(0.3)
+
+        wait_until(lambda: left.get_num_connections() > 0 and right.get_num_connections() > 0,
+                   10.0)
+        play(300.0, 6100.0)
+        wait_until(lambda: len(features) >= 4, 10.0)
+        first = list(features)
+        play(310.0, 6200.0)
+        wait_until(lambda: any(m.header.stamp.to_sec() > 6150.0 for m in features[len(first):]),
+                   10.0)
+        time.sleep(1.0)
+        second = [m for m in features if m.header.stamp.to_sec() > 6150.0]
+        ids_first = {f.id for m in first for f in m.features}
+        ids_second = {f.id for m in second for f in m.features}
+        log('new calibration: %d + %d feature messages, ids %s-%s then %s-%s' % (
+            len(first), len(second), min(ids_first, default=None), max(ids_first, default=None),
+            min(ids_second, default=None), max(ids_second, default=None)))
+        self.assertGreaterEqual(len(first), 4)
+        self.assertGreaterEqual(len(second), 4)
+        self.assertGreater(len(ids_first), 50)
+        self.assertGreater(len(ids_second), 50)
+        self.assertGreater(min(ids_second), max(ids_first))
+
     def test_05_bag_played_again_restarts_both(self):
         """Time goes back to the start of the drive (and from test_03's stamps): tracker and
         estimator each restart once and track the drive anew, new ids included. The twist comes

@@ -1,6 +1,7 @@
 // Debug picture of a tracked stereo frame: left image above the right one; tracks drawn with
 // their trails in the left image (colour by age), stereo matches in the right image as a line
-// from the left position to the right one (the disparity); masked pixels (image_mask.h) dimmed.
+// from the left position to the right one (the disparity as measured, without the rig's
+// disparity correction); masked pixels (image_mask.h) dimmed.
 // No ROS.
 #pragma once
 

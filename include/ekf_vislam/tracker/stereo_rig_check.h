@@ -38,11 +38,12 @@ class StereoRigCheck {
   double medianDisparityOffsetPx() const;
   int disparityOffsetPairs() const;
   /// What a tracker that corrects the offset moves the right columns by (px, added to u_right so
-  /// that u_left - u_right is the true disparity). 0 until the median offset, over at least
-  /// kMinOffsetPairs fits, lies beyond kOffsetHintPx (where the hint names it): rigs whose
-  /// images agree with their calibration read up to 0.4 px, and are left as they are. From then
-  /// on it is the median after every pair with kMinOffsetPairs fits held, and holds between
-  /// (a stop gives no fit), so it neither switches on and off nor drops at a stop.
+  /// that u_left - u_right is the true disparity). 0 until the median offset lies beyond
+  /// kOffsetHintPx (where the hint names it): over kMinOffsetPairs fits or more, or, from
+  /// kMinEarlyOffsetPairs fits on, by kEarlyOffsetSigmas standard errors of their median. Rigs
+  /// whose images agree with their calibration read up to 0.4 px, and are left as they are. From
+  /// then on it is the median after every fitted pair, and holds between (a stop gives no fit),
+  /// so it neither switches on and off nor drops at a stop.
   double disparityCorrectionPx() const { return correction_px_; }
   /// Whether that correction has started (and not been reset since).
   bool correcting() const { return correcting_; }
@@ -56,8 +57,8 @@ class StereoRigCheck {
 
   /// What to check, or "" when the rig looks right or too few matches are held
   /// (kMinMatches): more than half of the matches off their row, or more than half of those on
-  /// their row with negative disparity; else, with at least kMinOffsetPairs offsets held, a
-  /// median disparity offset beyond kOffsetHintPx; else, with at least kMinRollPairs rolls held,
+  /// their row with negative disparity; else a median disparity offset beyond kOffsetHintPx
+  /// (over how many fits: disparityCorrectionPx); else, with at least kMinRollPairs rolls held,
   /// a roll that moves the rows at the side edge more than kRollHintFraction of the row
   /// tolerance apart.
   std::string hint() const;
@@ -66,6 +67,13 @@ class StereoRigCheck {
   static constexpr int kMinMatches = 200;
   static constexpr double kMaxOffsetSigmaPx = 0.2;
   static constexpr int kMinOffsetPairs = 10;
+  /// Before kMinOffsetPairs fits: from this many on, an offset beyond kOffsetHintPx by
+  /// kEarlyOffsetSigmas standard errors of the fits' median counts, their scatter taken as at
+  /// least kMinOffsetScatterPx (real rigs' fits scatter by 0.10-0.36 px from pair to pair, more
+  /// than each fit's own sigma says; a few can agree closer by chance).
+  static constexpr int kMinEarlyOffsetPairs = 3;
+  static constexpr double kEarlyOffsetSigmas = 2.0;
+  static constexpr double kMinOffsetScatterPx = 0.15;
   /// Half a pixel: 5 % of the depth at 10 px of disparity (39 m on KITTI's rig). Rigs whose
   /// images agree with their calibration read 0.4 px at most (doc/tracker.md).
   static constexpr double kOffsetHintPx = 0.5;
@@ -92,7 +100,7 @@ class StereoRigCheck {
   double medianOfFinite(float Pair::*figure) const;
   // How many held pairs have a finite figure.
   int countFinite(float Pair::*figure) const;
-  // At least kMinOffsetPairs offsets held, their median beyond kOffsetHintPx: the hint names the
+  // The offsets held lie beyond kOffsetHintPx (disparityCorrectionPx): the hint names the
   // offset, and a correction starts.
   bool offsetBeyondHint() const;
 

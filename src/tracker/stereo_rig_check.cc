@@ -29,20 +29,16 @@ void StereoRigCheck::add(const TrackerFrameStats& stats) {
 }
 
 bool StereoRigCheck::offsetBeyondHint() const {
-  const int fits = disparityOffsetPairs();
+  std::vector<float> offsets = finiteValues(&Pair::disparity_offset_px);
+  const int fits = static_cast<int>(offsets.size());
   if (fits < kMinEarlyOffsetPairs) return false;
-  const double beyond_px = std::abs(medianDisparityOffsetPx()) - kOffsetHintPx;
+  const double median_px = upperMedian(&offsets);
+  const double beyond_px = std::abs(median_px) - kOffsetHintPx;
   if (fits >= kMinOffsetPairs) return beyond_px > 0;
   // Fewer fits: beyond by kEarlyOffsetSigmas standard errors of their median (1.253 sigma /
   // sqrt(n) for normal scatter), the scatter read from their median absolute deviation.
-  std::vector<float> deviations;
-  const double median_px = medianDisparityOffsetPx();
-  for (const Pair& pair : pairs_) {
-    if (std::isfinite(pair.disparity_offset_px)) {
-      deviations.push_back(static_cast<float>(std::abs(pair.disparity_offset_px - median_px)));
-    }
-  }
-  const double scatter_px = std::max(1.4826 * upperMedian(&deviations), kMinOffsetScatterPx);
+  for (float& offset : offsets) offset = static_cast<float>(std::abs(offset - median_px));
+  const double scatter_px = std::max(1.4826 * upperMedian(&offsets), kMinOffsetScatterPx);
   return beyond_px > kEarlyOffsetSigmas * 1.253 * scatter_px / std::sqrt(fits);
 }
 
@@ -74,11 +70,16 @@ double StereoRigCheck::negativeDisparityFraction() const {
   return on_row > 0 ? static_cast<double>(negative) / on_row : 0.0;
 }
 
-double StereoRigCheck::medianOfFinite(float Pair::*figure) const {
+std::vector<float> StereoRigCheck::finiteValues(float Pair::*figure) const {
   std::vector<float> values;
   for (const Pair& pair : pairs_) {
     if (std::isfinite(pair.*figure)) values.push_back(pair.*figure);
   }
+  return values;
+}
+
+double StereoRigCheck::medianOfFinite(float Pair::*figure) const {
+  std::vector<float> values = finiteValues(figure);
   return values.empty() ? 0.0 : upperMedian(&values);
 }
 

@@ -12,8 +12,8 @@ of the figures measured (doc/tracker.md, End to end):
 - 06 whole: SLAM 0.0200 m below dead reckoning 0.0236 m. Its NEES (31.94) comes from the ground
   truth's first second, 0.09-0.17 degrees of yaw per frame away from the images, and is not
   asserted."""
+import json
 import os
-import re
 import subprocess
 import unittest
 
@@ -21,17 +21,17 @@ import ekf_test_paths as paths
 
 
 def run_end_to_end(testcase, folder, *args):
-    """{'slam': (ate_m, nees), 'deadreckoning': (ate_m, nees)} of one images_end_to_end.sh run."""
+    """{'slam': (ate_m, nees), 'deadreckoning': (ate_m, nees)} of one images_end_to_end.sh run,
+    from the metrics.json evaluate.py writes."""
     out = paths.make_temp_dir(testcase)
     proc = subprocess.run(['bash', os.path.join(paths.SCRIPTS_DIR, 'images_end_to_end.sh'), folder,
                            '--seed', '0', '--out', out] + list(args), stdout=subprocess.PIPE,
                           stderr=subprocess.PIPE, universal_newlines=True, timeout=600)
     testcase.assertEqual(proc.returncode, 0, proc.stderr[-2000:])
-    figures = {}
-    for mode, ate, nees in re.findall(
-            r'^(slam|deadreckoning)\s+ATE ([0-9.]+) m, RPE \S+ %, position NEES ([0-9.]+)',
-            proc.stdout, re.M):
-        figures[mode] = (float(ate), float(nees))
+    with open(os.path.join(out, 'eval', 'metrics.json')) as f:
+        estimates = json.load(f)['estimates']
+    figures = {mode: (m['ate_rmse_m'], m['nees_position']['mean'])
+               for mode, m in estimates.items()}
     print('%s %s: %s' % (os.path.basename(folder), ' '.join(args), figures))
     testcase.assertEqual(set(figures), {'slam', 'deadreckoning'}, proc.stdout)
     return figures

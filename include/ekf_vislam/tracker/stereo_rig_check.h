@@ -11,6 +11,7 @@
 
 #include <deque>
 #include <string>
+#include <vector>
 
 namespace ekf_vislam {
 
@@ -98,6 +99,8 @@ class StereoRigCheck {
   };
   // The upper median of one of the held pairs' figures, NaN ones left out; 0 without any.
   double medianOfFinite(float Pair::*figure) const;
+  // One of the held pairs' figures, NaN ones left out, in the pairs' order.
+  std::vector<float> finiteValues(float Pair::*figure) const;
   // How many held pairs have a finite figure.
   int countFinite(float Pair::*figure) const;
   // The offsets held lie beyond kOffsetHintPx (disparityCorrectionPx): the hint names the

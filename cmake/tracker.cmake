@@ -77,7 +77,8 @@ if(CATKIN_ENABLE_TESTING)
 endif()
 
 # ROS layer of the tracker (thin: messages in and out).
-add_library(ekf_vislam_tracker_ros src/ros/stereo_tracker_ros.cc src/ros/gray_image.cc)
+add_library(ekf_vislam_tracker_ros src/ros/stereo_tracker_ros.cc src/ros/gray_image.cc
+  src/ros/feature_message.cc)
 target_include_directories(ekf_vislam_tracker_ros SYSTEM PUBLIC
   ${cv_bridge_INCLUDE_DIRS} ${image_transport_INCLUDE_DIRS} ${message_filters_INCLUDE_DIRS})
 target_link_libraries(ekf_vislam_tracker_ros ekf_vislam_tracker ekf_vislam_ros
@@ -91,17 +92,23 @@ target_link_libraries(ekf_vislam_tracker_nodelet ekf_vislam_tracker_ros)
 add_executable(stereo_tracker_node src/ros/stereo_tracker_node.cc)
 target_link_libraries(stereo_tracker_node ekf_vislam_tracker_ros)
 
+# The tracker over a recorded bag (no roscore): a bag of its features for vislam_offline.
+add_executable(track_stereo_bag src/ros/track_stereo_bag.cc)
+target_link_libraries(track_stereo_bag ekf_vislam_tracker_ros)
+
 if(CATKIN_ENABLE_TESTING)
   catkin_add_gtest(ekf_vislam_tracker_ros_test src/core/gtest_main.cc src/ros/gray_image_test.cc)
   target_link_libraries(ekf_vislam_tracker_ros_test ekf_vislam_tracker_ros)
 endif()
 
 install(TARGETS ekf_vislam_tracker_ros ekf_vislam_tracker_nodelet stereo_tracker_node
+  track_stereo_bag
   ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 install(PROGRAMS scripts/play_stereo_images.py scripts/render_stereo_drive.py
   DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 if(TARGET tests)
-  add_dependencies(tests ekf_vislam_tracker_nodelet stereo_tracker_node track_stereo_images)
+  add_dependencies(tests ekf_vislam_tracker_nodelet stereo_tracker_node track_stereo_images
+    track_stereo_bag)
 endif()

@@ -5,8 +5,9 @@
 # connected) into launch/stereo_vislam.launch (one nodelet manager), and the features, twist and
 # odometry are recorded. Prints the machine, the pairs received, tracked and dropped, the frames the
 # estimator used, its update time and latency (diagnostics), the time the estimator finished
-# after the last pair, and whether vislam_offline on the recorded features reproduces the live
-# trajectory bit for bit (live = offline).
+# after the last pair, whether vislam_offline on the recorded features reproduces the live
+# trajectory bit for bit (live = offline), and whether track_stereo_bag on the images reproduces
+# the live tracker's features bit for bit.
 #   scripts/benchmark_live.sh FOLDER [--poses FILE] [--rate R] [--config estimator.yaml]
 #                             [--tracker-config tracker.yaml] [--standalone] [--out DIR]
 # --standalone: the two nodes (stereo_tracker_node, vislam_node) instead of one nodelet manager.
@@ -107,6 +108,10 @@ TOOL=$(catkin_find --first-only --libexec ekf_vislam)/vislam_offline
 OFFLINE_ARGS=(--bag "${OUT}/live.bag" --mode slam --out "${OUT}/offline")
 [[ -n "${CONFIG}" ]] && OFFLINE_ARGS+=(--config "${CONFIG}")
 "${TOOL}" "${OFFLINE_ARGS[@]}" >"${OUT}/offline.log" 2>&1
+# The tracker offline on the same images (track_stereo_bag), against the features it published.
+BAG_ARGS=(--bag "${OUT}/images.bag" --out "${OUT}/tracked.bag")
+[[ -n "${TRACKER_CONFIG}" ]] && BAG_ARGS+=(--config "${TRACKER_CONFIG}")
+"$(dirname "${TOOL}")/track_stereo_bag" "${BAG_ARGS[@]}" >"${OUT}/track_bag.log" 2>&1
 /usr/bin/python3 - "${OUT}" "${RATE}" "${PLAY_END}" <<'PY'
 import json, sys
 import numpy as np
@@ -141,4 +146,18 @@ print('estimator: frames used %s of %s, update ms p99 %s, latency ms p50 %.2f, p
          stats['peak_active_landmarks'], float(done_end) - play_end, outputs))
 print('live = offline (vislam_offline on the recorded features): %s (%d poses, max |difference| %g)'
       % ('yes, bit for bit' if same else 'NO', len(live), diff))
+
+
+def features(path):
+    with rosbag.Bag(path) as bag:
+        return [(m.header.stamp.to_nsec(), [(f.id, f.u_left, f.v_left, f.u_right, f.v_right)
+                                            for f in m.features])
+                for _, m, _ in bag.read_messages(topics=['/stereo/features'])]
+
+
+live_features, bag_features = features(out + '/live.bag'), features(out + '/tracked.bag')
+differ = sum(a != b for a, b in zip(live_features, bag_features))
+print('live tracker = track_stereo_bag on the images: %s (%d and %d feature messages, %d differ)'
+      % ('yes, bit for bit' if live_features == bag_features else 'NO', len(live_features),
+         len(bag_features), differ))
 PY

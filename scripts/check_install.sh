@@ -4,8 +4,8 @@
 # who installed it would:
 #   - the installed tools on a simulated drive: simulate_dataset.py, dataset_to_bag.py,
 #     vislam_offline (its config/default.yaml found in the install space), evaluate.py,
-#     make_variant.py, track_stereo_images; the trajectory must equal the devel space's bit for
-#     bit;
+#     make_variant.py, track_stereo_images, track_stereo_bag; the trajectory must equal the devel
+#     space's bit for bit;
 #   - each launch file against a roscore: its nodes up, every nodelet loaded.
 # Prints one line per check and "check_install: N checks passed"; exits 1 at the first failure.
 #   scripts/check_install.sh        (after scripts/setup.sh)
@@ -79,7 +79,8 @@ step evaluate.py rosrun ekf_vislam evaluate.py --estimate run_installed/trajecto
 step make_variant.py rosrun ekf_vislam make_variant.py sim.npz --groundtruth sim_groundtruth.tum \
   --twist accurate --keep-fraction 0.5 --out variant.npz
 step track_stereo_images rosrun ekf_vislam track_stereo_images --help
-pass "evaluate.py, make_variant.py, track_stereo_images"
+step track_stereo_bag rosrun ekf_vislam track_stereo_bag --help
+pass "evaluate.py, make_variant.py, track_stereo_images, track_stereo_bag"
 
 # Background runs ignore SIGINT: they are stopped with SIGTERM, which roslaunch handles too.
 setsid "${INSTALLED[@]}" roscore -p "${PORT}" > "${TMP}/roscore.log" 2>&1 &

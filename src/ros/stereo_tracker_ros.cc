@@ -2,6 +2,7 @@
 
 #include "ekf_vislam/core/late_stream_wait.h"
 #include "ekf_vislam/ros/conversions.h"
+#include "ekf_vislam/ros/feature_message.h"
 #include "ekf_vislam/ros/gray_image.h"
 #include "ekf_vislam/ros/ros_parameter_source.h"
 #include "ekf_vislam/tracker/debug_drawing.h"
@@ -21,7 +22,6 @@ namespace ekf_vislam {
 namespace {
 
 constexpr double kWarnPeriod = 5.0;          // s, throttle of the bad-input warnings
-constexpr double kTwistHistory = 5.0;        // s of twists kept for the motion prior
 constexpr double kCameraInfoPatience = 1.0;  // s of image time pairs wait before a warning
 // Feature messages a subscriber in another process (the estimator run standalone, a recorder)
 // may fall behind before the oldest is dropped: minutes of a camera's rate, a few kB each.
@@ -177,15 +177,10 @@ void StereoTrackerRos::addTwist(const ros::Time& ros_stamp, const geometry_msgs:
 void StereoTrackerRos::receiveTwist(const ros::Time& ros_stamp, const geometry_msgs::Twist& t,
                                     const std::string& frame) {
   restartIfTimeJumped(1, ros_stamp);
-  const double stamp = ros_stamp.toSec();
-  if (!twists_.empty() && stamp <= twists_.back().stamp) return;
-  twists_.push_back({stamp, Eigen::Vector3d(t.linear.x, t.linear.y, t.linear.z),
-                     Eigen::Vector3d(t.angular.x, t.angular.y, t.angular.z)});
+  const StampedTwist sample{ros_stamp.toSec(), Eigen::Vector3d(t.linear.x, t.linear.y, t.linear.z),
+                            Eigen::Vector3d(t.angular.x, t.angular.y, t.angular.z)};
+  if (!keepTwist(sample, prev_stamp_, &twists_)) return;
   twist_frame_ = frame;
-  // Keep what the oldest waiting pair and the last tracked one may still need.
-  double keep_from = stamp - kTwistHistory;
-  if (prev_stamp_ > 0) keep_from = std::min(keep_from, prev_stamp_);
-  while (twists_.size() > 2 && twists_[1].stamp < keep_from) twists_.pop_front();
   processReadyPairs();
 }
 
@@ -424,20 +419,8 @@ void StereoTrackerRos::trackPair(const ImagePair& pair) {
 
 void StereoTrackerRos::publish(const sensor_msgs::Image& left_msg, const cv::Mat& left,
                                const cv::Mat& right, const StereoFrame& frame) {
-  ekf_vislam::StereoFeatureArrayPtr msg = boost::make_shared<ekf_vislam::StereoFeatureArray>();
-  msg->header = left_msg.header;
-  if (msg->header.frame_id.empty() && left_info_)
-    msg->header.frame_id = left_info_->header.frame_id;
-  msg->features.resize(frame.features.size());
-  for (size_t i = 0; i < frame.features.size(); ++i) {
-    const TrackedFeature& f = frame.features[i];
-    ekf_vislam::StereoFeature& out = msg->features[i];
-    out.id = f.id;
-    out.u_left = f.left.x;
-    out.v_left = f.left.y;
-    out.u_right = f.right.x;
-    out.v_right = f.right.y;
-  }
+  ekf_vislam::StereoFeatureArrayPtr msg = boost::make_shared<ekf_vislam::StereoFeatureArray>(
+      featureMessage(left_msg.header, left_info_ ? left_info_->header.frame_id : "", frame));
   features_pub_.publish(msg);  // shared pointer: no copy inside a nodelet manager
   if (debug_pub_.getNumSubscribers() > 0) {
     cv_bridge::CvImage debug(left_msg.header, sensor_msgs::image_encodings::BGR8,

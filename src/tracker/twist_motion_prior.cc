@@ -6,6 +6,20 @@
 
 namespace ekf_vislam {
 
+namespace {
+constexpr double kTwistHistory = 5.0;  // s of twists kept besides those since the last pair
+}  // namespace
+
+bool keepTwist(const StampedTwist& sample, double last_tracked_stamp,
+               std::deque<StampedTwist>* twists) {
+  if (!twists->empty() && sample.stamp <= twists->back().stamp) return false;
+  twists->push_back(sample);
+  double keep_from = sample.stamp - kTwistHistory;
+  if (last_tracked_stamp > 0) keep_from = std::min(keep_from, last_tracked_stamp);
+  while (twists->size() > 2 && (*twists)[1].stamp < keep_from) twists->pop_front();
+  return true;
+}
+
 std::optional<CameraMotionPrior> motionPriorFromTwists(const std::deque<StampedTwist>& twists,
                                                        const Eigen::Matrix4d& cam_T_imu,
                                                        double from, double to) {

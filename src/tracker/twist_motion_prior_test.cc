@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -76,6 +77,33 @@ TEST(TwistMotionPrior, NoPriorWithoutTwistsToTheImage) {
   EXPECT_FALSE(motionPriorFromTwists({}, cam_T_imu, 0.0, 0.1).has_value());
   EXPECT_FALSE(motionPriorFromTwists(drive.twists, cam_T_imu, 0.5, 0.5).has_value());
   EXPECT_FALSE(motionPriorFromTwists(drive.twists, cam_T_imu, 1.85, 1.95).has_value());
+}
+
+TEST(TwistMotionPrior, KeptTwistsStillGiveThePriorFromTheLastPair) {
+  // 10 s of twists at 10 Hz, turning and speeding up.
+  std::deque<StampedTwist> all;
+  for (int k = 1; k <= 100; ++k) {
+    const double t = 0.1 * k;
+    all.push_back({t, Eigen::Vector3d(5.0 + t, 0.1, 0.0), Eigen::Vector3d(0.0, 0.01, 0.1 * t)});
+  }
+  const Eigen::Matrix4d cam_T_imu = forwardLeftUpCamTImu();
+  for (const double last_pair : {2.05, 7.05}) {
+    std::deque<StampedTwist> kept;
+    for (const StampedTwist& twist : all) EXPECT_TRUE(keepTwist(twist, last_pair, &kept));
+    EXPECT_FALSE(keepTwist(all[50], last_pair, &kept));  // not newer: not kept
+    // Gone: what lies before both the last pair and the last 5 s (to 5.0 s), but for the twist
+    // whose interval holds that time.
+    const double keep_from = std::min(last_pair, 5.0);
+    ASSERT_GE(kept.size(), 2u);
+    EXPECT_LT(kept.front().stamp, keep_from);
+    EXPECT_GE(kept[1].stamp, keep_from);
+    EXPECT_LT(kept.size(), all.size());
+    const auto from_kept = motionPriorFromTwists(kept, cam_T_imu, last_pair, 9.95);
+    const auto from_all = motionPriorFromTwists(all, cam_T_imu, last_pair, 9.95);
+    ASSERT_TRUE(from_kept.has_value() && from_all.has_value());
+    EXPECT_EQ(from_kept->cur_t_prev, from_all->cur_t_prev);
+    EXPECT_EQ(from_kept->cur_R_prev, from_all->cur_R_prev);
+  }
 }
 
 }  // namespace

@@ -2,8 +2,9 @@
 """rostest of the stereo front end (see stereo_tracker.test): renders a short synthetic stereo
 drive (render_stereo_drive.py), writes it as a bag of images, camera_info, twist and ground truth
 (play_stereo_images.py --bag), plays it into launch/stereo_vislam.launch and checks the tracker's
-features (count, stamps, frame, persistent ids, positive disparity, same rows), the estimator's
-odometry against the ground truth, then bad input in the tracker's diagnostics."""
+features (count, stamps, frame, persistent ids, positive disparity, same rows), that
+track_stereo_bag over the same bag gives them bit for bit, the estimator's odometry against the
+ground truth, then bad input in the tracker's diagnostics."""
 import os
 import shutil
 import sys
@@ -13,6 +14,7 @@ import time
 import unittest
 
 import numpy as np
+import rosbag
 import rospy
 import rostest
 from nav_msgs.msg import Odometry
@@ -21,7 +23,7 @@ from sensor_msgs.msg import CameraInfo, Image
 from ekf_vislam.msg import StereoFeatureArray
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import (DelayedRelay, NewestStatuses, log, rendered_drive_bag,  # noqa: E402
+from vislam_rostest import (DelayedRelay, NewestStatuses, log, rendered_drive_bag, run,  # noqa: E402
                             stereo_inputs_required)
 
 from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
@@ -142,6 +144,33 @@ class StereoTrackerPipelineTest(NewestStatuses, unittest.TestCase):
         self.assertGreater(sum(round(f.v_left) >= MASKED_FROM_ROW for f in unmasked), 1000)
         self.assertGreater(len(rows), 0.4 * len(unmasked))
         self.assertEqual(int(np.sum(np.round(rows) >= MASKED_FROM_ROW)), 0)
+
+    def test_01c_bag_tool_gives_the_live_features_and_odometry(self):
+        # track_stereo_bag over the bag just played: the live tracker's features, bit for bit,
+        # and vislam_offline on its output bag a trajectory to the ground truth.
+        tracked = os.path.join(self.tmp, 'tracked.bag')
+        log(run(['rosrun', PKG, 'track_stereo_bag', '--bag', self.bag, '--out', tracked]).strip())
+
+        def content(msg):
+            return (msg.header.stamp.to_nsec(), msg.header.frame_id,
+                    [(f.id, f.u_left, f.v_left, f.u_right, f.v_right) for f in msg.features])
+        live = [content(m) for m in list(self.features)[:FRAMES]]
+        with rosbag.Bag(tracked) as bag:
+            offline = [content(m) for _, m, _ in bag.read_messages(['/stereo/features'])]
+            self.assertEqual(bag.get_message_count('/stereo/left/image_rect'), 0)
+            self.assertEqual(bag.get_message_count('/imu/twist'), FRAMES)
+        self.assertEqual(len(offline), FRAMES)
+        for k, (a, b) in enumerate(zip(live, offline)):
+            self.assertEqual(a, b, 'pair %d differs' % k)
+        out = os.path.join(self.tmp, 'offline')
+        run(['rosrun', PKG, 'vislam_offline', '--bag', tracked, '--out', out])
+        trajectory = np.loadtxt(os.path.join(out, 'trajectory.tum'))
+        self.assertEqual(trajectory.shape[0], FRAMES)
+        truth = {m.header.stamp.to_nsec(): m.pose.pose.position for m in self.groundtruth}
+        last = truth[live[-1][0]]
+        error = np.linalg.norm(trajectory[-1, 1:4] - [last.x, last.y, last.z])
+        log('track_stereo_bag + vislam_offline: final position error %.3f m' % error)
+        self.assertLess(error, FINAL_ERROR_TOLERANCE_M)
 
     def test_02_odometry(self):
         self.assertGreaterEqual(len(self.odometry), FRAMES - 2)

@@ -20,6 +20,12 @@ struct StampedTwist {
   Eigen::Vector3d w = Eigen::Vector3d::Zero();
 };
 
+/// Appends `sample` when it is newer than the last twist (false otherwise: not kept), then drops
+/// the twists no prior will need: those before both `last_tracked_stamp` (the last tracked pair's
+/// stamp, <= 0 before the first) and the last 5 s. The nodelet and track_stereo_bag keep them so.
+bool keepTwist(const StampedTwist& sample, double last_tracked_stamp,
+               std::deque<StampedTwist>* twists);
+
 /// The motion of the left camera from `from` to `to` (s): the twists (stamp order) integrated on
 /// SE(3) over the interval, each over the part of it that it drives, then moved into the camera
 /// frame with cam_T_imu (the twist's frame to the left camera). Empty when the twists do not

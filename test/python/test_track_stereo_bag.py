@@ -1,0 +1,168 @@
+"""track_stereo_bag on a small rendered drive written as a bag (play_stereo_images.py --bag): its
+features bag carries every message but the images, one feature message per pair, and
+vislam_offline takes it; a bag with bad pairs (an encoding the tracker does not take, sizes that
+differ, a right image 50 ms late) has them refused and counted, the other pairs tracked as in the
+clean bag up to the first fault; a bag played twice restarts the tracks (ids going on) and tracks
+its second pass as its first; a bag without camera_info fails with a message saying so. The
+live tracker's features are the same bit for bit: the rostest stereo_tracker.test."""
+import os
+import re
+import subprocess
+import unittest
+
+import numpy as np
+import rosbag
+import rospy
+
+import ekf_test_paths as paths
+from test_track_stereo_images import tool
+
+FRAMES = 20
+LEFT, RIGHT = '/stereo/left/image_rect', '/stereo/right/image_rect'
+FEATURES = '/stereo/features'
+BAD_ENCODING_PAIR, SMALL_RIGHT_PAIR, LATE_RIGHT_PAIR = 6, 9, 12
+
+
+def track(bag, out, *extra):
+    """Runs track_stereo_bag; its return code, stdout and stderr."""
+    result = subprocess.run([tool('track_stereo_bag'), '--bag', bag, '--out', out] + list(extra),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            universal_newlines=True)
+    return result.returncode, result.stdout, result.stderr
+
+
+def counts(report):
+    """The numbers of track_stereo_bag's summary line."""
+    m = re.search(r'(\d+) left and (\d+) right images, (\d+) without a partner; (\d+) pairs '
+                  r'tracked \((\d+) predicted from the twist\), (\d+) refused, (\d+) dropped '
+                  r'without camera_info, (\d+) restarts', report)
+    keys = ('left', 'right', 'unpaired', 'tracked', 'predicted', 'refused', 'no_camera_info',
+            'restarts')
+    return dict(zip(keys, map(int, m.groups())))
+
+
+def features(bag_path):
+    """Per feature message: stamp (ns) and the (id, u_left, v_left, u_right, v_right) rows."""
+    with rosbag.Bag(bag_path) as bag:
+        return [(m.header.stamp.to_nsec(), [(f.id, f.u_left, f.v_left, f.u_right, f.v_right)
+                                            for f in m.features])
+                for _, m, _ in bag.read_messages([FEATURES])]
+
+
+def write_faulty_bag(clean, faulty):
+    """The clean bag with three bad pairs, counted by pair index on the left topic."""
+    seen = {LEFT: -1, RIGHT: -1}
+    with rosbag.Bag(clean) as src, rosbag.Bag(faulty, 'w') as dst:
+        for topic, msg, t in src.read_messages():
+            if topic in seen:
+                seen[topic] += 1
+                k = seen[topic]
+                if k == BAD_ENCODING_PAIR and topic == LEFT:
+                    msg.encoding = '32FC1'
+                    msg.step *= 4
+                    msg.data = bytes(len(msg.data) * 4)
+                elif k == SMALL_RIGHT_PAIR and topic == RIGHT:
+                    msg.height -= 2
+                    msg.data = msg.data[:msg.step * msg.height]
+                elif k == LATE_RIGHT_PAIR and topic == RIGHT:
+                    msg.header.stamp += rospy.Duration(0.05)
+            dst.write(topic, msg, t)
+
+
+class TrackStereoBagTest(unittest.TestCase):
+
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = paths.make_temp_dir(prefix='ekf_vislam_track_bag_test_')
+        folder = os.path.join(cls.tmp, 'drive')
+        result = paths.run_script('render_stereo_drive.py', folder, '--frames', str(FRAMES))
+        assert result.returncode == 0, result.stderr
+        cls.bag = os.path.join(cls.tmp, 'drive.bag')
+        result = paths.run_script('play_stereo_images.py', folder, '--bag', cls.bag)
+        assert result.returncode == 0, result.stderr
+        cls.tracked = os.path.join(cls.tmp, 'tracked.bag')
+        cls.rc, cls.report, cls.errors = track(cls.bag, cls.tracked)
+
+    @classmethod
+    def tearDownClass(cls):
+        paths.remove_dir(cls.tmp)
+
+    def test_every_pair_is_tracked_into_a_bag_vislam_offline_takes(self):
+        self.assertEqual(self.rc, 0, self.errors)
+        c = counts(self.report)
+        self.assertEqual((c['left'], c['right'], c['tracked'], c['refused']),
+                         (FRAMES, FRAMES, FRAMES, 0), self.report)
+        self.assertEqual(c['predicted'], FRAMES - 1)  # all but the first, from the twist
+        with rosbag.Bag(self.bag) as src, rosbag.Bag(self.tracked) as out:
+            topics = src.get_type_and_topic_info()[1]
+            for topic in topics:
+                expected = 0 if topic in (LEFT, RIGHT) else src.get_message_count(topic)
+                self.assertEqual(out.get_message_count(topic), expected, topic)
+        tracked = features(self.tracked)
+        self.assertEqual(len(tracked), FRAMES)
+        rows = np.array([row for _, rows in tracked for row in rows])
+        self.assertTrue(np.all(np.isfinite(rows)))
+        self.assertGreater(rows.shape[0], 100 * FRAMES)
+        self.assertTrue(np.all(rows[:, 1] - rows[:, 3] > 0))  # positive disparity
+        out = os.path.join(self.tmp, 'slam')
+        result = paths.run_vislam_offline(self.tracked, out)
+        self.assertEqual(result.returncode, 0, result.stderr)
+        self.assertEqual(np.loadtxt(os.path.join(out, 'trajectory.tum')).shape[0], FRAMES)
+
+    def test_bad_pairs_are_refused_and_counted(self):
+        faulty = os.path.join(self.tmp, 'faulty.bag')
+        write_faulty_bag(self.bag, faulty)
+        out = os.path.join(self.tmp, 'faulty_tracked.bag')
+        rc, report, errors = track(faulty, out)
+        self.assertEqual(rc, 0, errors)
+        c = counts(report)
+        # The late right image and the left it should have gone with have no partner.
+        self.assertEqual((c['tracked'], c['refused'], c['unpaired']), (FRAMES - 3, 2, 2), report)
+        self.assertIn('encoding', errors)
+        self.assertIn('size', errors)
+        clean, bad = features(self.tracked), features(out)
+        self.assertEqual(bad[:BAD_ENCODING_PAIR], clean[:BAD_ENCODING_PAIR])
+        rows = np.array([row for _, rows in bad for row in rows])
+        self.assertTrue(np.all(np.isfinite(rows)))
+
+    def test_a_bag_played_twice_restarts_the_tracks_and_the_ids_go_on(self):
+        twice = os.path.join(self.tmp, 'twice.bag')
+        with rosbag.Bag(self.bag) as src, rosbag.Bag(twice, 'w') as dst:
+            messages = list(src.read_messages())
+            shift = messages[-1][2] - messages[0][2] + rospy.Duration(1.0)
+            for topic, msg, t in messages:
+                dst.write(topic, msg, t)
+            for topic, msg, t in messages:
+                if topic != '/tf_static':
+                    dst.write(topic, msg, t + shift)
+        out = os.path.join(self.tmp, 'twice_tracked.bag')
+        rc, report, errors = track(twice, out)
+        self.assertEqual(rc, 0, errors)
+        c = counts(report)
+        self.assertEqual((c['tracked'], c['restarts']), (2 * FRAMES, 1), report)
+        self.assertIn('went back', errors)
+        tracked = features(out)
+        first, second = tracked[:FRAMES], tracked[FRAMES:]
+        self.assertEqual(first, features(self.tracked))
+        last_id = max(row[0] for _, rows in first for row in rows)
+        for (stamp_a, rows_a), (stamp_b, rows_b) in zip(first, second):
+            self.assertEqual(stamp_a, stamp_b)
+            self.assertEqual([r[1:] for r in rows_a], [r[1:] for r in rows_b])
+            self.assertGreater(min(r[0] for r in rows_b), last_id)
+
+    def test_a_bag_without_camera_info_says_so(self):
+        rc, report, errors = track(self.bag, os.path.join(self.tmp, 'none.bag'),
+                                   '--left-info-topic', '/absent')
+        self.assertEqual(rc, 1)
+        self.assertEqual(counts(report)['no_camera_info'], FRAMES)
+        self.assertIn('no camera_info', errors)
+
+    def test_a_topic_that_is_not_an_image_is_refused_with_the_bags_image_topics(self):
+        rc, _, errors = track(self.bag, os.path.join(self.tmp, 'none.bag'), '--left-topic',
+                              '/stereo/left/image_raw')
+        self.assertEqual(rc, 2)
+        self.assertIn(LEFT, errors)
+
+
+if __name__ == '__main__':
+    unittest.main()

@@ -411,6 +411,11 @@ void StereoTrackerRos::trackPair(const ImagePair& pair) {
   if (frame.stats.predicted_from_first_matches) ++first_fit_predictions_;
   tracks_crowded_ += static_cast<uint64_t>(frame.stats.crowded);
   last_stats_ = frame.stats;
+  if (frame.features.empty()) {
+    ++pairs_without_features_;
+    ROS_WARN_THROTTLE(kWarnPeriod, "%s: pair at %.3f gave no feature (%s; %lu so far)",
+                      name_.c_str(), stamp, kNoFeatureHint, pairs_without_features_);
+  }
   if (const std::string hint = tracker_->rigCheck().hint(); !hint.empty()) {
     ROS_WARN_THROTTLE(kWarnPeriod, "%s: %s", name_.c_str(), hint.c_str());
   }
@@ -483,6 +488,9 @@ void StereoTrackerRos::fillDiagnostics(uint64_t dropped_from_backlog,
     status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "no pair tracked (see counters)");
   } else if (const std::string hint = rigCheck().hint(); !hint.empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, hint);
+  } else if (last_stats_.published == 0) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   std::string("the last pair gave no feature: ") + kNoFeatureHint);
   } else if (bad > 0) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "running; some pairs skipped");
   } else {
@@ -504,6 +512,7 @@ void StereoTrackerRos::fillDiagnostics(uint64_t dropped_from_backlog,
   status.add("pairs_waiting", waiting_pairs_.size());
   status.add("twist_predictions", twist_used_);
   status.add("first_fit_predictions", first_fit_predictions_);
+  status.add("pairs_without_features", pairs_without_features_);
   status.add("tracks_crowded", tracks_crowded_);
   status.add("features_last", last_stats_.published);
   status.add("track_ms_last", last_stats_.ms_total);

@@ -132,6 +132,7 @@ struct Counts {
   uint64_t no_camera_info = 0;  ///< pairs dropped for want of camera_info
   uint64_t twist_predicted = 0;
   uint64_t time_jump_resets = 0;
+  uint64_t without_features = 0;  ///< tracked pairs that gave no feature
 };
 
 /// The stereo_tracker_node's tracking thread, fed from a bag in bag order.
@@ -359,6 +360,10 @@ void BagStereoTracker::track(const Pair& pair) {
   ++counts_.tracked;
   if (prior) ++counts_.twist_predicted;
   counts_.observations += frame.features.size();
+  if (frame.features.empty() && ++counts_.without_features <= kRefusalsSaid) {
+    std::cerr << "track_stereo_bag: pair at " << std::fixed << stamp << " gave no feature ("
+              << kNoFeatureHint << ")\n";
+  }
   if (const std::string hint = tracker_->rigCheck().hint(); !rig_warned_ && !hint.empty()) {
     std::cerr << "track_stereo_bag: warning from pair " << counts_.tracked - 1 << ": " << hint
               << "\n";
@@ -426,8 +431,9 @@ int run(int argc, char** argv) {
   const Counts& c = tracker.counts();
   std::cout << "track_stereo_bag: " << c.left << " left and " << c.right << " right images, "
             << c.unpaired << " without a partner; " << c.tracked << " pairs tracked ("
-            << c.twist_predicted << " predicted from the twist), " << c.refused << " refused, "
-            << c.no_camera_info << " dropped without camera_info, " << c.time_jump_resets
+            << c.twist_predicted << " predicted from the twist, " << c.without_features
+            << " without a feature), " << c.refused << " refused, " << c.no_camera_info
+            << " dropped without camera_info, " << c.time_jump_resets
             << " restarts (time went back); observations per pair "
             << (c.tracked ? static_cast<double>(c.observations) / c.tracked : 0.0) << " -> "
             << args.out << "\n";

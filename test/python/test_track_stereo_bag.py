@@ -1,10 +1,11 @@
 """track_stereo_bag on a small rendered drive written as a bag (play_stereo_images.py --bag): its
 features bag carries every message but the images, one feature message per pair, and
 vislam_offline takes it; a bag with bad pairs (an encoding the tracker does not take, sizes that
-differ, a right image 50 ms late) has them refused and counted, the other pairs tracked as in the
-clean bag up to the first fault; a bag played twice restarts the tracks (ids going on) and tracks
-its second pass as its first; a bag without camera_info fails with a message saying so. The
-live tracker's features are the same bit for bit: the rostest stereo_tracker.test."""
+differ, a right image 50 ms late) has them refused and counted, a black pair counted as without a
+feature, the other pairs tracked as in the clean bag up to the first fault; a bag played twice
+restarts the tracks (ids going on) and tracks its second pass as its first; a bag without
+camera_info fails with a message saying so. The live tracker's features are the same bit for bit:
+the rostest stereo_tracker.test."""
 import os
 import re
 import subprocess
@@ -20,7 +21,7 @@ from test_track_stereo_images import tool
 FRAMES = 20
 LEFT, RIGHT = '/stereo/left/image_rect', '/stereo/right/image_rect'
 FEATURES = '/stereo/features'
-BAD_ENCODING_PAIR, SMALL_RIGHT_PAIR, LATE_RIGHT_PAIR = 6, 9, 12
+BAD_ENCODING_PAIR, SMALL_RIGHT_PAIR, LATE_RIGHT_PAIR, BLACK_PAIR = 6, 9, 12, 15
 
 
 def track(bag, out, *extra):
@@ -34,10 +35,10 @@ def track(bag, out, *extra):
 def counts(report):
     """The numbers of track_stereo_bag's summary line."""
     m = re.search(r'(\d+) left and (\d+) right images, (\d+) without a partner; (\d+) pairs '
-                  r'tracked \((\d+) predicted from the twist\), (\d+) refused, (\d+) dropped '
-                  r'without camera_info, (\d+) restarts', report)
-    keys = ('left', 'right', 'unpaired', 'tracked', 'predicted', 'refused', 'no_camera_info',
-            'restarts')
+                  r'tracked \((\d+) predicted from the twist, (\d+) without a feature\), (\d+) '
+                  r'refused, (\d+) dropped without camera_info, (\d+) restarts', report)
+    keys = ('left', 'right', 'unpaired', 'tracked', 'predicted', 'featureless', 'refused',
+            'no_camera_info', 'restarts')
     return dict(zip(keys, map(int, m.groups())))
 
 
@@ -66,6 +67,8 @@ def write_faulty_bag(clean, faulty):
                     msg.data = msg.data[:msg.step * msg.height]
                 elif k == LATE_RIGHT_PAIR and topic == RIGHT:
                     msg.header.stamp += rospy.Duration(0.05)
+                elif k == BLACK_PAIR:
+                    msg.data = bytes(len(msg.data))
             dst.write(topic, msg, t)
 
 
@@ -93,6 +96,7 @@ class TrackStereoBagTest(unittest.TestCase):
         self.assertEqual((c['left'], c['right'], c['tracked'], c['refused']),
                          (FRAMES, FRAMES, FRAMES, 0), self.report)
         self.assertEqual(c['predicted'], FRAMES - 1)  # all but the first, from the twist
+        self.assertEqual(c['featureless'], 0)
         with rosbag.Bag(self.bag) as src, rosbag.Bag(self.tracked) as out:
             topics = src.get_type_and_topic_info()[1]
             for topic in topics:
@@ -118,8 +122,10 @@ class TrackStereoBagTest(unittest.TestCase):
         c = counts(report)
         # The late right image and the left it should have gone with have no partner.
         self.assertEqual((c['tracked'], c['refused'], c['unpaired']), (FRAMES - 3, 2, 2), report)
+        self.assertEqual(c['featureless'], 1, report)  # the black pair: tracked, no feature
         self.assertIn('encoding', errors)
         self.assertIn('size', errors)
+        self.assertIn('gave no feature', errors)
         clean, bad = features(self.tracked), features(out)
         self.assertEqual(bad[:BAD_ENCODING_PAIR], clean[:BAD_ENCODING_PAIR])
         rows = np.array([row for _, rows in bad for row in rows])

@@ -215,6 +215,14 @@ class StereoTrackerPipelineTest(NewestStatuses, unittest.TestCase):
                                      'pairs_missing')), 10.0)
         log('tracker diagnostics: %s' % counters())
         self.assertTrue(ok)
+        # The masked tracker, which does not wait for the twist, tracks the black mono8 pairs:
+        # no feature, counted and said.
+        ok = wait_until(lambda: int(self.latest_status('tracker_with_mask')[1].get(
+            'pairs_without_features', 0)) >= 1, 10.0)
+        status, values = self.latest_status('tracker_with_mask')
+        log('masked tracker: %s, pairs_without_features %s' % (
+            status.message, values.get('pairs_without_features')))
+        self.assertTrue(ok)
 
     def test_04_missing_camera_info_is_counted(self):
         # The second tracker (stereo_tracker.test, namespace nocalib) never gets camera_info and

@@ -11,6 +11,9 @@
 
 namespace ekf_vislam {
 
+/// What a pair without a single feature says (the nodelet's warning and track_stereo_bag's).
+constexpr const char* kNoFeatureHint = "the images dark, flat, overexposed or covered?";
+
 /// The features of `frame` (id, left and right pixel) under the left image's header; an empty
 /// frame_id takes `fallback_frame` (the left camera_info's).
 ekf_vislam::StereoFeatureArray featureMessage(const std_msgs::Header& left_header,

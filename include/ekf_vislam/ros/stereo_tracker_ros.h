@@ -174,6 +174,7 @@ class StereoTrackerRos {
   uint64_t pairs_out_of_order_ = 0, time_jump_resets_ = 0;
   uint64_t pairs_skipped_rate_ = 0;      ///< not due under input/max_rate_hz
   uint64_t first_fit_predictions_ = 0;   ///< pairs predicted from a motion fitted first
+  uint64_t pairs_without_features_ = 0;  ///< tracked pairs that gave no feature (dark, flat images)
   uint64_t tracks_crowded_ = 0;          ///< tracks ended near an older one (TrackerFrameStats)
   TimeJumpDetector time_jumps_{0.0, 2};  ///< images 0, twist 1 (set from ros/time_jump_reset)
   StampGapDetector pair_gaps_;           ///< pairs missing, from gaps in the left stamps

@@ -2,6 +2,7 @@
 
 #include <cv_bridge/cv_bridge.h>
 #include <sensor_msgs/image_encodings.h>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <string>
@@ -55,6 +56,27 @@ bool toGrayImage(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::stri
     return false;
   }
   return true;
+}
+
+sensor_msgs::ImagePtr decompressedImage(const sensor_msgs::CompressedImage& msg, std::string* why) {
+  cv::Mat decoded;
+  try {
+    decoded = cv::imdecode(msg.data, cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception&) {
+    decoded.release();
+  }
+  if (decoded.empty()) {
+    *why = "compressed image (format '" + msg.format + "') that cannot be decoded";
+    return nullptr;
+  }
+  // What the tracker takes, or a name it refuses (said in its warning).
+  std::string encoding = "decoded type " + std::to_string(decoded.type());
+  if (decoded.type() == CV_8UC1) encoding = enc::MONO8;
+  if (decoded.type() == CV_8UC3) encoding = enc::BGR8;
+  if (decoded.type() == CV_8UC4) encoding = enc::BGRA8;
+  if (decoded.type() == CV_16UC1) encoding = enc::MONO16;
+  cv_bridge::CvImage image(msg.header, encoding, decoded);
+  return image.toImageMsg();
 }
 
 }  // namespace ekf_vislam

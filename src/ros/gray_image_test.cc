@@ -4,6 +4,8 @@
 #include <sensor_msgs/image_encodings.h>
 
 #include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include <boost/make_shared.hpp>
 
@@ -78,6 +80,35 @@ TEST(GrayImage, OtherEncodingsAndShortDataAreRefusedWithAReason) {
   auto narrow = boost::make_shared<sensor_msgs::Image>(*uniformImage("rgba8", {1, 2, 3, 4}));
   narrow->step = 12;  // 4 pixels of 4 bytes need 16
   EXPECT_FALSE(toGrayImage(narrow, &gray, &why));
+}
+
+TEST(GrayImage, ACompressedPngIsDecodedLosslesslyAndGarbageIsRefused) {
+  cv::Mat gray(37, 53, CV_8UC1), colour(37, 53, CV_8UC3);
+  cv::randu(gray, 0, 256);
+  cv::randu(colour, 0, 256);
+  for (const cv::Mat& original : {gray, colour}) {
+    sensor_msgs::CompressedImage msg;
+    msg.header.stamp = ros::Time(12.5);
+    msg.header.frame_id = "camera_left";
+    msg.format = "png";
+    ASSERT_TRUE(cv::imencode(".png", original, msg.data));
+    std::string why;
+    const sensor_msgs::ImagePtr image = decompressedImage(msg, &why);
+    ASSERT_TRUE(image) << why;
+    EXPECT_EQ(image->header.stamp, msg.header.stamp);
+    EXPECT_EQ(image->header.frame_id, "camera_left");
+    EXPECT_EQ(image->encoding, original.channels() == 1 ? "mono8" : "bgr8");
+    ASSERT_EQ(image->width, 53u);
+    ASSERT_EQ(image->height, 37u);
+    const cv::Mat back(37, 53, original.type(), image->data.data(), image->step);
+    EXPECT_EQ(cv::norm(back, original, cv::NORM_INF), 0.0);
+  }
+  sensor_msgs::CompressedImage garbage;
+  garbage.format = "jpeg";
+  garbage.data = {1, 2, 3, 4, 5};
+  std::string why;
+  EXPECT_FALSE(decompressedImage(garbage, &why));
+  EXPECT_NE(why.find("cannot be decoded"), std::string::npos) << why;
 }
 
 }  // namespace

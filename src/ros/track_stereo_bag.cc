@@ -26,6 +26,7 @@
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <tf2_msgs/TFMessage.h>
 #include <opencv2/imgcodecs.hpp>
@@ -64,8 +65,9 @@ const char* kUsage =
     "found in /tf_static. --config: config/tracker.yaml's keys (absent: the defaults), the ros/\n"
     "group included (max_stamp_difference, use_twist; --no-twist sets use_twist false).\n"
     "--debug-dir: the debug drawing of every tracked pair as DIR/NNNNNN.png (stereo/debug_image).\n"
-    "Images must be sensor_msgs/Image (mono8, bgr8, rgb8...): decompress a bag of\n"
-    "CompressedImage first (image_transport republish).\n";
+    "Images: sensor_msgs/Image (mono8, bgr8, rgb8...) or sensor_msgs/CompressedImage (png,\n"
+    "jpeg: decoded as image_transport's compressed subscriber decodes them; give the topic,\n"
+    "e.g. --left-topic /stereo/left/image_rect/compressed).\n";
 
 struct Arguments {
   std::string bag, out, config, debug_dir;
@@ -133,6 +135,7 @@ struct Counts {
   uint64_t twist_predicted = 0;
   uint64_t time_jump_resets = 0;
   uint64_t without_features = 0;  ///< tracked pairs that gave no feature
+  uint64_t undecodable = 0;       ///< compressed images that could not be decoded
 };
 
 /// The stereo_tracker_node's tracking thread, fed from a bag in bag order.
@@ -196,8 +199,18 @@ void BagStereoTracker::add(const rosbag::MessageInstance& m) {
   now_ = m.getTime();
   const std::string& topic = m.getTopic();
   if (topic == args_.left || topic == args_.right) {
-    if (const auto image = m.instantiate<sensor_msgs::Image>())
-      addImage(image, topic == args_.left);
+    sensor_msgs::ImageConstPtr image = m.instantiate<sensor_msgs::Image>();
+    if (!image) {
+      if (const auto compressed = m.instantiate<sensor_msgs::CompressedImage>()) {
+        std::string why;
+        image = decompressedImage(*compressed, &why);
+        if (!image && ++counts_.undecodable <= kRefusalsSaid) {
+          std::cerr << "track_stereo_bag: " << topic << " at " << std::fixed
+                    << compressed->header.stamp.toSec() << ": " << why << ": skipped\n";
+        }
+      }
+    }
+    if (image) addImage(image, topic == args_.left);
     return;
   }
   out_->write(topic, m.getTime(), m, m.getConnectionHeader());
@@ -279,6 +292,9 @@ void BagStereoTracker::trackReadyPairs(bool all) {
 }
 
 void BagStereoTracker::finish() {
+  counts_.unpaired += lefts_.size() + rights_.size();  // images the bag ends on, without a partner
+  lefts_.clear();
+  rights_.clear();
   if (!left_info_ || !right_info_) {
     counts_.no_camera_info += waiting_.size();
     waiting_.clear();
@@ -379,7 +395,8 @@ void BagStereoTracker::track(const Pair& pair) {
               featureMessage(pair.left->header, left_info_->header.frame_id, frame));
 }
 
-/// The image topics hold sensor_msgs/Image; *has_twist: the bag has the twist topic.
+/// The image topics hold sensor_msgs/Image or CompressedImage; *has_twist: the bag has the twist
+/// topic.
 bool checkTopics(const Arguments& args, rosbag::View& view, bool* has_twist, std::string* error) {
   std::map<std::string, std::string> types;
   for (const rosbag::ConnectionInfo* c : view.getConnections()) types[c->topic] = c->datatype;
@@ -396,8 +413,8 @@ bool checkTopics(const Arguments& args, rosbag::View& view, bool* has_twist, std
                (images.empty() ? std::string(" none") : images);
       return false;
     }
-    if (type->second != "sensor_msgs/Image") {
-      *error = topic + " holds " + type->second + ", not sensor_msgs/Image";
+    if (type->second != "sensor_msgs/Image" && type->second != "sensor_msgs/CompressedImage") {
+      *error = topic + " holds " + type->second + ", not sensor_msgs/Image or CompressedImage";
       return false;
     }
   }
@@ -430,10 +447,10 @@ int run(int argc, char** argv) {
   out.close();
   const Counts& c = tracker.counts();
   std::cout << "track_stereo_bag: " << c.left << " left and " << c.right << " right images, "
-            << c.unpaired << " without a partner; " << c.tracked << " pairs tracked ("
-            << c.twist_predicted << " predicted from the twist, " << c.without_features
-            << " without a feature), " << c.refused << " refused, " << c.no_camera_info
-            << " dropped without camera_info, " << c.time_jump_resets
+            << c.unpaired << " without a partner, " << c.undecodable << " not decodable; "
+            << c.tracked << " pairs tracked (" << c.twist_predicted << " predicted from the twist, "
+            << c.without_features << " without a feature), " << c.refused << " refused, "
+            << c.no_camera_info << " dropped without camera_info, " << c.time_jump_resets
             << " restarts (time went back); observations per pair "
             << (c.tracked ? static_cast<double>(c.observations) / c.tracked : 0.0) << " -> "
             << args.out << "\n";

@@ -4,16 +4,18 @@ vislam_offline takes it; a bag with bad pairs (an encoding the tracker does not 
 differ, a right image 50 ms late) has them refused and counted, a black pair counted as without a
 feature, the other pairs tracked as in the clean bag up to the first fault; a bag played twice
 restarts the tracks (ids going on) and tracks its second pass as its first; a bag without
-camera_info fails with a message saying so. The live tracker's features are the same bit for bit:
-the rostest stereo_tracker.test."""
+camera_info fails with a message saying so; png-compressed images give the same features. The live
+tracker's features are the same bit for bit: the rostest stereo_tracker.test."""
 import os
 import re
 import subprocess
 import unittest
 
+import cv2
 import numpy as np
 import rosbag
 import rospy
+from sensor_msgs.msg import CompressedImage
 
 import ekf_test_paths as paths
 from test_track_stereo_images import tool
@@ -34,11 +36,12 @@ def track(bag, out, *extra):
 
 def counts(report):
     """The numbers of track_stereo_bag's summary line."""
-    m = re.search(r'(\d+) left and (\d+) right images, (\d+) without a partner; (\d+) pairs '
+    m = re.search(r'(\d+) left and (\d+) right images, (\d+) without a partner, (\d+) not '
+                  r'decodable; (\d+) pairs '
                   r'tracked \((\d+) predicted from the twist, (\d+) without a feature\), (\d+) '
                   r'refused, (\d+) dropped without camera_info, (\d+) restarts', report)
-    keys = ('left', 'right', 'unpaired', 'tracked', 'predicted', 'featureless', 'refused',
-            'no_camera_info', 'restarts')
+    keys = ('left', 'right', 'unpaired', 'undecodable', 'tracked', 'predicted', 'featureless',
+            'refused', 'no_camera_info', 'restarts')
     return dict(zip(keys, map(int, m.groups())))
 
 
@@ -155,6 +158,34 @@ class TrackStereoBagTest(unittest.TestCase):
             self.assertEqual(stamp_a, stamp_b)
             self.assertEqual([r[1:] for r in rows_a], [r[1:] for r in rows_b])
             self.assertGreater(min(r[0] for r in rows_b), last_id)
+
+    def test_png_compressed_images_give_the_same_features(self):
+        # Lossless compression: the features of the raw images, bit for bit; one image that does
+        # not decode is said and counted, its pair lost.
+        compressed = os.path.join(self.tmp, 'compressed.bag')
+        with rosbag.Bag(self.bag) as src, rosbag.Bag(compressed, 'w') as dst:
+            k = 0
+            for topic, msg, t in src.read_messages():
+                if topic in (LEFT, RIGHT):
+                    image = np.frombuffer(msg.data, np.uint8).reshape(msg.height, msg.width)
+                    out = CompressedImage(header=msg.header, format='png')
+                    out.data = cv2.imencode('.png', image)[1].tobytes()
+                    if topic == LEFT:
+                        k += 1
+                        if k == FRAMES:
+                            out.data = b'not an image'
+                    dst.write(topic + '/compressed', out, t)
+                else:
+                    dst.write(topic, msg, t)
+        out = os.path.join(self.tmp, 'compressed_tracked.bag')
+        rc, report, errors = track(compressed, out, '--left-topic', LEFT + '/compressed',
+                                   '--right-topic', RIGHT + '/compressed')
+        self.assertEqual(rc, 0, errors)
+        c = counts(report)
+        self.assertEqual((c['undecodable'], c['unpaired'], c['tracked']), (1, 1, FRAMES - 1),
+                         report)
+        self.assertIn('cannot be decoded', errors)
+        self.assertEqual(features(out), features(self.tracked)[:FRAMES - 1])
 
     def test_a_bag_without_camera_info_says_so(self):
         rc, report, errors = track(self.bag, os.path.join(self.tmp, 'none.bag'),

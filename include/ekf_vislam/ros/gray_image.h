@@ -1,7 +1,8 @@
-// The stereo tracker's image input: which sensor_msgs/Image encodings it takes, and each as the
-// 8-bit gray image the tracker core works on.
+// The stereo tracker's image input: which sensor_msgs/Image encodings it takes, each as the 8-bit
+// gray image the tracker core works on, and a sensor_msgs/CompressedImage made an Image.
 #pragma once
 
+#include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <opencv2/core.hpp>
 
@@ -21,5 +22,11 @@ bool isTrackableEncoding(const std::string& encoding);
 /// encodings, converted for colour ones. False, with *why, for another encoding or data cv_bridge
 /// refuses.
 bool toGrayImage(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* why);
+
+/// A CompressedImage (png, jpeg: cv::imdecode, as image_transport's compressed subscriber decodes
+/// it, unchanged) as an Image under its header: mono8 (one 8-bit channel), bgr8 or bgra8; mono16
+/// and others for deeper images, which the tracker then refuses. Null, with *why, when the data
+/// cannot be decoded.
+sensor_msgs::ImagePtr decompressedImage(const sensor_msgs::CompressedImage& msg, std::string* why);
 
 }  // namespace ekf_vislam

@@ -93,7 +93,7 @@ add_executable(stereo_tracker_node src/ros/stereo_tracker_node.cc)
 target_link_libraries(stereo_tracker_node ekf_vislam_tracker_ros)
 
 # The tracker over a recorded bag (no roscore): a bag of its features for vislam_offline.
-add_executable(track_stereo_bag src/ros/track_stereo_bag.cc)
+add_executable(track_stereo_bag src/ros/track_stereo_bag.cc src/ros/bag_stereo_tracker.cc)
 target_link_libraries(track_stereo_bag ekf_vislam_tracker_ros)
 
 if(CATKIN_ENABLE_TESTING)

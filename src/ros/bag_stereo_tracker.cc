@@ -1,0 +1,231 @@
+#include "ekf_vislam/ros/bag_stereo_tracker.h"
+
+#include "ekf_vislam/ros/bag_reader.h"
+#include "ekf_vislam/ros/conversions.h"
+#include "ekf_vislam/ros/feature_message.h"
+#include "ekf_vislam/ros/gray_image.h"
+#include "ekf_vislam/tracker/debug_drawing.h"
+#include "ekf_vislam/tracker/frame_rate_limit.h"
+#include "ekf_vislam/tracker/rectified_stereo.h"
+
+#include <geometry_msgs/TwistStamped.h>
+#include <geometry_msgs/TwistWithCovarianceStamped.h>
+#include <nav_msgs/Odometry.h>
+#include <rosbag/bag.h>
+#include <rosbag/message_instance.h>
+#include <sensor_msgs/CompressedImage.h>
+#include <tf2_msgs/TFMessage.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+
+namespace ekf_vislam {
+
+namespace {
+constexpr uint64_t kRefusalsSaid =
+    10;  // of each kind of refusal, said one by one; the rest counted
+}  // namespace
+
+void BagStereoTracker::add(const rosbag::MessageInstance& m) {
+  now_ = m.getTime();
+  const std::string& topic = m.getTopic();
+  if (topic == topics_.left || topic == topics_.right) {
+    sensor_msgs::ImageConstPtr image = m.instantiate<sensor_msgs::Image>();
+    if (!image) {
+      if (const auto compressed = m.instantiate<sensor_msgs::CompressedImage>()) {
+        std::string why;
+        image = decompressedImage(*compressed, &why);
+        if (!image && ++counts_.undecodable <= kRefusalsSaid) {
+          std::cerr << "track_stereo_bag: " << topic << " at " << std::fixed
+                    << compressed->header.stamp.toSec() << ": " << why << ": skipped\n";
+        }
+      }
+    }
+    if (image) addImage(image, topic == topics_.left);
+    return;
+  }
+  out_->write(topic, m.getTime(), m, m.getConnectionHeader());
+  if (topic == topics_.left_info) {
+    left_info_ = m.instantiate<sensor_msgs::CameraInfo>();
+  } else if (topic == topics_.right_info) {
+    right_info_ = m.instantiate<sensor_msgs::CameraInfo>();
+  } else if (topic == topics_.tf_static) {
+    if (const auto tf = m.instantiate<tf2_msgs::TFMessage>()) {
+      static_transforms_.insert(static_transforms_.end(), tf->transforms.begin(),
+                                tf->transforms.end());
+    }
+  } else if (topic == topics_.twist) {
+    if (const auto t = m.instantiate<geometry_msgs::TwistStamped>()) {
+      addTwist(t->header.stamp, t->twist, t->header.frame_id);
+    } else if (const auto c = m.instantiate<geometry_msgs::TwistWithCovarianceStamped>()) {
+      addTwist(c->header.stamp, c->twist.twist, c->header.frame_id);
+    } else if (const auto o = m.instantiate<nav_msgs::Odometry>()) {
+      addTwist(o->header.stamp, o->twist.twist, o->child_frame_id);
+    }
+  }
+  trackReadyPairs(false);
+}
+
+void BagStereoTracker::addImage(const sensor_msgs::ImageConstPtr& image, bool is_left) {
+  ++(is_left ? counts_.left : counts_.right);
+  (is_left ? lefts_ : rights_).push_back(image);
+  // Pair the oldest of each side when their stamps agree; an image older than the other side's
+  // oldest has no partner (the synchronizer drops it alike).
+  while (!lefts_.empty() && !rights_.empty()) {
+    const double apart = (lefts_.front()->header.stamp - rights_.front()->header.stamp).toSec();
+    if (std::abs(apart) <= ros_options_.max_stamp_difference) {
+      restartIfTimeJumped(0, lefts_.front()->header.stamp);
+      waiting_.push_back({lefts_.front(), rights_.front()});
+      lefts_.pop_front();
+      rights_.pop_front();
+    } else {
+      std::deque<sensor_msgs::ImageConstPtr>& older = apart < 0 ? lefts_ : rights_;
+      if (++counts_.unpaired <= kRefusalsSaid) {
+        std::cerr << "track_stereo_bag: " << (apart < 0 ? "left" : "right") << " image at "
+                  << std::fixed << older.front()->header.stamp.toSec()
+                  << " has no partner within ros/max_stamp_difference: skipped\n";
+      }
+      older.pop_front();
+    }
+  }
+  trackReadyPairs(false);
+}
+
+void BagStereoTracker::addTwist(const ros::Time& stamp, const geometry_msgs::Twist& t,
+                                const std::string& frame) {
+  restartIfTimeJumped(1, stamp);
+  const StampedTwist sample{stamp.toSec(), Eigen::Vector3d(t.linear.x, t.linear.y, t.linear.z),
+                            Eigen::Vector3d(t.angular.x, t.angular.y, t.angular.z)};
+  if (keepTwist(sample, prev_stamp_, &twists_)) twist_frame_ = frame;
+}
+
+void BagStereoTracker::trackReadyPairs(bool all) {
+  if (!left_info_ || !right_info_) {
+    // As the node: without camera_info the newest ros/queue_size pairs wait, older ones drop.
+    while (waiting_.size() > static_cast<size_t>(ros_options_.queue_size)) {
+      waiting_.pop_front();
+      ++counts_.no_camera_info;
+    }
+    return;
+  }
+  while (!waiting_.empty()) {
+    const double stamp = waiting_.front().left->header.stamp.toSec();
+    // The node's wait, in message time: for the twist that reaches the pair, or until a pair
+    // ros/max_twist_wait newer waits behind it (the twist stream stopped).
+    const bool ready =
+        all || !wait_for_twist_ || (!twists_.empty() && twists_.back().stamp >= stamp) ||
+        waiting_.back().left->header.stamp.toSec() - stamp >= ros_options_.max_twist_wait;
+    if (!ready) return;
+    const Pair pair = waiting_.front();
+    waiting_.pop_front();
+    track(pair);
+  }
+}
+
+void BagStereoTracker::finish() {
+  counts_.unpaired += lefts_.size() + rights_.size();  // images the bag ends on, without a partner
+  lefts_.clear();
+  rights_.clear();
+  if (!left_info_ || !right_info_) {
+    counts_.no_camera_info += waiting_.size();
+    waiting_.clear();
+    return;
+  }
+  trackReadyPairs(true);
+}
+
+void BagStereoTracker::restartIfTimeJumped(int stream, const ros::Time& stamp) {
+  if (!time_jumps_.jumpedBack(stream, stamp.toSec())) return;
+  ++counts_.time_jump_resets;
+  std::cerr << "track_stereo_bag: " << (stream == 0 ? "the images" : "the twist") << " went back "
+            << time_jumps_.lastJump() << " s in time: tracking starts again at " << std::fixed
+            << stamp.toSec() << "\n";
+  if (tracker_) tracker_->reset();
+  waiting_.clear();
+  twists_.clear();
+  prev_stamp_ = -1.0;
+}
+
+void BagStereoTracker::refuse(const std::string& why, double stamp) {
+  ++counts_.refused;
+  if (counts_.refused <= kRefusalsSaid) {
+    std::cerr << "track_stereo_bag: pair at " << std::fixed << stamp << ": " << why << ": skipped"
+              << (counts_.refused == kRefusalsSaid ? " (the next ones counted only)" : "") << "\n";
+  }
+}
+
+bool BagStereoTracker::calibration(const sensor_msgs::Image& left, StereoCalibration* stereo,
+                                   std::string* why) {
+  if (!ros_conversions::calibrationFromCameraInfo(*left_info_, *right_info_, stereo, why)) {
+    *why = "camera_info refused: " + *why;
+    return false;
+  }
+  if ((left_info_->width != 0 && left_info_->width != left.width) ||
+      (left_info_->height != 0 && left_info_->height != left.height)) {
+    *why = "image size differs from its camera_info's";
+    return false;
+  }
+  return true;
+}
+
+std::optional<CameraMotionPrior> BagStereoTracker::motionPrior(const std::string& camera_frame,
+                                                               double to) {
+  if (!ros_options_.use_twist || twists_.empty() || prev_stamp_ <= 0 || to <= prev_stamp_) {
+    return std::nullopt;
+  }
+  Eigen::Isometry3d cam_T_imu;
+  std::string error;
+  if (!lookupStaticTransform(static_transforms_, camera_frame, twist_frame_, &cam_T_imu, &error)) {
+    return std::nullopt;  // as the node: no transform, no prediction
+  }
+  return motionPriorFromTwists(twists_, cam_T_imu.matrix(), prev_stamp_, to);
+}
+
+void BagStereoTracker::track(const Pair& pair) {
+  const double stamp = pair.left->header.stamp.toSec();
+  if (prev_stamp_ > 0 && stamp <= prev_stamp_) return refuse("stamp not after the last", stamp);
+  if (!dueForTracking(stamp, prev_stamp_, options_.max_rate_hz)) return;
+  cv::Mat left, right;
+  StereoCalibration stereo;
+  std::string why;
+  if (!toGrayImage(pair.left, &left, &why) || !toGrayImage(pair.right, &right, &why) ||
+      !calibration(*pair.left, &stereo, &why)) {
+    return refuse(why, stamp);
+  }
+  if (!tracker_ || !sameRectifiedPair(stereo, stereo_)) {
+    const uint32_t first_id = tracker_ ? tracker_->nextId() : 0;
+    tracker_ = std::make_unique<StereoTracker>(options_, stereo, masks_, first_id);
+    stereo_ = stereo;
+    prev_stamp_ = -1.0;
+  }
+  const std::optional<CameraMotionPrior> prior = motionPrior(pair.left->header.frame_id, stamp);
+  StereoFrame frame;
+  if (!tracker_->process(left, right, stamp, prior ? &*prior : nullptr, &frame, &why)) {
+    return refuse(why, stamp);
+  }
+  prev_stamp_ = stamp;
+  ++counts_.tracked;
+  if (prior) ++counts_.twist_predicted;
+  counts_.observations += frame.features.size();
+  if (frame.features.empty() && ++counts_.without_features <= kRefusalsSaid) {
+    std::cerr << "track_stereo_bag: pair at " << std::fixed << stamp << " gave no feature ("
+              << kNoFeatureHint << ")\n";
+  }
+  if (const std::string hint = tracker_->rigCheck().hint(); !rig_warned_ && !hint.empty()) {
+    std::cerr << "track_stereo_bag: warning from pair " << counts_.tracked - 1 << ": " << hint
+              << "\n";
+    rig_warned_ = true;
+  }
+  if (!debug_dir_.empty()) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "/%06llu.png",
+                  static_cast<unsigned long long>(counts_.tracked - 1));
+    cv::imwrite(debug_dir_ + name, drawStereoTracks(left, right, frame, masks_));
+  }
+  out_->write(topics_.features, now_,
+              featureMessage(pair.left->header, left_info_->header.frame_id, frame));
+}
+
+}  // namespace ekf_vislam

@@ -7,8 +7,9 @@
 # estimator used, its update time and latency (diagnostics), the time the estimator finished
 # after the last pair, whether vislam_offline on the recorded features reproduces the live
 # trajectory bit for bit (live = offline), and whether track_stereo_bag on the images reproduces
-# the live tracker's features bit for bit.
-#   scripts/benchmark_live.sh FOLDER [--poses FILE] [--rate R] [--config estimator.yaml]
+# the live tracker's features bit for bit. Instead of a folder, a recorded bag (BAG.bag, raw images
+# on the topics of stereo_vislam.launch, with twist, camera_info and /tf_static) is played as it is.
+#   scripts/benchmark_live.sh FOLDER|BAG [--poses FILE] [--rate R] [--config estimator.yaml]
 #                             [--tracker-config tracker.yaml] [--standalone] [--out DIR]
 # --standalone: the two nodes (stereo_tracker_node, vislam_node) instead of one nodelet manager.
 # Needs no roscore running on port 11399 (it starts its own there).
@@ -30,12 +31,14 @@ while (($#)); do
     --tracker-config) TRACKER_CONFIG=$(readlink -f "$2"); shift 2 ;;
     --standalone) STANDALONE=true; shift ;;
     --out) OUT=$2; shift 2 ;;
-    -h|--help) sed -n 2,13p "$0"; exit 0 ;;
+    -h|--help) sed -n 2,15p "$0"; exit 0 ;;
     *) FOLDER=$1; shift ;;
   esac
 done
-POSES=${POSES:-${FOLDER}/poses.txt}
-[[ -f "${POSES}" ]] || { echo "benchmark_live: no ${POSES}: FOLDER/poses.txt or --poses FILE"; exit 2; }
+if [[ ! -f "${FOLDER}" ]]; then
+  POSES=${POSES:-${FOLDER}/poses.txt}
+  [[ -f "${POSES}" ]] || { echo "benchmark_live: no ${POSES}: FOLDER/poses.txt or --poses FILE"; exit 2; }
+fi
 source "${REPO}/scripts/env.sh" >/dev/null
 PYTHONPATH="${REPO}/src" /usr/bin/python3 -c \
   'from ekf_vislam_tools.report import machine_description; print(machine_description())'
@@ -43,7 +46,12 @@ export ROS_MASTER_URI=http://localhost:11399
 OUT=${OUT:-$(mktemp -d)}
 mkdir -p "${OUT}"
 OUT=$(readlink -f "${OUT}")
-/usr/bin/python3 "${REPO}/scripts/play_stereo_images.py" "${FOLDER}" --poses "${POSES}" --bag "${OUT}/images.bag" >/dev/null
+if [[ -f "${FOLDER}" ]]; then  # a recorded bag, with the topics of stereo_vislam.launch
+  ln -sf "$(readlink -f "${FOLDER}")" "${OUT}/images.bag"
+else
+  /usr/bin/python3 "${REPO}/scripts/play_stereo_images.py" "${FOLDER}" --poses "${POSES}" \
+    --bag "${OUT}/images.bag" >/dev/null
+fi
 roscore -p 11399 >"${OUT}/roscore.log" 2>&1 &
 CORE=$!
 trap 'kill -INT ${CORE} 2>/dev/null || true' EXIT

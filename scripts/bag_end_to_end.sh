@@ -42,16 +42,11 @@ for mode in slam deadreckoning; do
 done
 /usr/bin/python3 - "${BAG}" "${GROUNDTRUTH}" "${OUT}/groundtruth.tum" <<'PY'
 import sys
-import rosbag
-bag, topic, out = sys.argv[1:]
-with rosbag.Bag(bag) as b:
-    rows = ['%.9f %.9f %.9f %.9f %.9f %.9f %.9f %.9f' % (
-        m.header.stamp.to_sec(), m.pose.pose.position.x, m.pose.pose.position.y,
-        m.pose.pose.position.z, m.pose.pose.orientation.x, m.pose.pose.orientation.y,
-        m.pose.pose.orientation.z, m.pose.pose.orientation.w)
-        for _, m, _ in b.read_messages(topics=[topic])]
-if rows:
-    open(out, 'w').write('\n'.join(rows) + '\n')
+from ekf_vislam_tools.bag_reading import read_odometry_poses
+from ekf_vislam_tools.trajectory import write_tum
+t, T = read_odometry_poses(sys.argv[1], sys.argv[2])
+if len(t):
+    write_tum(sys.argv[3], t, T)
 PY
 if [[ -f "${OUT}/groundtruth.tum" ]]; then
   /usr/bin/python3 "${REPO}/scripts/evaluate.py" --groundtruth "${OUT}/groundtruth.tum" \

@@ -124,6 +124,7 @@ BAG_ARGS=(--bag "${OUT}/images.bag" --out "${OUT}/tracked.bag")
 import json, sys
 import numpy as np
 import rosbag
+from ekf_vislam_tools.bag_reading import read_feature_rows
 out, rate, play_end = sys.argv[1], sys.argv[2], float(sys.argv[3])
 outputs, done_end = open(out + '/outputs.txt').read().split()
 last = {}
@@ -155,15 +156,8 @@ print('estimator: frames used %s of %s, update ms p99 %s, latency ms p50 %.2f, p
 print('live = offline (vislam_offline on the recorded features): %s (%d poses, max |difference| %g)'
       % ('yes, bit for bit' if same else 'NO', len(live), diff))
 
-
-def features(path):
-    with rosbag.Bag(path) as bag:
-        return [(m.header.stamp.to_nsec(), [(f.id, f.u_left, f.v_left, f.u_right, f.v_right)
-                                            for f in m.features])
-                for _, m, _ in bag.read_messages(topics=['/stereo/features'])]
-
-
-live_features, bag_features = features(out + '/live.bag'), features(out + '/tracked.bag')
+live_features = read_feature_rows(out + '/live.bag')
+bag_features = read_feature_rows(out + '/tracked.bag')
 differ = sum(a != b for a, b in zip(live_features, bag_features))
 print('live tracker = track_stereo_bag on the images: %s (%d and %d feature messages, %d differ)'
       % ('yes, bit for bit' if live_features == bag_features else 'NO', len(live_features),

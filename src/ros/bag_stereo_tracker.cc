@@ -1,7 +1,6 @@
 #include "ekf_vislam/ros/bag_stereo_tracker.h"
 
 #include "ekf_vislam/ros/bag_reader.h"
-#include "ekf_vislam/ros/conversions.h"
 #include "ekf_vislam/ros/feature_message.h"
 #include "ekf_vislam/ros/gray_image.h"
 #include "ekf_vislam/tracker/debug_drawing.h"
@@ -24,8 +23,16 @@
 namespace ekf_vislam {
 
 namespace {
-constexpr uint64_t kRefusalsSaid =
-    10;  // of each kind of refusal, said one by one; the rest counted
+
+constexpr uint64_t kRefusalsSaid = 10;  // of each kind, said one by one; the rest counted
+
+// A stamp as the messages give it (s, 6 decimals).
+std::string stampText(double stamp) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.6f", stamp);
+  return text;
+}
+
 }  // namespace
 
 void BagStereoTracker::add(const rosbag::MessageInstance& m) {
@@ -37,9 +44,9 @@ void BagStereoTracker::add(const rosbag::MessageInstance& m) {
       if (const auto compressed = m.instantiate<sensor_msgs::CompressedImage>()) {
         std::string why;
         image = decompressedImage(*compressed, &why);
-        if (!image && ++counts_.undecodable <= kRefusalsSaid) {
-          std::cerr << "track_stereo_bag: " << topic << " at " << std::fixed
-                    << compressed->header.stamp.toSec() << ": " << why << ": skipped\n";
+        if (!image) {
+          say(&counts_.undecodable, topic + " at " + stampText(compressed->header.stamp.toSec()) +
+                                        ": " + why + ": skipped");
         }
       }
     }
@@ -82,11 +89,9 @@ void BagStereoTracker::addImage(const sensor_msgs::ImageConstPtr& image, bool is
       rights_.pop_front();
     } else {
       std::deque<sensor_msgs::ImageConstPtr>& older = apart < 0 ? lefts_ : rights_;
-      if (++counts_.unpaired <= kRefusalsSaid) {
-        std::cerr << "track_stereo_bag: " << (apart < 0 ? "left" : "right") << " image at "
-                  << std::fixed << older.front()->header.stamp.toSec()
-                  << " has no partner within ros/max_stamp_difference: skipped\n";
-      }
+      say(&counts_.unpaired, std::string(apart < 0 ? "left" : "right") + " image at " +
+                                 stampText(older.front()->header.stamp.toSec()) +
+                                 " has no partner within ros/max_stamp_difference: skipped");
       older.pop_front();
     }
   }
@@ -148,26 +153,17 @@ void BagStereoTracker::restartIfTimeJumped(int stream, const ros::Time& stamp) {
   prev_stamp_ = -1.0;
 }
 
-void BagStereoTracker::refuse(const std::string& why, double stamp) {
-  ++counts_.refused;
-  if (counts_.refused <= kRefusalsSaid) {
-    std::cerr << "track_stereo_bag: pair at " << std::fixed << stamp << ": " << why << ": skipped"
-              << (counts_.refused == kRefusalsSaid ? " (the next ones counted only)" : "") << "\n";
+void BagStereoTracker::say(uint64_t* counter, const std::string& what) {
+  ++*counter;
+  if (*counter <= kRefusalsSaid) {
+    std::cerr << "track_stereo_bag: " << what
+              << (*counter == kRefusalsSaid ? " (the next ones of this kind counted only)" : "")
+              << "\n";
   }
 }
 
-bool BagStereoTracker::calibration(const sensor_msgs::Image& left, StereoCalibration* stereo,
-                                   std::string* why) {
-  if (!ros_conversions::calibrationFromCameraInfo(*left_info_, *right_info_, stereo, why)) {
-    *why = "camera_info refused: " + *why;
-    return false;
-  }
-  if ((left_info_->width != 0 && left_info_->width != left.width) ||
-      (left_info_->height != 0 && left_info_->height != left.height)) {
-    *why = "image size differs from its camera_info's";
-    return false;
-  }
-  return true;
+void BagStereoTracker::refuse(const std::string& why, double stamp) {
+  say(&counts_.refused, "pair at " + stampText(stamp) + ": " + why + ": skipped");
 }
 
 std::optional<CameraMotionPrior> BagStereoTracker::motionPrior(const std::string& camera_frame,
@@ -191,7 +187,8 @@ void BagStereoTracker::track(const Pair& pair) {
   StereoCalibration stereo;
   std::string why;
   if (!toGrayImage(pair.left, &left, &why) || !toGrayImage(pair.right, &right, &why) ||
-      !calibration(*pair.left, &stereo, &why)) {
+      pairCalibration(*left_info_, *right_info_, *pair.left, &stereo, &why) !=
+          PairCalibration::kOk) {
     return refuse(why, stamp);
   }
   if (!tracker_ || !sameRectifiedPair(stereo, stereo_)) {
@@ -209,9 +206,9 @@ void BagStereoTracker::track(const Pair& pair) {
   ++counts_.tracked;
   if (prior) ++counts_.twist_predicted;
   counts_.observations += frame.features.size();
-  if (frame.features.empty() && ++counts_.without_features <= kRefusalsSaid) {
-    std::cerr << "track_stereo_bag: pair at " << std::fixed << stamp << " gave no feature ("
-              << kNoFeatureHint << ")\n";
+  if (frame.features.empty()) {
+    say(&counts_.without_features,
+        "pair at " + stampText(stamp) + " gave no feature (" + kNoFeatureHint + ")");
   }
   if (const std::string hint = tracker_->rigCheck().hint(); !rig_warned_ && !hint.empty()) {
     std::cerr << "track_stereo_bag: warning from pair " << counts_.tracked - 1 << ": " << hint

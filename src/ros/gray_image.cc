@@ -1,5 +1,7 @@
 #include "ekf_vislam/ros/gray_image.h"
 
+#include "ekf_vislam/ros/conversions.h"
+
 #include <cv_bridge/cv_bridge.h>
 #include <sensor_msgs/image_encodings.h>
 #include <opencv2/imgcodecs.hpp>
@@ -63,7 +65,7 @@ sensor_msgs::ImagePtr decompressedImage(const sensor_msgs::CompressedImage& msg,
   try {
     decoded = cv::imdecode(msg.data, cv::IMREAD_UNCHANGED);
   } catch (const cv::Exception&) {
-    decoded.release();
+    // left empty: said below
   }
   if (decoded.empty()) {
     *why = "compressed image (format '" + msg.format + "') that cannot be decoded";
@@ -77,6 +79,25 @@ sensor_msgs::ImagePtr decompressedImage(const sensor_msgs::CompressedImage& msg,
   if (decoded.type() == CV_16UC1) encoding = enc::MONO16;
   cv_bridge::CvImage image(msg.header, encoding, decoded);
   return image.toImageMsg();
+}
+
+PairCalibration pairCalibration(const sensor_msgs::CameraInfo& left_info,
+                                const sensor_msgs::CameraInfo& right_info,
+                                const sensor_msgs::Image& left, StereoCalibration* stereo,
+                                std::string* why) {
+  StereoCalibration calibration;
+  std::string error;
+  if (!ros_conversions::calibrationFromCameraInfo(left_info, right_info, &calibration, &error)) {
+    *why = "camera_info refused: " + error;
+    return PairCalibration::kCameraInfoRefused;
+  }
+  if ((left_info.width != 0 && left_info.width != left.width) ||
+      (left_info.height != 0 && left_info.height != left.height)) {
+    *why = "image size differs from its camera_info's";
+    return PairCalibration::kSizeMismatch;
+  }
+  *stereo = calibration;
+  return PairCalibration::kOk;
 }
 
 }  // namespace ekf_vislam

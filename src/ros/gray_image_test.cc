@@ -1,6 +1,8 @@
 // Unit tests of the stereo tracker's image input (no roscore).
 #include "ekf_vislam/ros/gray_image.h"
 
+#include "ekf_vislam/ros/conversions.h"
+
 #include <sensor_msgs/image_encodings.h>
 
 #include <gtest/gtest.h>
@@ -109,6 +111,40 @@ TEST(GrayImage, ACompressedPngIsDecodedLosslesslyAndGarbageIsRefused) {
   std::string why;
   EXPECT_FALSE(decompressedImage(garbage, &why));
   EXPECT_NE(why.find("cannot be decoded"), std::string::npos) << why;
+}
+
+TEST(GrayImage, PairCalibrationTakesTheEstimatorsRuleAndTheImageSize) {
+  StereoCalibration rig;
+  rig.fx = rig.fy = 700.0;
+  rig.cx = 600.0;
+  rig.cy = 180.0;
+  rig.baseline = 0.54;
+  rig.image_width = 1200;
+  rig.image_height = 360;
+  sensor_msgs::CameraInfo left_info, right_info;
+  ros_conversions::cameraInfoFromCalibration(rig, &left_info, &right_info);
+  sensor_msgs::Image left;
+  left.width = 1200;
+  left.height = 360;
+  StereoCalibration stereo;
+  std::string why;
+  ASSERT_EQ(pairCalibration(left_info, right_info, left, &stereo, &why), PairCalibration::kOk);
+  EXPECT_DOUBLE_EQ(stereo.cx, 600.0);
+  EXPECT_NEAR(stereo.baseline, 0.54, 1e-12);
+  // Another size than the camera_info's: refused, *stereo untouched.
+  StereoCalibration untouched;
+  left.width = 640;
+  EXPECT_EQ(pairCalibration(left_info, right_info, left, &untouched, &why),
+            PairCalibration::kSizeMismatch);
+  EXPECT_EQ(untouched.fx, 0.0);
+  EXPECT_NE(why.find("size"), std::string::npos) << why;
+  // Principal points half a pixel apart: not a rectified pair.
+  left.width = 1200;
+  right_info.P[2] += 0.5;
+  EXPECT_EQ(pairCalibration(left_info, right_info, left, &untouched, &why),
+            PairCalibration::kCameraInfoRefused);
+  EXPECT_EQ(untouched.fx, 0.0);
+  EXPECT_EQ(why.rfind("camera_info refused: ", 0), 0u) << why;
 }
 
 }  // namespace

@@ -297,23 +297,10 @@ bool StereoTrackerRos::calibrationFor(const sensor_msgs::Image& left, StereoCali
     *why = kNoCameraInfo;
     return false;
   }
-  // The estimator's rule (calibrationFromCameraInfo): a rectified pair, equal intrinsics.
-  StereoCalibration calibration;
-  std::string error;
-  if (!ros_conversions::calibrationFromCameraInfo(*left_info_, *right_info_, &calibration,
-                                                  &error)) {
-    ++bad_camera_info_;
-    *why = "camera_info refused: " + error;
-    return false;
-  }
-  if ((left_info_->width != 0 && left_info_->width != left.width) ||
-      (left_info_->height != 0 && left_info_->height != left.height)) {
-    ++size_mismatch_;
-    *why = "image size differs from its camera_info's";
-    return false;
-  }
-  *stereo = calibration;
-  return true;
+  const PairCalibration result = pairCalibration(*left_info_, *right_info_, left, stereo, why);
+  if (result == PairCalibration::kCameraInfoRefused) ++bad_camera_info_;
+  if (result == PairCalibration::kSizeMismatch) ++size_mismatch_;
+  return result == PairCalibration::kOk;
 }
 
 std::optional<CameraMotionPrior> StereoTrackerRos::motionPrior(const std::string& camera_frame,

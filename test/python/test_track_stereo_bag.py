@@ -19,6 +19,7 @@ import rospy
 from sensor_msgs.msg import CompressedImage
 
 import ekf_test_paths as paths
+from ekf_vislam_tools.bag_reading import read_feature_rows
 from test_track_stereo_images import tool
 
 FRAMES = 20
@@ -44,14 +45,6 @@ def counts(report):
     keys = ('left', 'right', 'unpaired', 'undecodable', 'tracked', 'predicted', 'featureless',
             'refused', 'no_camera_info', 'restarts')
     return dict(zip(keys, map(int, m.groups())))
-
-
-def features(bag_path):
-    """Per feature message: stamp (ns) and the (id, u_left, v_left, u_right, v_right) rows."""
-    with rosbag.Bag(bag_path) as bag:
-        return [(m.header.stamp.to_nsec(), [(f.id, f.u_left, f.v_left, f.u_right, f.v_right)
-                                            for f in m.features])
-                for _, m, _ in bag.read_messages([FEATURES])]
 
 
 def write_faulty_bag(clean, faulty):
@@ -106,9 +99,9 @@ class TrackStereoBagTest(unittest.TestCase):
             for topic in topics:
                 expected = 0 if topic in (LEFT, RIGHT) else src.get_message_count(topic)
                 self.assertEqual(out.get_message_count(topic), expected, topic)
-        tracked = features(self.tracked)
+        tracked = read_feature_rows(self.tracked)
         self.assertEqual(len(tracked), FRAMES)
-        rows = np.array([row for _, rows in tracked for row in rows])
+        rows = np.array([row for _, _, rows in tracked for row in rows])
         self.assertTrue(np.all(np.isfinite(rows)))
         self.assertGreater(rows.shape[0], 100 * FRAMES)
         self.assertTrue(np.all(rows[:, 1] - rows[:, 3] > 0))  # positive disparity
@@ -130,9 +123,9 @@ class TrackStereoBagTest(unittest.TestCase):
         self.assertIn('encoding', errors)
         self.assertIn('size', errors)
         self.assertIn('gave no feature', errors)
-        clean, bad = features(self.tracked), features(out)
+        clean, bad = read_feature_rows(self.tracked), read_feature_rows(out)
         self.assertEqual(bad[:BAD_ENCODING_PAIR], clean[:BAD_ENCODING_PAIR])
-        rows = np.array([row for _, rows in bad for row in rows])
+        rows = np.array([row for _, _, rows in bad for row in rows])
         self.assertTrue(np.all(np.isfinite(rows)))
 
     def test_a_bag_played_twice_restarts_the_tracks_and_the_ids_go_on(self):
@@ -151,12 +144,12 @@ class TrackStereoBagTest(unittest.TestCase):
         c = counts(report)
         self.assertEqual((c['tracked'], c['restarts']), (2 * FRAMES, 1), report)
         self.assertIn('went back', errors)
-        tracked = features(out)
+        tracked = read_feature_rows(out)
         first, second = tracked[:FRAMES], tracked[FRAMES:]
-        self.assertEqual(first, features(self.tracked))
-        last_id = max(row[0] for _, rows in first for row in rows)
-        for (stamp_a, rows_a), (stamp_b, rows_b) in zip(first, second):
-            self.assertEqual(stamp_a, stamp_b)
+        self.assertEqual(first, read_feature_rows(self.tracked))
+        last_id = max(row[0] for _, _, rows in first for row in rows)
+        for (stamp_a, frame_a, rows_a), (stamp_b, frame_b, rows_b) in zip(first, second):
+            self.assertEqual((stamp_a, frame_a), (stamp_b, frame_b))
             self.assertEqual([r[1:] for r in rows_a], [r[1:] for r in rows_b])
             self.assertGreater(min(r[0] for r in rows_b), last_id)
 
@@ -186,7 +179,7 @@ class TrackStereoBagTest(unittest.TestCase):
         self.assertEqual((c['undecodable'], c['unpaired'], c['tracked']), (1, 1, FRAMES - 1),
                          report)
         self.assertIn('cannot be decoded', errors)
-        self.assertEqual(features(out), features(self.tracked)[:FRAMES - 1])
+        self.assertEqual(read_feature_rows(out), read_feature_rows(self.tracked)[:FRAMES - 1])
 
     def test_bag_end_to_end_evaluates_against_the_bags_ground_truth(self):
         # scripts/bag_end_to_end.sh: the tool, vislam_offline in both modes, evaluate.py against

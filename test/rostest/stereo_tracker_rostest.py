@@ -27,6 +27,7 @@ from vislam_rostest import (DelayedRelay, NewestStatuses, log, rendered_drive_ba
                             stereo_inputs_required)
 
 from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
+from ekf_vislam_tools.bag_reading import feature_rows, read_feature_rows  # noqa: E402
 
 PKG = 'ekf_vislam'
 FRAMES = 80
@@ -150,13 +151,9 @@ class StereoTrackerPipelineTest(NewestStatuses, unittest.TestCase):
         # and vislam_offline on its output bag a trajectory to the ground truth.
         tracked = os.path.join(self.tmp, 'tracked.bag')
         log(run(['rosrun', PKG, 'track_stereo_bag', '--bag', self.bag, '--out', tracked]).strip())
-
-        def content(msg):
-            return (msg.header.stamp.to_nsec(), msg.header.frame_id,
-                    [(f.id, f.u_left, f.v_left, f.u_right, f.v_right) for f in msg.features])
-        live = [content(m) for m in list(self.features)[:FRAMES]]
+        live = [feature_rows(m) for m in list(self.features)[:FRAMES]]
+        offline = read_feature_rows(tracked)
         with rosbag.Bag(tracked) as bag:
-            offline = [content(m) for _, m, _ in bag.read_messages(['/stereo/features'])]
             self.assertEqual(bag.get_message_count('/stereo/left/image_rect'), 0)
             self.assertEqual(bag.get_message_count('/imu/twist'), FRAMES)
         self.assertEqual(len(offline), FRAMES)

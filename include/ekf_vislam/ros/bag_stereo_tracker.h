@@ -84,8 +84,9 @@ class BagStereoTracker {
                 const std::string& frame);
   void trackReadyPairs(bool all);
   void track(const Pair& pair);
-  bool calibration(const sensor_msgs::Image& left, StereoCalibration* stereo, std::string* why);
   std::optional<CameraMotionPrior> motionPrior(const std::string& camera_frame, double to);
+  /// Counts one more in *counter and says `what` on stderr for the first kRefusalsSaid of it.
+  void say(uint64_t* counter, const std::string& what);
   void refuse(const std::string& why, double stamp);
   /// As the node: a stamp on `stream` (0 images, 1 twist) that went back in time (a bag played
   /// again) drops every track, waiting pair and twist, and tracking starts again, ids going on.

@@ -1,7 +1,11 @@
 // The stereo tracker's image input: which sensor_msgs/Image encodings it takes, each as the 8-bit
-// gray image the tracker core works on, and a sensor_msgs/CompressedImage made an Image.
+// gray image the tracker core works on, a sensor_msgs/CompressedImage made an Image, and the
+// calibration a pair is tracked with. The nodelet and track_stereo_bag both go through these.
 #pragma once
 
+#include "ekf_vislam/core/types.h"
+
+#include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <opencv2/core.hpp>
@@ -28,5 +32,17 @@ bool toGrayImage(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::stri
 /// and others for deeper images, which the tracker then refuses. Null, with *why, when the data
 /// cannot be decoded.
 sensor_msgs::ImagePtr decompressedImage(const sensor_msgs::CompressedImage& msg, std::string* why);
+
+/// Why pairCalibration refused a pair (a counter each, in the nodelet's diagnostics).
+enum class PairCalibration { kOk, kCameraInfoRefused, kSizeMismatch };
+
+/// The rectified calibration a pair whose left image is `left` is tracked with, from the
+/// camera_info pair by the estimator's rule (ros_conversions::calibrationFromCameraInfo); the
+/// camera_info's size, when it gives one, must be the image's. *stereo is set only for kOk, *why
+/// otherwise.
+PairCalibration pairCalibration(const sensor_msgs::CameraInfo& left_info,
+                                const sensor_msgs::CameraInfo& right_info,
+                                const sensor_msgs::Image& left, StereoCalibration* stereo,
+                                std::string* why);
 
 }  // namespace ekf_vislam

@@ -7,10 +7,13 @@
 # estimator used, its update time and latency (diagnostics), the time the estimator finished
 # after the last pair, whether vislam_offline on the recorded features reproduces the live
 # trajectory bit for bit (live = offline), and whether track_stereo_bag on the images reproduces
-# the live tracker's features bit for bit. Instead of a folder, a recorded bag (BAG.bag, raw images
-# on the topics of stereo_vislam.launch, with twist, camera_info and /tf_static) is played as it is.
+# the live tracker's features bit for bit. Instead of a folder, a recorded bag (BAG.bag, images on
+# the topics of stereo_vislam.launch, with twist, camera_info and /tf_static) is played as it is.
+# Images as CompressedImage (a bag's image_rect/compressed topics, or a folder with --compressed
+# png|jpeg, written by play_stereo_images.py) run the tracker with ros/image_transport compressed.
 #   scripts/benchmark_live.sh FOLDER|BAG [--poses FILE] [--rate R] [--config estimator.yaml]
 #                             [--tracker-config tracker.yaml] [--standalone] [--out DIR]
+#                             [--compressed png|jpeg [--jpeg-quality Q]]
 # --standalone: the two nodes (stereo_tracker_node, vislam_node) instead of one nodelet manager.
 # Needs no roscore running on port 11399 (it starts its own there).
 set -eo pipefail
@@ -23,6 +26,7 @@ TRACKER_CONFIG=""
 STANDALONE=false
 OUT=""
 POSES=""
+COMPRESS=()
 while (($#)); do
   case "$1" in
     --rate) RATE=$2; shift 2 ;;
@@ -31,7 +35,8 @@ while (($#)); do
     --tracker-config) TRACKER_CONFIG=$(readlink -f "$2"); shift 2 ;;
     --standalone) STANDALONE=true; shift ;;
     --out) OUT=$2; shift 2 ;;
-    -h|--help) sed -n 2,15p "$0"; exit 0 ;;
+    --compressed|--jpeg-quality) COMPRESS+=("$1" "$2"); shift 2 ;;
+    -h|--help) sed -n 2,18p "$0"; exit 0 ;;
     *) FOLDER=$1; shift ;;
   esac
 done
@@ -50,13 +55,25 @@ if [[ -f "${FOLDER}" ]]; then  # a recorded bag, with the topics of stereo_visla
   ln -sf "$(readlink -f "${FOLDER}")" "${OUT}/images.bag"
 else
   /usr/bin/python3 "${REPO}/scripts/play_stereo_images.py" "${FOLDER}" --poses "${POSES}" \
-    --bag "${OUT}/images.bag" >/dev/null
+    --bag "${OUT}/images.bag" "${COMPRESS[@]}" >/dev/null
+fi
+# The image topics: raw, or the compressed ones when the bag holds those and no raw images.
+LEFT=/stereo/left/image_rect
+RIGHT=/stereo/right/image_rect
+TRANSPORT=raw
+if /usr/bin/python3 -c "import rosbag, sys; b = rosbag.Bag(sys.argv[1]); \
+sys.exit(not (b.get_message_count(sys.argv[2]) == 0 < b.get_message_count(sys.argv[2] + '/compressed')))" \
+    "${OUT}/images.bag" "${LEFT}"; then
+  LEFT=${LEFT}/compressed
+  RIGHT=${RIGHT}/compressed
+  TRANSPORT=compressed
 fi
 roscore -p 11399 >"${OUT}/roscore.log" 2>&1 &
 CORE=$!
 trap 'kill -INT ${CORE} 2>/dev/null || true' EXIT
 until rostopic list >/dev/null 2>&1; do sleep 0.5; done
-ARGS=(use_sim_time:=true output_dir:="${OUT}/live" standalone:="${STANDALONE}")
+ARGS=(use_sim_time:=true output_dir:="${OUT}/live" standalone:="${STANDALONE}"
+  image_transport:="${TRANSPORT}")
 [[ -n "${CONFIG}" ]] && ARGS+=(config:="${CONFIG}")
 [[ -n "${TRACKER_CONFIG}" ]] && ARGS+=(tracker_config:="${TRACKER_CONFIG}")
 roslaunch ekf_vislam stereo_vislam.launch "${ARGS[@]}" >"${OUT}/launch.log" 2>&1 &
@@ -68,7 +85,7 @@ RECORD=$!
 until rosservice list 2>/dev/null | grep -q /vislam/save; do sleep 0.5; done
 # Counts the estimator's per-frame outputs as they come; ends when every pair has one, or when
 # none has come for 20 s, and writes the count and the wall time of the last one.
-PAIRS=$(/usr/bin/python3 -c "import rosbag, sys; print(rosbag.Bag(sys.argv[1]).get_message_count('/stereo/left/image_rect'))" "${OUT}/images.bag")
+PAIRS=$(/usr/bin/python3 -c "import rosbag, sys; print(rosbag.Bag(sys.argv[1]).get_message_count(sys.argv[2]))" "${OUT}/images.bag" "${LEFT}")
 /usr/bin/python3 - "${PAIRS}" "${OUT}/outputs.txt" <<'PY' &
 import sys, time
 import rospy
@@ -87,11 +104,13 @@ PY
 COUNTER=$!
 # The player starts paused and resumes once the nodelets, the recorder and the counter are
 # connected (bag_playback), so no pair and no output is lost to a slow start.
-/usr/bin/python3 - "${OUT}/images.bag" "${RATE}" "${STANDALONE}" >"${OUT}/play.log" 2>&1 <<'PY'
+/usr/bin/python3 - "${OUT}/images.bag" "${RATE}" "${STANDALONE}" "${LEFT}" "${RIGHT}" \
+  >"${OUT}/play.log" 2>&1 <<'PY'
 import sys
 import rospy
 from ekf_vislam_tools import bag_playback
 bag, rate, standalone = sys.argv[1], float(sys.argv[2]), sys.argv[3] == 'true'
+images = sys.argv[4:6]
 recorder, counter = '/benchmark_live_record', '/benchmark_live_count'
 # The nodes that publish and subscribe: one manager, or the two standalone nodes.
 tracker, estimator = ('/stereo_tracker', '/vislam') if standalone else ('/stereo_vislam_manager',) * 2
@@ -103,7 +122,7 @@ if not bag_playback.wait_until(lambda: all(bag_playback.publisher_connected(node
     sys.exit('benchmark_live: the recorder and the counter did not connect to the nodes')
 inputs = {topic: tuple({tracker, estimator}) + (recorder,)
           for topic in ('/imu/twist', '/stereo/left/camera_info', '/stereo/right/camera_info')}
-inputs.update({topic: (tracker,) for topic in ('/stereo/left/image_rect', '/stereo/right/image_rect')})
+inputs.update({topic: (tracker,) for topic in images})
 bag_playback.play_bag(bag, '/benchmark_live_player', rate, inputs, timeout=3600)
 PY
 PLAY_END=$(date +%s.%N)
@@ -117,19 +136,20 @@ OFFLINE_ARGS=(--bag "${OUT}/live.bag" --mode slam --out "${OUT}/offline")
 [[ -n "${CONFIG}" ]] && OFFLINE_ARGS+=(--config "${CONFIG}")
 "${TOOL}" "${OFFLINE_ARGS[@]}" >"${OUT}/offline.log" 2>&1
 # The tracker offline on the same images (track_stereo_bag), against the features it published.
-BAG_ARGS=(--bag "${OUT}/images.bag" --out "${OUT}/tracked.bag")
+BAG_ARGS=(--bag "${OUT}/images.bag" --out "${OUT}/tracked.bag" --left-topic "${LEFT}"
+  --right-topic "${RIGHT}")
 [[ -n "${TRACKER_CONFIG}" ]] && BAG_ARGS+=(--config "${TRACKER_CONFIG}")
 "$(dirname "${TOOL}")/track_stereo_bag" "${BAG_ARGS[@]}" >"${OUT}/track_bag.log" 2>&1
-/usr/bin/python3 - "${OUT}" "${RATE}" "${PLAY_END}" <<'PY'
+/usr/bin/python3 - "${OUT}" "${RATE}" "${PLAY_END}" "${LEFT}" <<'PY'
 import json, sys
 import numpy as np
 import rosbag
 from ekf_vislam_tools.bag_reading import read_feature_rows
-out, rate, play_end = sys.argv[1], sys.argv[2], float(sys.argv[3])
+out, rate, play_end, left = sys.argv[1], sys.argv[2], float(sys.argv[3]), sys.argv[4]
 outputs, done_end = open(out + '/outputs.txt').read().split()
 last = {}
 with rosbag.Bag(out + '/images.bag') as bag:
-    pairs = bag.get_message_count('/stereo/left/image_rect')
+    pairs = bag.get_message_count(left)
 with rosbag.Bag(out + '/live.bag') as bag:
     for _, msg, _ in bag.read_messages(topics=['/diagnostics']):
         for status in msg.status:
@@ -140,14 +160,16 @@ offline = np.loadtxt(out + '/offline/trajectory.tum', ndmin=2)
 same = live.shape == offline.shape and np.array_equal(live, offline)
 diff = np.abs(live[:, 1:] - offline[:, 1:]).max() if live.shape == offline.shape else float('nan')
 stats = json.load(open(out + '/live/stats.json'))
-print('pairs played %d at %sx; tracker: received %s, tracked %s, skipped by input/max_rate_hz '
+print('pairs played %d (%s) at %sx; tracker: received %s, tracked %s, skipped by input/max_rate_hz '
       '%s, dropped waiting %s, dropped from its backlog %s, out of order %s, missing %s; backlog '
       'peak %s MB' % (
-          pairs, rate, tracker.get('pairs_received'), tracker.get('pairs_tracked'),
+          pairs, left, rate, tracker.get('pairs_received'), tracker.get('pairs_tracked'),
           tracker.get('pairs_skipped_rate'), tracker.get('pairs_dropped_waiting'),
           tracker.get('pairs_dropped_backlog'), tracker.get('pairs_out_of_order'),
           tracker.get('pairs_missing'),
           tracker.get('backlog_mb_peak')))
+if left.endswith('/compressed'):
+    print('tracker: the last pair took %s ms to decode' % tracker.get('decode_ms_last'))
 print('estimator: frames used %s of %s, update ms p99 %s, latency ms p50 %.2f, p99 %.2f, '
       'peak active landmarks %s; its last output %.2f s after the player ended (%s outputs)'
       % (stats['counters'].get('frame_used'), stats['frames'],

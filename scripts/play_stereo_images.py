@@ -4,6 +4,9 @@ a bag: what a stereo camera driver with rectification and a twist source would g
 
     play_stereo_images.py FOLDER --bag OUT.bag [--max-frames N] [--poses FILE]
     play_stereo_images.py FOLDER --play [--rate R] [--loop] [--poses FILE]
+    add --compressed png|jpeg [--jpeg-quality Q] for sensor_msgs/CompressedImage on
+    /stereo/{left,right}/image_rect/compressed instead (the tracker's ros/image_transport
+    compressed)
 
 FOLDER holds image_left/ and image_right/ (or KITTI's image_0/ and image_1/), calib.txt (P0,
 P1), times.txt and optionally poses.txt (world_T_cam0 per line; --poses FILE for poses kept
@@ -27,7 +30,7 @@ import numpy as np
 import rosbag
 import rospy
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import Image
+from sensor_msgs.msg import CompressedImage, Image
 
 from ekf_vislam_tools import bag_writer, stereo_images
 
@@ -56,13 +59,28 @@ def parse_args(argv):
     p.add_argument('--gyro-offset', type=float, default=0.001, help='rad/s on every gyro axis')
     p.add_argument('--seed', type=int, default=0)
     p.add_argument('--no-twist', action='store_true', help='do not publish /imu/twist')
+    p.add_argument('--compressed', choices=('png', 'jpeg'),
+                   help='CompressedImage on the image topics + /compressed, not Image')
+    p.add_argument('--jpeg-quality', type=int, default=95, help='--compressed jpeg (default 95)')
     return p.parse_args(argv)
 
 
-def image_msg(path, frame_id, stamp):
+def image_msg(path, frame_id, stamp, args):
+    """The mono8 Image of the file at `path`, or with args.compressed its CompressedImage (the
+    format string as image_transport's compressed publisher writes it)."""
     gray = cv2.imread(path, cv2.IMREAD_GRAYSCALE)
     if gray is None:
         raise ValueError('%s: cannot read the image' % path)
+    if args.compressed:
+        params = [cv2.IMWRITE_JPEG_QUALITY, args.jpeg_quality] if args.compressed == 'jpeg' else []
+        ok, data = cv2.imencode('.' + args.compressed, gray, params)
+        if not ok:
+            raise ValueError('%s: cannot encode the image as %s' % (path, args.compressed))
+        msg = CompressedImage(format='mono8; %s compressed ' % args.compressed,
+                              data=data.tobytes())
+        msg.header.stamp = stamp
+        msg.header.frame_id = frame_id
+        return msg
     msg = Image()
     msg.header.stamp = stamp
     msg.header.frame_id = frame_id
@@ -71,6 +89,10 @@ def image_msg(path, frame_id, stamp):
     msg.step = gray.shape[1]
     msg.data = gray.tobytes()
     return msg
+
+
+def image_topic(topic, args):
+    return topic + '/compressed' if args.compressed else topic
 
 
 def messages(folder, args):
@@ -101,9 +123,10 @@ def messages(folder, args):
         left_info, right_info = bag_writer.camera_info_msgs(calib, stamp)
         yield bag_writer.TOPIC_LEFT_INFO, left_info, stamp
         yield bag_writer.TOPIC_RIGHT_INFO, right_info, stamp
-        yield TOPIC_LEFT_IMAGE, image_msg(folder.left[k], bag_writer.FRAME_CAMERA_LEFT, stamp), stamp
-        yield TOPIC_RIGHT_IMAGE, image_msg(folder.right[k], bag_writer.FRAME_CAMERA_RIGHT,
-                                           stamp), stamp
+        yield image_topic(TOPIC_LEFT_IMAGE, args), image_msg(
+            folder.left[k], bag_writer.FRAME_CAMERA_LEFT, stamp, args), stamp
+        yield image_topic(TOPIC_RIGHT_IMAGE, args), image_msg(
+            folder.right[k], bag_writer.FRAME_CAMERA_RIGHT, stamp, args), stamp
 
 
 def write_bag(folder, args):
@@ -115,7 +138,7 @@ def write_bag(folder, args):
                           connection_header=bag_writer.tf_static_connection_header(msg, '/' + PROG))
             else:
                 bag.write(topic, msg, stamp)
-            count += topic == TOPIC_LEFT_IMAGE
+            count += topic == image_topic(TOPIC_LEFT_IMAGE, args)
     print('%s: %d stereo pairs -> %s' % (PROG, count, args.bag))
 
 
@@ -123,7 +146,9 @@ def play(folder, args):
     rospy.init_node('play_stereo_images', anonymous=True, disable_signals=True)
     publishers = {}
     clock = rospy.Publisher('/clock', Clock, queue_size=10)
-    types = dict(bag_writer.TOPIC_TYPES, **{TOPIC_LEFT_IMAGE: Image, TOPIC_RIGHT_IMAGE: Image})
+    image_type = CompressedImage if args.compressed else Image
+    types = dict(bag_writer.TOPIC_TYPES, **{image_topic(TOPIC_LEFT_IMAGE, args): image_type,
+                                            image_topic(TOPIC_RIGHT_IMAGE, args): image_type})
     while True:
         wall_start = t_first = None
         for topic, msg, stamp in messages(folder, args):

@@ -63,6 +63,12 @@ class LaunchFileTest(unittest.TestCase):
         self.assertNotIn('/twist_combiner/combiner/imu_samples_per_twist', p)
         self.assertEqual(nodes('vislam.launch'), {'/vislam_manager', '/vislam'})
 
+    def test_image_transport_argument_sets_the_trackers_key(self):
+        self.assertEqual(params('stereo_vislam.launch')['/stereo_tracker/ros/image_transport'],
+                         'raw')
+        p = params('stereo_vislam.launch', 'image_transport:=compressed')
+        self.assertEqual(p['/stereo_tracker/ros/image_transport'], 'compressed')
+
     def test_twist_combiner_argument_adds_the_combiner_and_sets_both_twist_types(self):
         p = params('stereo_vislam.launch', 'twist_combiner:=true', 'imu_frame:=imu_link',
                    'base_frame:=base_link')

@@ -4,7 +4,8 @@ vislam_offline takes it; a bag with bad pairs (an encoding the tracker does not 
 differ, a right image 50 ms late) has them refused and counted, a black pair counted as without a
 feature, the other pairs tracked as in the clean bag up to the first fault; a bag played twice
 restarts the tracks (ids going on) and tracks its second pass as its first; a bag without
-camera_info fails with a message saying so; png-compressed images give the same features;
+camera_info fails with a message saying so; png-compressed images give the same features, and
+play_stereo_images.py's jpeg bag is tracked;
 scripts/bag_end_to_end.sh evaluates the bag against its ground truth. The live tracker's features
 are the same bit for bit: the rostest stereo_tracker.test."""
 import os
@@ -180,6 +181,30 @@ class TrackStereoBagTest(unittest.TestCase):
                          report)
         self.assertIn('cannot be decoded', errors)
         self.assertEqual(read_feature_rows(out), read_feature_rows(self.tracked)[:FRAMES - 1])
+
+    def test_jpeg_bag_of_play_stereo_images_is_tracked(self):
+        # play_stereo_images.py --compressed jpeg writes CompressedImage on the /compressed
+        # topics: every pair decodes and is tracked, with about the raw images' features.
+        jpeg = os.path.join(self.tmp, 'jpeg.bag')
+        result = paths.run_script('play_stereo_images.py', os.path.join(self.tmp, 'drive'),
+                                  '--bag', jpeg, '--compressed', 'jpeg', '--jpeg-quality', '90')
+        self.assertEqual(result.returncode, 0, result.stderr)
+        with rosbag.Bag(jpeg) as bag:
+            topics = bag.get_type_and_topic_info().topics
+            self.assertEqual(topics[LEFT + '/compressed'].msg_type, 'sensor_msgs/CompressedImage')
+            self.assertNotIn(LEFT, topics)
+            raw_bytes = sum(len(m.data) for _, m, _ in rosbag.Bag(self.bag).read_messages([LEFT]))
+            jpeg_bytes = sum(len(m.data) for _, m, _ in bag.read_messages([LEFT + '/compressed']))
+        self.assertLess(jpeg_bytes, 0.5 * raw_bytes)
+        out = os.path.join(self.tmp, 'jpeg_tracked.bag')
+        rc, report, errors = track(jpeg, out, '--left-topic', LEFT + '/compressed',
+                                   '--right-topic', RIGHT + '/compressed')
+        self.assertEqual(rc, 0, errors)
+        c = counts(report)
+        self.assertEqual((c['undecodable'], c['tracked']), (0, FRAMES), report)
+        observations = sum(len(rows) for _, _, rows in read_feature_rows(out))
+        raw_observations = sum(len(rows) for _, _, rows in read_feature_rows(self.tracked))
+        self.assertGreater(observations, 0.8 * raw_observations)
 
     def test_bag_end_to_end_evaluates_against_the_bags_ground_truth(self):
         # scripts/bag_end_to_end.sh: the tool, vislam_offline in both modes, evaluate.py against

@@ -22,6 +22,7 @@
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
@@ -54,6 +55,9 @@ class StereoTrackerRos {
  private:
   using SyncPolicy =
       message_filters::sync_policies::ApproximateTime<sensor_msgs::Image, sensor_msgs::Image>;
+  using CompressedSyncPolicy =
+      message_filters::sync_policies::ApproximateTime<sensor_msgs::CompressedImage,
+                                                      sensor_msgs::CompressedImage>;
 
   struct ImagePair {
     sensor_msgs::ImageConstPtr left, right;
@@ -71,8 +75,18 @@ class StereoTrackerRos {
   /// warned), and nothing is queued once the node stops.
   bool post(std::function<void()> event, size_t image_bytes = 0);
   void trackingThread();
+  /// Subscribes to the image pairs of ros/image_transport, synchronized.
+  void subscribeImages();
   void imageCallback(const sensor_msgs::ImageConstPtr& left,
                      const sensor_msgs::ImageConstPtr& right);
+  /// ros/image_transport compressed: the pair is decoded on the tracking thread, then received as
+  /// a raw one; a pair with an image that does not decode is counted (undecodable_images).
+  void compressedImageCallback(const sensor_msgs::CompressedImageConstPtr& left,
+                               const sensor_msgs::CompressedImageConstPtr& right);
+  /// Posts a synchronized pair's `event` (the pair's `image_bytes`, left stamp `stamp`); a pair
+  /// dropped from a full backlog still leaves its stamp, so that pairs_missing counts only what
+  /// never came.
+  void postPair(std::function<void()> event, size_t image_bytes, double stamp);
   /// A synchronized pair on the tracking thread: checked, then waits in waiting_pairs_ until
   /// pairReady.
   void receivePair(const sensor_msgs::ImageConstPtr& left, const sensor_msgs::ImageConstPtr& right);
@@ -140,6 +154,9 @@ class StereoTrackerRos {
   image_transport::ImageTransport image_transport_;
   message_filters::Subscriber<sensor_msgs::Image> left_sub_, right_sub_;
   std::unique_ptr<message_filters::Synchronizer<SyncPolicy>> sync_;
+  message_filters::Subscriber<sensor_msgs::CompressedImage> left_compressed_sub_,
+      right_compressed_sub_;
+  std::unique_ptr<message_filters::Synchronizer<CompressedSyncPolicy>> compressed_sync_;
   ros::Subscriber left_info_sub_, right_info_sub_, twist_sub_;
   ros::Publisher features_pub_;
   image_transport::Publisher debug_pub_;
@@ -175,6 +192,8 @@ class StereoTrackerRos {
   uint64_t pairs_skipped_rate_ = 0;      ///< not due under input/max_rate_hz
   uint64_t first_fit_predictions_ = 0;   ///< pairs predicted from a motion fitted first
   uint64_t pairs_without_features_ = 0;  ///< tracked pairs that gave no feature (dark, flat images)
+  uint64_t undecodable_images_ = 0;      ///< compressed images that did not decode
+  double decode_ms_last_ = 0.0;          ///< wall ms the last compressed pair took to decode
   uint64_t tracks_crowded_ = 0;          ///< tracks ended near an older one (TrackerFrameStats)
   TimeJumpDetector time_jumps_{0.0, 2};  ///< images 0, twist 1 (set from ros/time_jump_reset)
   StampGapDetector pair_gaps_;           ///< pairs missing, from gaps in the left stamps

@@ -25,6 +25,15 @@ enum class TemporalOutlierCheck {
                  ///< distance of the PnP motion (falls back to kFundamental with too few points)
 };
 
+/// How the nodelet receives its images (ros/image_transport).
+enum class ImageTransportType {
+  kRaw,         ///< sensor_msgs/Image on stereo/{left,right}/image_rect
+  kCompressed,  ///< sensor_msgs/CompressedImage on stereo/{left,right}/image_rect/compressed
+};
+
+inline constexpr EnumNames<ImageTransportType, 2> kImageTransportNames{
+    {{"raw", ImageTransportType::kRaw}, {"compressed", ImageTransportType::kCompressed}}};
+
 struct TrackerOptions {
   // input/
   double max_rate_hz = 0;  ///< pairs closer than kRateSlack / this to the last tracked one are
@@ -119,7 +128,10 @@ std::vector<OptionKeyList::Key> trackerOptionKeys();
 struct StereoTrackerRosOptions {
   int queue_size = 200;                 ///< image, synchronizer and waiting-pair queues
   double max_stamp_difference = 0.002;  ///< s, left and right stamps further apart: unsynchronized
-  bool use_twist = true;                ///< predict KLT start points from imu/twist (needs tf)
+  /// raw: sensor_msgs/Image; compressed: the CompressedImage (png, jpeg) of the same topic's
+  /// /compressed, as image_transport names it, decoded on the tracking thread.
+  ImageTransportType image_transport = ImageTransportType::kRaw;
+  bool use_twist = true;  ///< predict KLT start points from imu/twist (needs tf)
   /// Message type on imu/twist, as the estimator's ros/twist_type: twist_stamped |
   /// twist_with_covariance | odometry (its twist, in child_frame_id).
   TwistMessageType twist_type = TwistMessageType::kTwistStamped;

@@ -46,8 +46,7 @@ TEST(TrackerRosOptions, ShippedFileEqualsTheDefaultsAndRangesAreChecked) {
   EXPECT_TRUE(options.use_twist);
   EXPECT_EQ(options.image_transport, ImageTransportType::kRaw);
   const YamlParameterSource changed = YamlParameterSource::fromString(
-      "ros: {queue_size: 7, use_twist: false, image_transport: "
-      "compressed}\n");
+      "ros: {queue_size: 7, use_twist: false, image_transport: compressed}\n");
   ASSERT_TRUE(parseTrackerRosOptions(changed, &options, &error)) << error;
   EXPECT_EQ(options.queue_size, 7);
   EXPECT_FALSE(options.use_twist);

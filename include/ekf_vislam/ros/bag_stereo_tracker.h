@@ -6,6 +6,7 @@
 #pragma once
 
 #include "ekf_vislam/core/time_jump_detector.h"
+#include "ekf_vislam/ros/bag_reader.h"
 #include "ekf_vislam/tracker/image_mask.h"
 #include "ekf_vislam/tracker/stereo_tracker.h"
 #include "ekf_vislam/tracker/tracker_options.h"
@@ -24,18 +25,13 @@
 #include <string>
 #include <vector>
 
-namespace rosbag {
-class Bag;
-class MessageInstance;
-}  // namespace rosbag
-
 namespace ekf_vislam {
 
-/// The bag's topics (those of stereo_vislam.launch by default).
-struct BagTrackerTopics {
+/// The bag's topics (those of stereo_vislam.launch by default): the image pair's, and the
+/// estimator's inputs as the offline runner names them (BagTopics: camera_info, twist, features,
+/// /tf_static; its imu_data and wheel_odometry are not read here).
+struct BagTrackerTopics : BagTopics {
   std::string left = "/stereo/left/image_rect", right = "/stereo/right/image_rect";
-  std::string left_info = "/stereo/left/camera_info", right_info = "/stereo/right/camera_info";
-  std::string twist = "/imu/twist", features = "/stereo/features", tf_static = "/tf_static";
 };
 
 /// What a pass over a bag counted.

@@ -10,6 +10,7 @@
 #include <geometry_msgs/TwistStamped.h>
 #include <geometry_msgs/TwistWithCovarianceStamped.h>
 #include <nav_msgs/Odometry.h>
+#include <ros/message_event.h>
 #include <rosbag/bag.h>
 #include <rosbag/message_instance.h>
 #include <sensor_msgs/CompressedImage.h>
@@ -35,22 +36,38 @@ std::string stampText(double stamp) {
 
 }  // namespace
 
+BagStereoTracker::BagStereoTracker(const BagTrackerTopics& topics, const TrackerOptions& options,
+                                   const StereoTrackerRosOptions& ros_options,
+                                   const StereoMasks& masks, bool bag_has_twist,
+                                   const std::string& debug_dir, rosbag::Bag* out)
+    : topics_(topics),
+      options_(options),
+      ros_options_(ros_options),
+      masks_(masks),
+      debug_dir_(debug_dir),
+      wait_for_twist_(ros_options.use_twist && bag_has_twist),
+      out_(out),
+      time_jumps_(ros_options.time_jump_reset, 2),
+      sync_(makeStereoImageSync<sensor_msgs::Image>(ros_options)),
+      compressed_sync_(makeStereoImageSync<sensor_msgs::CompressedImage>(ros_options)) {
+  sync_->registerCallback(&BagStereoTracker::addPair, this);
+  compressed_sync_->registerCallback(&BagStereoTracker::addCompressedPair, this);
+}
+
 void BagStereoTracker::add(const rosbag::MessageInstance& m) {
   now_ = m.getTime();
   const std::string& topic = m.getTopic();
   if (topic == topics_.left || topic == topics_.right) {
-    sensor_msgs::ImageConstPtr image = m.instantiate<sensor_msgs::Image>();
-    if (!image) {
-      if (const auto compressed = m.instantiate<sensor_msgs::CompressedImage>()) {
-        std::string why;
-        image = decompressedImage(*compressed, &why);
-        if (!image) {
-          say(&counts_.undecodable, topic + " at " + stampText(compressed->header.stamp.toSec()) +
-                                        ": " + why + ": skipped");
-        }
-      }
+    // Into the node's synchronizer, received at the bag time; it calls addPair or
+    // addCompressedPair for each pair it emits.
+    const bool is_left = topic == topics_.left;
+    ++(is_left ? counts_.left : counts_.right);
+    if (const auto image = m.instantiate<sensor_msgs::Image>()) {
+      addToSync<sensor_msgs::Image>(sync_.get(), image, is_left);
+    } else if (const auto compressed = m.instantiate<sensor_msgs::CompressedImage>()) {
+      addToSync<sensor_msgs::CompressedImage>(compressed_sync_.get(), compressed, is_left);
     }
-    if (image) addImage(image, topic == topics_.left);
+    trackReadyPairs(false);
     return;
   }
   out_->write(topic, m.getTime(), m, m.getConnectionHeader());
@@ -75,27 +92,51 @@ void BagStereoTracker::add(const rosbag::MessageInstance& m) {
   trackReadyPairs(false);
 }
 
-void BagStereoTracker::addImage(const sensor_msgs::ImageConstPtr& image, bool is_left) {
-  ++(is_left ? counts_.left : counts_.right);
-  (is_left ? lefts_ : rights_).push_back(image);
-  // Pair the oldest of each side when their stamps agree; an image older than the other side's
-  // oldest has no partner (the synchronizer drops it alike).
-  while (!lefts_.empty() && !rights_.empty()) {
-    const double apart = (lefts_.front()->header.stamp - rights_.front()->header.stamp).toSec();
-    if (std::abs(apart) <= ros_options_.max_stamp_difference) {
-      restartIfTimeJumped(0, lefts_.front()->header.stamp);
-      waiting_.push_back({lefts_.front(), rights_.front()});
-      lefts_.pop_front();
-      rights_.pop_front();
-    } else {
-      std::deque<sensor_msgs::ImageConstPtr>& older = apart < 0 ? lefts_ : rights_;
-      say(&counts_.unpaired, std::string(apart < 0 ? "left" : "right") + " image at " +
-                                 stampText(older.front()->header.stamp.toSec()) +
-                                 " has no partner within ros/max_stamp_difference: skipped");
-      older.pop_front();
+template <class Image>
+void BagStereoTracker::addToSync(StereoImageSync<Image>* sync,
+                                 const boost::shared_ptr<const Image>& image, bool is_left) {
+  const ros::MessageEvent<const Image> event(image, now_);
+  if (is_left) {
+    sync->template add<0>(event);
+  } else {
+    sync->template add<1>(event);
+  }
+}
+
+void BagStereoTracker::addPair(const sensor_msgs::ImageConstPtr& left,
+                               const sensor_msgs::ImageConstPtr& right) {
+  ++counts_.pairs;
+  queuePair(left, right);
+}
+
+void BagStereoTracker::addCompressedPair(const sensor_msgs::CompressedImageConstPtr& left,
+                                         const sensor_msgs::CompressedImageConstPtr& right) {
+  // As the node: the pair decoded after the synchronizer, both images counted when they fail.
+  ++counts_.pairs;
+  std::string why_left, why_right;
+  const sensor_msgs::ImageConstPtr left_image = decompressedImage(*left, &why_left);
+  const sensor_msgs::ImageConstPtr right_image = decompressedImage(*right, &why_right);
+  if (left_image && right_image) return queuePair(left_image, right_image);
+  for (const auto& [image, why] :
+       {std::make_pair(left_image, why_left), std::make_pair(right_image, why_right)}) {
+    if (!image) {
+      say(&counts_.undecodable,
+          "pair at " + stampText(left->header.stamp.toSec()) + ": " + why + ": skipped");
     }
   }
-  trackReadyPairs(false);
+}
+
+void BagStereoTracker::queuePair(const sensor_msgs::ImageConstPtr& left,
+                                 const sensor_msgs::ImageConstPtr& right) {
+  restartIfTimeJumped(0, left->header.stamp);
+  const double apart = (left->header.stamp - right->header.stamp).toSec();
+  if (std::abs(apart) > ros_options_.max_stamp_difference) {
+    return say(&counts_.unsynchronized, "pair at " + stampText(left->header.stamp.toSec()) +
+                                            ": left and right images " + stampText(apart) +
+                                            " s apart (more than ros/max_stamp_difference): "
+                                            "skipped");
+  }
+  waiting_.push_back({left, right});
 }
 
 void BagStereoTracker::addTwist(const ros::Time& stamp, const geometry_msgs::Twist& t,
@@ -130,9 +171,8 @@ void BagStereoTracker::trackReadyPairs(bool all) {
 }
 
 void BagStereoTracker::finish() {
-  counts_.unpaired += lefts_.size() + rights_.size();  // images the bag ends on, without a partner
-  lefts_.clear();
-  rights_.clear();
+  // Images the synchronizer dropped or holds at the bag's end (live, it would hold them too).
+  counts_.unpaired = counts_.left + counts_.right - 2 * counts_.pairs;
   if (!left_info_ || !right_info_) {
     counts_.no_camera_info += waiting_.size();
     waiting_.clear();

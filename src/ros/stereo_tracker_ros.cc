@@ -84,19 +84,11 @@ StereoTrackerRos::StereoTrackerRos(const ros::NodeHandle& nh, const ros::NodeHan
 
 void StereoTrackerRos::subscribeImages() {
   const int queue = ros_options_.queue_size;
-  // ApproximateTime emits a pair once it can prove that no later image pairs better. Told that
-  // one camera's images lie at least twice ros/max_stamp_difference apart, it proves that at once
-  // for every pair whose stamps differ by no more than ros/max_stamp_difference (the pairs the
-  // node takes); without it, a pair whose stamps differ at all waits for the next image, a whole
-  // frame period. (A camera faster than that bound, 250 Hz at the default, would make the
-  // tolerance itself ambiguous: two images of one camera within it of the other's.)
-  const ros::Duration images_apart(2.0 * ros_options_.max_stamp_difference);
   if (ros_options_.image_transport == ImageTransportType::kRaw) {
     left_sub_.subscribe(nh_, "stereo/left/image_rect", queue);
     right_sub_.subscribe(nh_, "stereo/right/image_rect", queue);
-    sync_ = std::make_unique<message_filters::Synchronizer<SyncPolicy>>(SyncPolicy(queue),
-                                                                        left_sub_, right_sub_);
-    sync_->setInterMessageLowerBound(images_apart);
+    sync_ = makeStereoImageSync<sensor_msgs::Image>(ros_options_);
+    sync_->connectInput(left_sub_, right_sub_);
     sync_->registerCallback(&StereoTrackerRos::imageCallback, this);
     return;
   }
@@ -106,9 +98,8 @@ void StereoTrackerRos::subscribeImages() {
   const std::string right = nh_.resolveName("stereo/right/image_rect") + "/compressed";
   left_compressed_sub_.subscribe(nh_, left, queue);
   right_compressed_sub_.subscribe(nh_, right, queue);
-  compressed_sync_ = std::make_unique<message_filters::Synchronizer<CompressedSyncPolicy>>(
-      CompressedSyncPolicy(queue), left_compressed_sub_, right_compressed_sub_);
-  compressed_sync_->setInterMessageLowerBound(images_apart);
+  compressed_sync_ = makeStereoImageSync<sensor_msgs::CompressedImage>(ros_options_);
+  compressed_sync_->connectInput(left_compressed_sub_, right_compressed_sub_);
   compressed_sync_->registerCallback(&StereoTrackerRos::compressedImageCallback, this);
   ROS_INFO("%s: compressed images on %s and %s (ros/image_transport)", name_.c_str(), left.c_str(),
            right.c_str());

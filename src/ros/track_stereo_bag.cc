@@ -154,11 +154,12 @@ int run(int argc, char** argv) {
   out.close();
   const BagTrackingCounts& c = tracker.counts();
   std::cout << "track_stereo_bag: " << c.left << " left and " << c.right << " right images, "
-            << c.unpaired << " without a partner, " << c.undecodable << " not decodable; "
-            << c.tracked << " pairs tracked (" << c.twist_predicted << " predicted from the twist, "
-            << c.without_features << " without a feature), " << c.refused << " refused, "
-            << c.no_camera_info << " dropped without camera_info, " << c.time_jump_resets
-            << " restarts (time went back); observations per pair "
+            << c.unpaired << " without a partner, " << c.unsynchronized
+            << " pairs further apart than ros/max_stamp_difference, " << c.undecodable
+            << " not decodable; " << c.tracked << " pairs tracked (" << c.twist_predicted
+            << " predicted from the twist, " << c.without_features << " without a feature), "
+            << c.refused << " refused, " << c.no_camera_info << " dropped without camera_info, "
+            << c.time_jump_resets << " restarts (time went back); observations per pair "
             << (c.tracked ? static_cast<double>(c.observations) / c.tracked : 0.0) << " -> "
             << args.out << "\n";
   if (c.tracked == 0) {

@@ -39,12 +39,12 @@ def track(bag, out, *extra):
 
 def counts(report):
     """The numbers of track_stereo_bag's summary line."""
-    m = re.search(r'(\d+) left and (\d+) right images, (\d+) without a partner, (\d+) not '
-                  r'decodable; (\d+) pairs '
+    m = re.search(r'(\d+) left and (\d+) right images, (\d+) without a partner, (\d+) pairs '
+                  r'further apart than ros/max_stamp_difference, (\d+) not decodable; (\d+) pairs '
                   r'tracked \((\d+) predicted from the twist, (\d+) without a feature\), (\d+) '
                   r'refused, (\d+) dropped without camera_info, (\d+) restarts', report)
-    keys = ('left', 'right', 'unpaired', 'undecodable', 'tracked', 'predicted', 'featureless',
-            'refused', 'no_camera_info', 'restarts')
+    keys = ('left', 'right', 'unpaired', 'unsynchronized', 'undecodable', 'tracked', 'predicted',
+            'featureless', 'refused', 'no_camera_info', 'restarts')
     return dict(zip(keys, map(int, m.groups())))
 
 
@@ -118,8 +118,11 @@ class TrackStereoBagTest(unittest.TestCase):
         rc, report, errors = track(faulty, out)
         self.assertEqual(rc, 0, errors)
         c = counts(report)
-        # The late right image and the left it should have gone with have no partner.
-        self.assertEqual((c['tracked'], c['refused'], c['unpaired']), (FRAMES - 3, 2, 2), report)
+        # As the node: the synchronizer pairs the late right image with its left (nothing pairs
+        # better), and the pair is skipped as unsynchronized.
+        self.assertEqual((c['tracked'], c['refused'], c['unsynchronized'], c['unpaired']),
+                         (FRAMES - 3, 2, 1, 0), report)
+        self.assertIn('more than ros/max_stamp_difference', errors)
         self.assertEqual(c['featureless'], 1, report)  # the black pair: tracked, no feature
         self.assertIn('encoding', errors)
         self.assertIn('size', errors)
@@ -177,7 +180,7 @@ class TrackStereoBagTest(unittest.TestCase):
                                    '--right-topic', RIGHT + '/compressed')
         self.assertEqual(rc, 0, errors)
         c = counts(report)
-        self.assertEqual((c['undecodable'], c['unpaired'], c['tracked']), (1, 1, FRAMES - 1),
+        self.assertEqual((c['undecodable'], c['unpaired'], c['tracked']), (1, 0, FRAMES - 1),
                          report)
         self.assertIn('cannot be decoded', errors)
         self.assertEqual(read_feature_rows(out), read_feature_rows(self.tracked)[:FRAMES - 1])

@@ -1,5 +1,6 @@
 // The stereo tracker over a recorded bag, as stereo_tracker_node tracks the same messages live
-// (StereoTrackerRos): the same pairing within ros/max_stamp_difference, the wait for the twist
+// (StereoTrackerRos): the node's own synchronizer (stereo_image_sync.h), fed in bag order, pairs
+// within ros/max_stamp_difference taken, the wait for the twist
 // that reaches a pair's stamp, the motion prior through /tf_static, restarts when time goes
 // back, a new tracker (ids going on) for a new calibration. Fed message by message in bag order
 // (track_stereo_bag), it writes every message but the images, plus the features.
@@ -7,6 +8,7 @@
 
 #include "ekf_vislam/core/time_jump_detector.h"
 #include "ekf_vislam/ros/bag_reader.h"
+#include "ekf_vislam/ros/stereo_image_sync.h"
 #include "ekf_vislam/tracker/image_mask.h"
 #include "ekf_vislam/tracker/stereo_tracker.h"
 #include "ekf_vislam/tracker/tracker_options.h"
@@ -16,6 +18,7 @@
 #include <geometry_msgs/Twist.h>
 #include <ros/time.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 
 #include <cstdint>
@@ -36,7 +39,10 @@ struct BagTrackerTopics : BagTopics {
 
 /// What a pass over a bag counted.
 struct BagTrackingCounts {
-  uint64_t left = 0, right = 0, unpaired = 0, tracked = 0, refused = 0, observations = 0;
+  uint64_t left = 0, right = 0, tracked = 0, refused = 0, observations = 0;
+  uint64_t pairs = 0;           ///< pairs the synchronizer emitted
+  uint64_t unpaired = 0;        ///< images in no pair it emitted (set by finish)
+  uint64_t unsynchronized = 0;  ///< pairs further apart than ros/max_stamp_difference, skipped
   uint64_t no_camera_info = 0;  ///< pairs dropped for want of camera_info
   uint64_t twist_predicted = 0;
   uint64_t time_jump_resets = 0;
@@ -52,15 +58,7 @@ class BagStereoTracker {
   /// each pair's debug drawing goes there as NNNNNN.png. Everything given must outlive this.
   BagStereoTracker(const BagTrackerTopics& topics, const TrackerOptions& options,
                    const StereoTrackerRosOptions& ros_options, const StereoMasks& masks,
-                   bool bag_has_twist, const std::string& debug_dir, rosbag::Bag* out)
-      : topics_(topics),
-        options_(options),
-        ros_options_(ros_options),
-        masks_(masks),
-        debug_dir_(debug_dir),
-        wait_for_twist_(ros_options.use_twist && bag_has_twist),
-        out_(out),
-        time_jumps_(ros_options.time_jump_reset, 2) {}
+                   bool bag_has_twist, const std::string& debug_dir, rosbag::Bag* out);
 
   /// One message of the bag, in bag order: an image (Image or CompressedImage) is paired and
   /// tracked when ready; any other message is copied to `out`, and read when it is a camera_info,
@@ -75,7 +73,16 @@ class BagStereoTracker {
   struct Pair {
     sensor_msgs::ImageConstPtr left, right;
   };
-  void addImage(const sensor_msgs::ImageConstPtr& image, bool is_left);
+  template <class Image>
+  void addToSync(StereoImageSync<Image>* sync, const boost::shared_ptr<const Image>& image,
+                 bool is_left);
+  /// The synchronizer's pairs: counted, decoded when compressed, then queuePair.
+  void addPair(const sensor_msgs::ImageConstPtr& left, const sensor_msgs::ImageConstPtr& right);
+  void addCompressedPair(const sensor_msgs::CompressedImageConstPtr& left,
+                         const sensor_msgs::CompressedImageConstPtr& right);
+  /// As the node's receivePair: a restart when time went back, a pair whose stamps lie further
+  /// apart than ros/max_stamp_difference skipped (unsynchronized), the rest waits to be tracked.
+  void queuePair(const sensor_msgs::ImageConstPtr& left, const sensor_msgs::ImageConstPtr& right);
   void addTwist(const ros::Time& stamp, const geometry_msgs::Twist& twist,
                 const std::string& frame);
   void trackReadyPairs(bool all);
@@ -97,7 +104,8 @@ class BagStereoTracker {
   rosbag::Bag* out_;
   TimeJumpDetector time_jumps_;
   ros::Time now_;  ///< bag time of the message being handled: where features are written
-  std::deque<sensor_msgs::ImageConstPtr> lefts_, rights_;
+  std::unique_ptr<StereoImageSync<sensor_msgs::Image>> sync_;
+  std::unique_ptr<StereoImageSync<sensor_msgs::CompressedImage>> compressed_sync_;
   std::deque<Pair> waiting_;
   std::deque<StampedTwist> twists_;
   std::string twist_frame_;

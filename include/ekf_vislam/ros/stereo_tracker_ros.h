@@ -11,14 +11,13 @@
 #include "ekf_vislam/tracker/twist_motion_prior.h"
 
 #include "ekf_vislam/ros/periodic_diagnostics.h"
+#include "ekf_vislam/ros/stereo_image_sync.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <geometry_msgs/TwistStamped.h>
 #include <geometry_msgs/TwistWithCovarianceStamped.h>
 #include <image_transport/image_transport.h>
 #include <message_filters/subscriber.h>
-#include <message_filters/sync_policies/approximate_time.h>
-#include <message_filters/synchronizer.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
@@ -53,12 +52,6 @@ class StereoTrackerRos {
   ~StereoTrackerRos();
 
  private:
-  using SyncPolicy =
-      message_filters::sync_policies::ApproximateTime<sensor_msgs::Image, sensor_msgs::Image>;
-  using CompressedSyncPolicy =
-      message_filters::sync_policies::ApproximateTime<sensor_msgs::CompressedImage,
-                                                      sensor_msgs::CompressedImage>;
-
   struct ImagePair {
     sensor_msgs::ImageConstPtr left, right;
     double arrival;  ///< when the synchronizer delivered it (its InboxEvent's arrival)
@@ -153,10 +146,10 @@ class StereoTrackerRos {
 
   image_transport::ImageTransport image_transport_;
   message_filters::Subscriber<sensor_msgs::Image> left_sub_, right_sub_;
-  std::unique_ptr<message_filters::Synchronizer<SyncPolicy>> sync_;
+  std::unique_ptr<StereoImageSync<sensor_msgs::Image>> sync_;
   message_filters::Subscriber<sensor_msgs::CompressedImage> left_compressed_sub_,
       right_compressed_sub_;
-  std::unique_ptr<message_filters::Synchronizer<CompressedSyncPolicy>> compressed_sync_;
+  std::unique_ptr<StereoImageSync<sensor_msgs::CompressedImage>> compressed_sync_;
   ros::Subscriber left_info_sub_, right_info_sub_, twist_sub_;
   ros::Publisher features_pub_;
   image_transport::Publisher debug_pub_;

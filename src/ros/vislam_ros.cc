@@ -253,8 +253,12 @@ void VislamRos::featuresCallback(const ekf_vislam::StereoFeatureArray::ConstPtr&
                       name_.c_str(),
                       frame_gaps_.describeMissing(missing, stamp, "feature frame").c_str());
   }
-  if (camera_frame_.empty() && !msg->header.frame_id.empty()) {
-    camera_frame_ = msg->header.frame_id;
+  if (camera_frame_.empty()) {
+    // The features' frame, as vislam_offline takes it (the tracker's ros/rectify gives them in
+    // the rectified camera's frame, not camera_info's); camera_info's only when they have none.
+    camera_frame_ = !msg->header.frame_id.empty() ? msg->header.frame_id
+                    : left_info_                  ? left_info_->header.frame_id
+                                                  : "";
   }
   push(Measurement(ros_conversions::toFeatureFrame(*msg)));
 }
@@ -374,8 +378,7 @@ void VislamRos::tryCalibrate() {
 }
 
 bool VislamRos::lookUpImuTCam(CalibrationBuilder* builder) {
-  std::string camera_frame = camera_frame_;
-  if (camera_frame.empty() && left_info_) camera_frame = left_info_->header.frame_id;
+  const std::string& camera_frame = camera_frame_;
   if (camera_frame.empty()) {
     calibration_status_ = "waiting for the camera frame id (stereo/features header.frame_id)";
     return false;

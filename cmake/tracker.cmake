@@ -24,6 +24,7 @@ add_library(ekf_vislam_tracker
   src/tracker/disparity_offset_fit.cc
   src/tracker/stereo_roll_fit.cc
   src/tracker/frame_rate_limit.cc
+  src/tracker/image_rectifier.cc
   src/tracker/stereo_tracker.cc
   src/tracker/debug_drawing.cc
   src/tracker/kitti_sequence.cc
@@ -62,6 +63,7 @@ if(CATKIN_ENABLE_TESTING)
     src/tracker/frame_rate_limit_test.cc
     src/tracker/kitti_sequence_test.cc
     src/tracker/exposure_compensation_test.cc
+    src/tracker/image_rectifier_test.cc
     src/tracker/stereo_tracker_test.cc
     src/tracker/stereo_rig_check_test.cc
     src/tracker/patch_refiner_test.cc
@@ -78,6 +80,7 @@ endif()
 
 # ROS layer of the tracker (thin: messages in and out).
 add_library(ekf_vislam_tracker_ros src/ros/stereo_tracker_ros.cc src/ros/gray_image.cc
+  src/ros/stereo_pair_rectifier.cc
   src/ros/feature_message.cc)
 target_include_directories(ekf_vislam_tracker_ros SYSTEM PUBLIC
   ${cv_bridge_INCLUDE_DIRS} ${image_transport_INCLUDE_DIRS} ${message_filters_INCLUDE_DIRS})

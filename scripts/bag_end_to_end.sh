@@ -7,7 +7,8 @@
 # position NEES and the path length (without a ground truth: the path length only).
 #   scripts/bag_end_to_end.sh BAG [--out DIR] [--config estimator.yaml]
 #                             [--tracker-config tracker.yaml] [--groundtruth-topic T]
-#                             [--no-twist] [track_stereo_bag's topic options: --left-topic T ...]
+#                             [--no-twist] [--rectify (raw images: ros/rectify)]
+#                             [track_stereo_bag's topic options: --left-topic T ...]
 set -eo pipefail
 export PATH=/usr/bin:/bin:${PATH}
 REPO=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -23,8 +24,8 @@ while (($#)); do
     --tracker-config) TRACKER+=(--config "$(readlink -f "$2")"); shift 2 ;;
     --groundtruth-topic) GROUNDTRUTH=$2; shift 2 ;;
     --*-topic) TRACKER+=("$1" "$2"); shift 2 ;;
-    --no-twist) TRACKER+=(--no-twist); shift ;;
-    -h|--help) sed -n 2,10p "$0"; exit 0 ;;
+    --no-twist|--rectify) TRACKER+=("$1"); shift ;;
+    -h|--help) sed -n 2,11p "$0"; exit 0 ;;
     -*) echo "bag_end_to_end: unknown option $1 (see --help)" >&2; exit 2 ;;
     *) BAG=$(readlink -f "$1"); shift ;;
   esac

@@ -10,10 +10,11 @@
 # the live tracker's features bit for bit. Instead of a folder, a recorded bag (BAG.bag, images on
 # the topics of stereo_vislam.launch, with twist, camera_info and /tf_static) is played as it is.
 # Images as CompressedImage (a bag's image_rect/compressed topics, or a folder with --compressed
-# png|jpeg, written by play_stereo_images.py) run the tracker with ros/image_transport compressed.
+# png|jpeg, written by play_stereo_images.py) run the tracker with ros/image_transport compressed;
+# raw images (a bag's image_raw topics, or a folder with --raw-camera) with ros/rectify true.
 #   scripts/benchmark_live.sh FOLDER|BAG [--poses FILE] [--rate R] [--config estimator.yaml]
 #                             [--tracker-config tracker.yaml] [--standalone] [--out DIR]
-#                             [--compressed png|jpeg [--jpeg-quality Q]]
+#                             [--compressed png|jpeg [--jpeg-quality Q]] [--raw-camera]
 # --standalone: the two nodes (stereo_tracker_node, vislam_node) instead of one nodelet manager.
 # Needs no roscore running on port 11399 (it starts its own there).
 set -eo pipefail
@@ -36,7 +37,8 @@ while (($#)); do
     --standalone) STANDALONE=true; shift ;;
     --out) OUT=$2; shift 2 ;;
     --compressed|--jpeg-quality) COMPRESS+=("$1" "$2"); shift 2 ;;
-    -h|--help) sed -n 2,18p "$0"; exit 0 ;;
+    --raw-camera) COMPRESS+=("$1"); shift ;;
+    -h|--help) sed -n 2,19p "$0"; exit 0 ;;
     *) FOLDER=$1; shift ;;
   esac
 done
@@ -57,23 +59,23 @@ else
   /usr/bin/python3 "${REPO}/scripts/play_stereo_images.py" "${FOLDER}" --poses "${POSES}" \
     --bag "${OUT}/images.bag" "${COMPRESS[@]}" >/dev/null
 fi
-# The image topics: raw, or the compressed ones when the bag holds those and no raw images.
-LEFT=/stereo/left/image_rect
-RIGHT=/stereo/right/image_rect
-TRANSPORT=raw
-if /usr/bin/python3 -c "import rosbag, sys; b = rosbag.Bag(sys.argv[1]); \
-sys.exit(not (b.get_message_count(sys.argv[2]) == 0 < b.get_message_count(sys.argv[2] + '/compressed')))" \
-    "${OUT}/images.bag" "${LEFT}"; then
-  LEFT=${LEFT}/compressed
-  RIGHT=${RIGHT}/compressed
-  TRANSPORT=compressed
-fi
+# The image topics: rectified, or raw (the tracker's ros/rectify), each as Image or CompressedImage,
+# as the bag holds them.
+read -r LEFT RIGHT TRANSPORT RECTIFY < <(/usr/bin/python3 -c "
+import sys, rosbag
+topics = rosbag.Bag(sys.argv[1]).get_type_and_topic_info()[1]
+for base, rectify in (('image_rect', 'false'), ('image_raw', 'true')):
+    for suffix, transport in (('', 'raw'), ('/compressed', 'compressed')):
+        left = '/stereo/left/' + base + suffix
+        if left in topics:
+            sys.exit(print(left, left.replace('/left/', '/right/'), transport, rectify))
+print('/stereo/left/image_rect /stereo/right/image_rect raw false')" "${OUT}/images.bag")
 roscore -p 11399 >"${OUT}/roscore.log" 2>&1 &
 CORE=$!
 trap 'kill -INT ${CORE} 2>/dev/null || true' EXIT
 until rostopic list >/dev/null 2>&1; do sleep 0.5; done
 ARGS=(use_sim_time:=true output_dir:="${OUT}/live" standalone:="${STANDALONE}"
-  image_transport:="${TRANSPORT}")
+  image_transport:="${TRANSPORT}" rectify:="${RECTIFY}")
 [[ -n "${CONFIG}" ]] && ARGS+=(config:="${CONFIG}")
 [[ -n "${TRACKER_CONFIG}" ]] && ARGS+=(tracker_config:="${TRACKER_CONFIG}")
 roslaunch ekf_vislam stereo_vislam.launch "${ARGS[@]}" >"${OUT}/launch.log" 2>&1 &
@@ -139,6 +141,7 @@ OFFLINE_ARGS=(--bag "${OUT}/live.bag" --mode slam --out "${OUT}/offline")
 BAG_ARGS=(--bag "${OUT}/images.bag" --out "${OUT}/tracked.bag" --left-topic "${LEFT}"
   --right-topic "${RIGHT}")
 [[ -n "${TRACKER_CONFIG}" ]] && BAG_ARGS+=(--config "${TRACKER_CONFIG}")
+[[ "${RECTIFY}" == true ]] && BAG_ARGS+=(--rectify)
 "$(dirname "${TOOL}")/track_stereo_bag" "${BAG_ARGS[@]}" >"${OUT}/track_bag.log" 2>&1
 /usr/bin/python3 - "${OUT}" "${RATE}" "${PLAY_END}" "${LEFT}" <<'PY'
 import json, sys
@@ -170,6 +173,8 @@ print('pairs played %d (%s) at %sx; tracker: received %s, tracked %s, skipped by
           tracker.get('backlog_mb_peak')))
 if left.endswith('/compressed'):
     print('tracker: the last pair took %s ms to decode' % tracker.get('decode_ms_last'))
+if 'rectify_ms_last' in tracker:
+    print('tracker: the last pair took %s ms to rectify' % tracker.get('rectify_ms_last'))
 print('estimator: frames used %s of %s, update ms p99 %s, latency ms p50 %.2f, p99 %.2f, '
       'peak active landmarks %s; its last output %.2f s after the player ended (%s outputs)'
       % (stats['counters'].get('frame_used'), stats['frames'],

@@ -7,6 +7,10 @@ a bag: what a stereo camera driver with rectification and a twist source would g
     add --compressed png|jpeg [--jpeg-quality Q] for sensor_msgs/CompressedImage on
     /stereo/{left,right}/image_rect/compressed instead (the tracker's ros/image_transport
     compressed)
+    add --raw-camera for the images a calibrated raw rig would give before rectification, on
+    /stereo/{left,right}/image_raw, with its camera_info (K, D, R, P: the tracker's
+    ros/rectify; ekf_vislam_tools.raw_camera): lenses with a barrel distortion, each camera
+    turned from its rectified one by under a degree; the tf gives the raw left camera
 
 FOLDER holds image_left/ and image_right/ (or KITTI's image_0/ and image_1/), calib.txt (P0,
 P1), times.txt and optionally poses.txt (world_T_cam0 per line; --poses FILE for poses kept
@@ -32,7 +36,7 @@ import rospy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import CompressedImage, Image
 
-from ekf_vislam_tools import bag_writer, stereo_images
+from ekf_vislam_tools import bag_writer, raw_camera, stereo_images
 
 PROG = 'play_stereo_images.py'
 TOPIC_LEFT_IMAGE = '/stereo/left/image_rect'
@@ -62,15 +66,20 @@ def parse_args(argv):
     p.add_argument('--compressed', choices=('png', 'jpeg'),
                    help='CompressedImage on the image topics + /compressed, not Image')
     p.add_argument('--jpeg-quality', type=int, default=95, help='--compressed jpeg (default 95)')
+    p.add_argument('--raw-camera', action='store_true',
+                   help='the raw images and camera_info of a calibrated rig (ros/rectify)')
     return p.parse_args(argv)
 
 
-def image_msg(path, frame_id, stamp, args):
+def image_msg(path, frame_id, stamp, args, raw=None, side=0):
     """The mono8 Image of the file at `path`, or with args.compressed its CompressedImage (the
-    format string as image_transport's compressed publisher writes it)."""
+    format string as image_transport's compressed publisher writes it); with a RawStereoCamera
+    `raw`, of the raw image of its camera `side` (0 left, 1 right)."""
     gray = cv2.imread(path, cv2.IMREAD_GRAYSCALE)
     if gray is None:
         raise ValueError('%s: cannot read the image' % path)
+    if raw is not None:
+        gray = raw.raw_image(side, gray)
     if args.compressed:
         params = [cv2.IMWRITE_JPEG_QUALITY, args.jpeg_quality] if args.compressed == 'jpeg' else []
         ok, data = cv2.imencode('.' + args.compressed, gray, params)
@@ -92,6 +101,8 @@ def image_msg(path, frame_id, stamp, args):
 
 
 def image_topic(topic, args):
+    if args.raw_camera:
+        topic = topic.replace('/image_rect', '/image_raw')
     return topic + '/compressed' if args.compressed else topic
 
 
@@ -109,8 +120,13 @@ def messages(folder, args):
         v, w = stereo_images.twist_from_poses(world_T_imu, times, args.twist_noise[0],
                                               args.twist_noise[1], args.gyro_offset, args.seed)
         groundtruth = world_T_imu
-    calib = _Calibration(folder.K, folder.b, cam_T_imu,
-                         (first.shape[1], first.shape[0]), v, w)
+    image_size = (first.shape[1], first.shape[0])
+    raw = None
+    if args.raw_camera:
+        raw = raw_camera.RawStereoCamera(folder.K, folder.b, image_size)
+        # The tf gives the raw left camera; the tracker turns it to the rectified one.
+        cam_T_imu = raw.raw_T_rectified(0) @ cam_T_imu
+    calib = _Calibration(folder.K, folder.b, cam_T_imu, image_size, v, w)
     if v is not None:
         yield bag_writer.TOPIC_TF_STATIC, bag_writer.tf_static_msg(
             calib, bag_writer.to_ros_time(times[0])), bag_writer.to_ros_time(times[0])
@@ -121,12 +137,15 @@ def messages(folder, args):
             yield bag_writer.TOPIC_GROUNDTRUTH, bag_writer.odometry_msg(
                 np.linalg.inv(groundtruth[0]) @ groundtruth[k], stamp), stamp
         left_info, right_info = bag_writer.camera_info_msgs(calib, stamp)
+        if raw is not None:
+            raw.fill_camera_info(0, left_info)
+            raw.fill_camera_info(1, right_info)
         yield bag_writer.TOPIC_LEFT_INFO, left_info, stamp
         yield bag_writer.TOPIC_RIGHT_INFO, right_info, stamp
         yield image_topic(TOPIC_LEFT_IMAGE, args), image_msg(
-            folder.left[k], bag_writer.FRAME_CAMERA_LEFT, stamp, args), stamp
+            folder.left[k], bag_writer.FRAME_CAMERA_LEFT, stamp, args, raw, 0), stamp
         yield image_topic(TOPIC_RIGHT_IMAGE, args), image_msg(
-            folder.right[k], bag_writer.FRAME_CAMERA_RIGHT, stamp, args), stamp
+            folder.right[k], bag_writer.FRAME_CAMERA_RIGHT, stamp, args, raw, 1), stamp
 
 
 def write_bag(folder, args):

@@ -17,6 +17,7 @@
 #include <tf2_msgs/TFMessage.h>
 #include <opencv2/imgcodecs.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -237,7 +238,9 @@ void BagStereoTracker::track(const Pair& pair) {
     stereo_ = stereo;
     prev_stamp_ = -1.0;
   }
-  const std::optional<CameraMotionPrior> prior = motionPrior(pair.left->header.frame_id, stamp);
+  std_msgs::Header header = pair.left->header;
+  if (ros_options_.rectify && !rectifyPair(&left, &right, &header)) return;
+  const std::optional<CameraMotionPrior> prior = motionPrior(header.frame_id, stamp);
   StereoFrame frame;
   if (!tracker_->process(left, right, stamp, prior ? &*prior : nullptr, &frame, &why)) {
     return refuse(why, stamp);
@@ -261,8 +264,31 @@ void BagStereoTracker::track(const Pair& pair) {
                   static_cast<unsigned long long>(counts_.tracked - 1));
     cv::imwrite(debug_dir_ + name, drawStereoTracks(left, right, frame, masks_));
   }
-  out_->write(topics_.features, now_,
-              featureMessage(pair.left->header, left_info_->header.frame_id, frame));
+  out_->write(topics_.features, now_, featureMessage(header, left_info_->header.frame_id, frame));
+}
+
+bool BagStereoTracker::rectifyPair(cv::Mat* left, cv::Mat* right, std_msgs::Header* header) {
+  std::string why;
+  std::optional<geometry_msgs::TransformStamped> new_transform;
+  const double stamp = header->stamp.toSec();
+  if (rectifier_.rectify(*left_info_, *right_info_, left, right, header, &new_transform, &why) !=
+      StereoPairRectifier::Result::kOk) {
+    refuse(why, stamp);
+    return false;
+  }
+  if (new_transform) {
+    // As the node: the rectified frame's static tf, for the motion prior now and in the bag.
+    static_transforms_.erase(
+        std::remove_if(
+            static_transforms_.begin(), static_transforms_.end(),
+            [&](const auto& t) { return t.child_frame_id == new_transform->child_frame_id; }),
+        static_transforms_.end());
+    static_transforms_.push_back(*new_transform);
+    tf2_msgs::TFMessage message;
+    message.transforms.push_back(*new_transform);
+    out_->write(topics_.tf_static, now_, message);
+  }
+  return true;
 }
 
 }  // namespace ekf_vislam

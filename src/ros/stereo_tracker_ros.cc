@@ -84,9 +84,12 @@ StereoTrackerRos::StereoTrackerRos(const ros::NodeHandle& nh, const ros::NodeHan
 
 void StereoTrackerRos::subscribeImages() {
   const int queue = ros_options_.queue_size;
+  // ros/rectify: the cameras' raw images, rectified here.
+  const std::string image = ros_options_.rectify ? "image_raw" : "image_rect";
+  const std::string left_base = "stereo/left/" + image, right_base = "stereo/right/" + image;
   if (ros_options_.image_transport == ImageTransportType::kRaw) {
-    left_sub_.subscribe(nh_, "stereo/left/image_rect", queue);
-    right_sub_.subscribe(nh_, "stereo/right/image_rect", queue);
+    left_sub_.subscribe(nh_, left_base, queue);
+    right_sub_.subscribe(nh_, right_base, queue);
     sync_ = makeStereoImageSync<sensor_msgs::Image>(ros_options_);
     sync_->connectInput(left_sub_, right_sub_);
     sync_->registerCallback(&StereoTrackerRos::imageCallback, this);
@@ -94,8 +97,8 @@ void StereoTrackerRos::subscribeImages() {
   }
   // As image_transport names a transport's topic: the base topic resolved (remappings applied),
   // then /compressed.
-  const std::string left = nh_.resolveName("stereo/left/image_rect") + "/compressed";
-  const std::string right = nh_.resolveName("stereo/right/image_rect") + "/compressed";
+  const std::string left = nh_.resolveName(left_base) + "/compressed";
+  const std::string right = nh_.resolveName(right_base) + "/compressed";
   left_compressed_sub_.subscribe(nh_, left, queue);
   right_compressed_sub_.subscribe(nh_, right, queue);
   compressed_sync_ = makeStereoImageSync<sensor_msgs::CompressedImage>(ros_options_);
@@ -432,8 +435,10 @@ void StereoTrackerRos::trackPair(const ImagePair& pair) {
     stereo_ = stereo;
     prev_stamp_ = -1;
   }
+  std_msgs::Header header = left_msg->header;
+  if (ros_options_.rectify && !rectifyPair(&left, &right, &header)) return;
   std::optional<CameraMotionPrior> prior;
-  if (ros_options_.use_twist) prior = motionPrior(left_msg->header.frame_id, prev_stamp_, stamp);
+  if (ros_options_.use_twist) prior = motionPrior(header.frame_id, prev_stamp_, stamp);
   if (prior) ++twist_used_;
   StereoFrame frame;
   if (!tracker_->process(left, right, stamp, prior ? &*prior : nullptr, &frame, &why)) {
@@ -455,16 +460,40 @@ void StereoTrackerRos::trackPair(const ImagePair& pair) {
   if (const std::string hint = tracker_->rigCheck().hint(); !hint.empty()) {
     ROS_WARN_THROTTLE(kWarnPeriod, "%s: %s", name_.c_str(), hint.c_str());
   }
-  publish(*left_msg, left, right, frame);
+  publish(header, left, right, frame);
 }
 
-void StereoTrackerRos::publish(const sensor_msgs::Image& left_msg, const cv::Mat& left,
+bool StereoTrackerRos::rectifyPair(cv::Mat* left, cv::Mat* right, std_msgs::Header* header) {
+  std::string why;
+  std::optional<geometry_msgs::TransformStamped> new_transform;
+  const StereoPairRectifier::Result result =
+      rectifier_.rectify(*left_info_, *right_info_, left, right, header, &new_transform, &why);
+  if (result != StereoPairRectifier::Result::kOk) {
+    ++(result == StereoPairRectifier::Result::kSizeMismatch ? size_mismatch_ : bad_camera_info_);
+    ROS_WARN_THROTTLE(kWarnPeriod, "%s: %s: pair skipped", name_.c_str(), why.c_str());
+    return false;
+  }
+  if (new_transform) {
+    // Into this node's own buffer at once (the motion prior looks it up now) and on /tf_static.
+    tf_buffer_.setTransform(*new_transform, name_, true);
+    if (!rectified_frame_broadcaster_) {
+      rectified_frame_broadcaster_ = std::make_unique<tf2_ros::StaticTransformBroadcaster>();
+    }
+    rectified_frame_broadcaster_->sendTransform(*new_transform);
+    ROS_INFO("%s: ros/rectify: features in %s, turned from %s by the left camera_info's R",
+             name_.c_str(), new_transform->child_frame_id.c_str(),
+             new_transform->header.frame_id.c_str());
+  }
+  return true;
+}
+
+void StereoTrackerRos::publish(const std_msgs::Header& header, const cv::Mat& left,
                                const cv::Mat& right, const StereoFrame& frame) {
   ekf_vislam::StereoFeatureArrayPtr msg = boost::make_shared<ekf_vislam::StereoFeatureArray>(
-      featureMessage(left_msg.header, left_info_ ? left_info_->header.frame_id : "", frame));
+      featureMessage(header, left_info_ ? left_info_->header.frame_id : "", frame));
   features_pub_.publish(msg);  // shared pointer: no copy inside a nodelet manager
   if (debug_pub_.getNumSubscribers() > 0) {
-    cv_bridge::CvImage debug(left_msg.header, sensor_msgs::image_encodings::BGR8,
+    cv_bridge::CvImage debug(header, sensor_msgs::image_encodings::BGR8,
                              drawStereoTracks(left, right, frame, masks_));
     debug_pub_.publish(debug.toImageMsg());
   }
@@ -555,6 +584,7 @@ void StereoTrackerRos::fillDiagnostics(uint64_t dropped_from_backlog,
   status.add("features_last", last_stats_.published);
   status.add("track_ms_last", last_stats_.ms_total);
   status.add("decode_ms_last", decode_ms_last_);
+  if (ros_options_.rectify) status.add("rectify_ms_last", rectifier_.rectifyMsLast());
   status.add("exposure_gain_last", last_stats_.exposure_gain_temporal);
   status.add("stereo_exposure_gain_last", last_stats_.exposure_gain_stereo);
   const StereoRigCheck& rig_check = rigCheck();

@@ -26,7 +26,7 @@ using namespace ekf_vislam;
 
 const char* kUsage =
     "usage: track_stereo_bag --bag IN.bag --out OUT.bag [--config tracker.yaml] [--no-twist]\n"
-    "                        [--debug-dir DIR] [--left-topic T] [--right-topic T]\n"
+    "                        [--rectify] [--debug-dir DIR] [--left-topic T] [--right-topic T]\n"
     "                        [--left-info-topic T] [--right-info-topic T] [--twist-topic T]\n"
     "                        [--features-topic T]\n"
     "Tracks the rectified stereo pairs of a bag as stereo_tracker_node does live and writes\n"
@@ -41,11 +41,14 @@ const char* kUsage =
     "--debug-dir: the debug drawing of every tracked pair as DIR/NNNNNN.png (stereo/debug_image).\n"
     "Images: sensor_msgs/Image (mono8, bgr8, rgb8...) or sensor_msgs/CompressedImage (png,\n"
     "jpeg: decoded as image_transport's compressed subscriber decodes them; give the topic,\n"
-    "e.g. --left-topic /stereo/left/image_rect/compressed).\n";
+    "e.g. --left-topic /stereo/left/image_rect/compressed).\n"
+    "--rectify (ros/rectify): the images are raw, rectified with their camera_info's K, D, R and\n"
+    "P as the node rectifies them; the topics then default to /stereo/{left,right}/image_raw.\n";
 
 struct Arguments {
   std::string bag, out, config, debug_dir;
-  bool no_twist = false;
+  bool no_twist = false, rectify = false;
+  bool given_image_topic = false;  ///< --left-topic or --right-topic
   BagTrackerTopics topics;
 };
 
@@ -69,8 +72,11 @@ bool parseArguments(int argc, char** argv, Arguments* args, std::string* error) 
       std::exit(0);
     } else if (arg == "--no-twist") {
       args->no_twist = true;
+    } else if (arg == "--rectify") {
+      args->rectify = true;
     } else if (value != values.end() && i + 1 < argc) {
       *value->second = argv[++i];
+      if (arg == "--left-topic" || arg == "--right-topic") args->given_image_topic = true;
     } else {
       *error = "unknown or incomplete argument " + arg;
       return false;
@@ -97,6 +103,7 @@ bool loadOptions(const Arguments& args, TrackerOptions* options,
       std::cerr << "track_stereo_bag: " << args.config << ": " << unknown << "\n";
   }
   if (args.no_twist) ros_options->use_twist = false;
+  if (args.rectify) ros_options->rectify = true;
   *error = options->validate();
   return error->empty();
 }
@@ -138,6 +145,12 @@ int run(int argc, char** argv) {
       !loadStereoMasks(options, &masks, &error)) {
     std::cerr << "track_stereo_bag: " << error << "\n" << kUsage;
     return 2;
+  }
+  if (ros_options.rectify) {  // the node's topics with ros/rectify, unless given
+    for (auto [topic, raw] : {std::make_pair(&args.topics.left, "/stereo/left/image_raw"),
+                              std::make_pair(&args.topics.right, "/stereo/right/image_raw")}) {
+      if (!args.given_image_topic) *topic = raw;
+    }
   }
   rosbag::Bag in(args.bag, rosbag::bagmode::Read);
   rosbag::View view(in);

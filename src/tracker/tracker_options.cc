@@ -69,6 +69,7 @@ void visitTrackerRosOptions(Options& o, Visitor& v) {
   v.integer("ros/queue_size", o.queue_size, Bound::kAtLeastOne);
   v.number("ros/max_stamp_difference", o.max_stamp_difference, Bound::kNonNegative);
   v.choice("ros/image_transport", o.image_transport, kImageTransportNames);
+  v.flag("ros/rectify", o.rectify);
   v.flag("ros/use_twist", o.use_twist);
   v.choice("ros/twist_type", o.twist_type, kTwistMessageTypeNames);
   v.number("ros/max_twist_wait", o.max_twist_wait, Bound::kNonNegative);

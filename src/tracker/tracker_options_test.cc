@@ -34,7 +34,7 @@ TEST(TrackerRosOptions, ShippedFileEqualsTheDefaultsAndRangesAreChecked) {
   YamlParameterSource source(std::string(EKF_VISLAM_SOURCE_DIR) + "/config/tracker.yaml");
   ASSERT_TRUE(source.ok()) << source.error();
   const std::vector<OptionKeyList::Key> keys = trackerRosOptionKeys();
-  EXPECT_EQ(keys.size(), 9u);
+  EXPECT_EQ(keys.size(), 10u);
   for (const OptionKeyList::Key& key : keys) {
     EXPECT_TRUE(source.has(key.name)) << key.name << " is not documented in config/tracker.yaml";
   }
@@ -45,12 +45,14 @@ TEST(TrackerRosOptions, ShippedFileEqualsTheDefaultsAndRangesAreChecked) {
   EXPECT_EQ(options.max_backlog_mb, StereoTrackerRosOptions().max_backlog_mb);
   EXPECT_TRUE(options.use_twist);
   EXPECT_EQ(options.image_transport, ImageTransportType::kRaw);
+  EXPECT_FALSE(options.rectify);
   const YamlParameterSource changed = YamlParameterSource::fromString(
-      "ros: {queue_size: 7, use_twist: false, image_transport: compressed}\n");
+      "ros: {queue_size: 7, use_twist: false, image_transport: compressed, rectify: true}\n");
   ASSERT_TRUE(parseTrackerRosOptions(changed, &options, &error)) << error;
   EXPECT_EQ(options.queue_size, 7);
   EXPECT_FALSE(options.use_twist);
   EXPECT_EQ(options.image_transport, ImageTransportType::kCompressed);
+  EXPECT_TRUE(options.rectify);
   // Each range the nodelet has always checked: the options stay as they were.
   for (const char* bad : {"ros: {queue_size: 0}\n", "ros: {max_stamp_difference: -0.1}\n",
                           "ros: {max_twist_wait: -1}\n", "ros: {time_jump_reset: -1}\n",

@@ -69,6 +69,11 @@ class LaunchFileTest(unittest.TestCase):
         p = params('stereo_vislam.launch', 'image_transport:=compressed')
         self.assertEqual(p['/stereo_tracker/ros/image_transport'], 'compressed')
 
+    def test_rectify_argument_sets_the_trackers_key(self):
+        self.assertIs(params('stereo_vislam.launch')['/stereo_tracker/ros/rectify'], False)
+        p = params('stereo_vislam.launch', 'rectify:=true')
+        self.assertIs(p['/stereo_tracker/ros/rectify'], True)
+
     def test_twist_combiner_argument_adds_the_combiner_and_sets_both_twist_types(self):
         p = params('stereo_vislam.launch', 'twist_combiner:=true', 'imu_frame:=imu_link',
                    'base_frame:=base_link')

@@ -94,13 +94,6 @@ class StereoTrackerPipelineTest(NewestStatuses, unittest.TestCase):
         time.sleep(1.0)
 
     @classmethod
-    def keep(cls, store):
-        def callback(msg):
-            with cls.lock:
-                store.append(msg)
-        return callback
-
-    @classmethod
     def tearDownClass(cls):
         shutil.rmtree(cls.tmp, ignore_errors=True)
 

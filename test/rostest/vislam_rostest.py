@@ -185,6 +185,14 @@ class NewestStatuses:
                 cls.newest_statuses[status.name] = status
 
     @classmethod
+    def keep(cls, store):
+        """A subscriber callback that appends each message to the list `store` under cls.lock."""
+        def callback(msg):
+            with cls.lock:
+                store.append(msg)
+        return callback
+
+    @classmethod
     def latest_status(cls, name_part):
         """The newest status whose name holds name_part, and its values as a dict ((None, {})
         when none has come)."""

@@ -9,6 +9,7 @@
 #include "ekf_vislam/core/time_jump_detector.h"
 #include "ekf_vislam/ros/bag_reader.h"
 #include "ekf_vislam/ros/stereo_image_sync.h"
+#include "ekf_vislam/ros/stereo_pair_rectifier.h"
 #include "ekf_vislam/tracker/image_mask.h"
 #include "ekf_vislam/tracker/stereo_tracker.h"
 #include "ekf_vislam/tracker/tracker_options.h"
@@ -87,6 +88,8 @@ class BagStereoTracker {
                 const std::string& frame);
   void trackReadyPairs(bool all);
   void track(const Pair& pair);
+  /// As the node's: ros/rectify's rectification, and the rectified frame's static tf written.
+  bool rectifyPair(cv::Mat* left, cv::Mat* right, std_msgs::Header* header);
   std::optional<CameraMotionPrior> motionPrior(const std::string& camera_frame, double to);
   /// Counts one more in *counter and says `what` on stderr for the first kRefusalsSaid of it.
   void say(uint64_t* counter, const std::string& what);
@@ -112,6 +115,7 @@ class BagStereoTracker {
   std::vector<geometry_msgs::TransformStamped> static_transforms_;
   sensor_msgs::CameraInfoConstPtr left_info_, right_info_;
   std::unique_ptr<StereoTracker> tracker_;
+  StereoPairRectifier rectifier_;  ///< ros/rectify
   StereoCalibration stereo_;
   double prev_stamp_ = -1.0;
   bool rig_warned_ = false;

@@ -12,6 +12,7 @@
 
 #include "ekf_vislam/ros/periodic_diagnostics.h"
 #include "ekf_vislam/ros/stereo_image_sync.h"
+#include "ekf_vislam/ros/stereo_pair_rectifier.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <geometry_msgs/TwistStamped.h>
@@ -24,6 +25,7 @@
 #include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <tf2_ros/buffer.h>
+#include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 
 #include <Eigen/Geometry>
@@ -119,7 +121,11 @@ class StereoTrackerRos {
   bool calibrationFor(const sensor_msgs::Image& left, StereoCalibration* stereo, std::string* why);
   std::optional<CameraMotionPrior> motionPrior(const std::string& camera_frame, double from,
                                                double to);
-  void publish(const sensor_msgs::Image& left_msg, const cv::Mat& left, const cv::Mat& right,
+  /// ros/rectify: both images rectified in place and *header's frame made the rectified one
+  /// (its static tf published when new); false (warned, counted) when the camera_info pair
+  /// cannot rectify them.
+  bool rectifyPair(cv::Mat* left, cv::Mat* right, std_msgs::Header* header);
+  void publish(const std_msgs::Header& header, const cv::Mat& left, const cv::Mat& right,
                const StereoFrame& frame);
   /// The diagnostics callback: never waits for the tracking thread (see the .cc).
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
@@ -155,6 +161,7 @@ class StereoTrackerRos {
   image_transport::Publisher debug_pub_;
   tf2_ros::Buffer tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  std::unique_ptr<tf2_ros::StaticTransformBroadcaster> rectified_frame_broadcaster_;  ///< rectify
   std::unique_ptr<PeriodicDiagnostics> diagnostics_;
   ros::WallTimer wait_timer_;
 
@@ -187,6 +194,7 @@ class StereoTrackerRos {
   uint64_t pairs_without_features_ = 0;  ///< tracked pairs that gave no feature (dark, flat images)
   uint64_t undecodable_images_ = 0;      ///< compressed images that did not decode
   double decode_ms_last_ = 0.0;          ///< wall ms the last compressed pair took to decode
+  StereoPairRectifier rectifier_;        ///< ros/rectify
   uint64_t tracks_crowded_ = 0;          ///< tracks ended near an older one (TrackerFrameStats)
   TimeJumpDetector time_jumps_{0.0, 2};  ///< images 0, twist 1 (set from ros/time_jump_reset)
   StampGapDetector pair_gaps_;           ///< pairs missing, from gaps in the left stamps

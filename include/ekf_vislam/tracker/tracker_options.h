@@ -131,6 +131,9 @@ struct StereoTrackerRosOptions {
   /// raw: sensor_msgs/Image; compressed: the CompressedImage (png, jpeg) of the same topic's
   /// /compressed, as image_transport names it, decoded on the tracking thread.
   ImageTransportType image_transport = ImageTransportType::kRaw;
+  /// The images are raw (stereo/{left,right}/image_raw): rectified with each camera_info's K, D,
+  /// R and P before tracking (StereoPairRectifier), the features in "<frame>_rect".
+  bool rectify = false;
   bool use_twist = true;  ///< predict KLT start points from imu/twist (needs tf)
   /// Message type on imu/twist, as the estimator's ros/twist_type: twist_stamped |
   /// twist_with_covariance | odometry (its twist, in child_frame_id).

@@ -14,9 +14,13 @@ RawCameraModel distortedCamera(const std::string& distortion_model = "plumb_bob"
   model.width = 1241;
   model.height = 376;
   model.distortion_model = distortion_model;
-  model.D = distortion_model == "equidistant"
-                ? std::vector<double>{0.05, -0.02, 0.004, -0.001}
-                : std::vector<double>{-0.30, 0.12, 4e-4, -6e-4, -0.02};
+  if (distortion_model == "equidistant") {
+    model.D = {0.05, -0.02, 0.004, -0.001};
+  } else if (distortion_model == "rational_polynomial") {
+    model.D = {-0.30, 0.12, 4e-4, -6e-4, -0.02, 0.01, 0.005, 0.001};
+  } else {
+    model.D = {-0.30, 0.12, 4e-4, -6e-4, -0.02};
+  }
   model.K = {718.0, 0.0, 615.0, 0.0, 716.0, 181.0, 0.0, 0.0, 1.0};
   const double a = 0.5 * M_PI / 180.0;
   model.R = {std::cos(a), 0.0, std::sin(a), 0.0, 1.0, 0.0, -std::sin(a), 0.0, std::cos(a)};
@@ -55,7 +59,7 @@ cv::Point2d centroidNear(const cv::Mat& image, const cv::Point2d& around, int ra
 }
 
 TEST(ImageRectifier, RemapsARawImageBackToTheRectifiedScene) {
-  for (const std::string model : {"plumb_bob", "equidistant"}) {
+  for (const std::string model : {"plumb_bob", "rational_polynomial", "equidistant"}) {
     ImageRectifier rectifier;
     std::string why;
     ASSERT_TRUE(rectifier.reset(distortedCamera(model), &why)) << why;

@@ -13,16 +13,23 @@ namespace ekf_vislam {
 
 namespace enc = sensor_msgs::image_encodings;
 
-const char* const kTrackableEncodings = "mono8, 8UC1, bgr8, rgb8, bgra8 or rgba8";
+const char* const kTrackableEncodings =
+    "mono8, 8UC1, bgr8, rgb8, bgra8, rgba8 or bayer_rggb8, bayer_bggr8, bayer_gbrg8, bayer_grbg8";
 
 namespace {
 
-// The cv::cvtColor code that takes a colour encoding to gray, or -1 for a gray one.
+// The cv::cvtColor code that takes a colour or Bayer encoding to gray, or -1 for a gray one.
+// OpenCV names a Bayer pattern by the second row's first two pixels: ROS's RGGB is its BG (as
+// cv_bridge and image_proc's debayer convert them).
 int toGrayCode(const std::string& encoding) {
   if (encoding == enc::BGR8) return cv::COLOR_BGR2GRAY;
   if (encoding == enc::RGB8) return cv::COLOR_RGB2GRAY;
   if (encoding == enc::BGRA8) return cv::COLOR_BGRA2GRAY;
   if (encoding == enc::RGBA8) return cv::COLOR_RGBA2GRAY;
+  if (encoding == enc::BAYER_RGGB8) return cv::COLOR_BayerBG2GRAY;
+  if (encoding == enc::BAYER_BGGR8) return cv::COLOR_BayerRG2GRAY;
+  if (encoding == enc::BAYER_GBRG8) return cv::COLOR_BayerGR2GRAY;
+  if (encoding == enc::BAYER_GRBG8) return cv::COLOR_BayerGB2GRAY;
   return -1;
 }
 

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <boost/make_shared.hpp>
 
@@ -56,6 +57,47 @@ TEST(GrayImage, GrayAndColourEncodingsGiveTheGrayLevel) {
   }
 }
 
+// A colour image of a camera with a Bayer filter of `pattern` ("rggb": R at row 0 column 0, then
+// G, G, B): each pixel keeps the one channel its filter passes.
+sensor_msgs::ImageConstPtr bayerImage(const cv::Mat& bgr, const std::string& pattern) {
+  auto msg = boost::make_shared<sensor_msgs::Image>();
+  msg->encoding = "bayer_" + pattern + "8";
+  msg->width = static_cast<uint32_t>(bgr.cols);
+  msg->height = static_cast<uint32_t>(bgr.rows);
+  msg->step = msg->width;
+  const std::string channels = "bgr";
+  for (int v = 0; v < bgr.rows; ++v) {
+    for (int u = 0; u < bgr.cols; ++u) {
+      const char filter = pattern[2 * (v % 2) + u % 2];
+      msg->data.push_back(bgr.at<cv::Vec3b>(v, u)[channels.find(filter)]);
+    }
+  }
+  return msg;
+}
+
+TEST(GrayImage, BayerImagesAreDemosaicedToTheColourImagesGray) {
+  // Red well above blue, so that a pattern read with red and blue exchanged is 0.185 (R - B)
+  // off, about 30 gray levels.
+  cv::Mat bgr(60, 80, CV_8UC3);
+  cv::randu(bgr, cv::Scalar(20, 80, 180), cv::Scalar(60, 160, 240));
+  cv::GaussianBlur(bgr, bgr, cv::Size(0, 0), 4.0);
+  cv::Mat expected;
+  cv::cvtColor(bgr, expected, cv::COLOR_BGR2GRAY);
+  const cv::Rect inner(4, 4, 72, 52);
+  for (const char* pattern : {"rggb", "bggr", "gbrg", "grbg"}) {
+    SCOPED_TRACE(pattern);
+    const sensor_msgs::ImageConstPtr msg = bayerImage(bgr, pattern);
+    EXPECT_TRUE(isTrackableEncoding(msg->encoding));
+    cv::Mat gray;
+    std::string why;
+    ASSERT_TRUE(toGrayImage(msg, &gray, &why)) << why;
+    ASSERT_EQ(gray.type(), CV_8UC1);
+    cv::Mat difference;
+    cv::absdiff(gray(inner), expected(inner), difference);
+    EXPECT_LT(cv::mean(difference)[0], 3.0);
+  }
+}
+
 TEST(GrayImage, GrayImagesAreSharedNotCopied) {
   const sensor_msgs::ImageConstPtr msg = uniformImage("mono8", {5});
   cv::Mat gray;
@@ -65,7 +107,7 @@ TEST(GrayImage, GrayImagesAreSharedNotCopied) {
 }
 
 TEST(GrayImage, OtherEncodingsAndShortDataAreRefusedWithAReason) {
-  for (const char* encoding : {"mono16", "16UC1", "32FC1", "bayer_rggb8", "yuv422", ""}) {
+  for (const char* encoding : {"mono16", "16UC1", "32FC1", "bayer_rggb16", "yuv422", ""}) {
     SCOPED_TRACE(encoding);
     EXPECT_FALSE(isTrackableEncoding(encoding));
     cv::Mat gray;

@@ -14,12 +14,13 @@
 
 namespace ekf_vislam {
 
-/// The encodings the tracker takes, for messages: "mono8, 8UC1, bgr8, rgb8, bgra8 or rgba8".
+/// The encodings the tracker takes, for messages: "mono8, 8UC1, bgr8, ... or bayer_grbg8".
 extern const char* const kTrackableEncodings;
 
 /// Whether the tracker takes an image of this encoding: 8-bit gray (mono8, or 8UC1 as some
-/// drivers call it) or 8-bit colour (bgr8, rgb8, and the bgra8 / rgba8 of cameras such as the
-/// ZED), which is converted to gray.
+/// drivers call it), 8-bit colour (bgr8, rgb8, and the bgra8 / rgba8 of cameras such as the ZED)
+/// or an 8-bit Bayer mosaic (bayer_rggb8, _bggr8, _gbrg8, _grbg8: a colour camera's raw image,
+/// which Debian's image_proc cannot debayer), converted to gray.
 bool isTrackableEncoding(const std::string& encoding);
 
 /// The image as 8-bit gray: shared with the message (no copy, valid while `msg` lives) for gray

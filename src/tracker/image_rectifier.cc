@@ -79,8 +79,8 @@ bool ImageRectifier::reset(const RawCameraModel& model, std::string* why) {
   } else {
     cv::initUndistortRectifyMap(K, D, R, new_K, size, CV_16SC2, map_xy_, map_fraction_);
   }
-  model_ = model;
-  model_.D = D;
+  model_ = model;  // as given: the caller compares the next camera_info's model with it
+  distortion_ = D;
   return true;
 }
 
@@ -98,10 +98,10 @@ cv::Point2d ImageRectifier::rectifiedPixel(const cv::Point2d& raw_pixel) const {
   const cv::Mat P = matrix(model_.P.data(), 3, 4);
   std::vector<cv::Point2d> in{raw_pixel}, out;
   if (model_.distortion_model == "equidistant") {
-    cv::fisheye::undistortPoints(in, out, K, model_.D, R, P);
+    cv::fisheye::undistortPoints(in, out, K, distortion_, R, P);
   } else {
     cv::undistortPoints(
-        in, out, K, model_.D, R, P,
+        in, out, K, distortion_, R, P,
         cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 50, 1e-10));
   }
   return out.front();

@@ -132,6 +132,7 @@ TEST(ImageRectifier, RefusesModelsAndImagesItCannotUse) {
   model = distortedCamera();
   model.D.resize(4);  // plumb_bob without k3: taken as 0
   ASSERT_TRUE(rectifier.reset(model, &why)) << why;
+  EXPECT_TRUE(rectifier.model() == model);  // as given, so the next camera_info does not remake it
   EXPECT_FALSE(rectifier.rectify(cv::Mat::zeros(370, 1241, CV_8UC1), &out));
   EXPECT_FALSE(rectifier.rectify(cv::Mat::zeros(376, 1241, CV_8UC3), &out));
   EXPECT_TRUE(out.empty());

@@ -32,6 +32,8 @@ class ImageRectifier {
   /// number of coefficients, a size, K or P that is not a camera's, R that is not a rotation.
   bool reset(const RawCameraModel& model, std::string* why);
   bool ready() const { return !map_xy_.empty(); }
+  /// The model given to the last successful reset(), as given (compare a new camera_info's with
+  /// it).
   const RawCameraModel& model() const { return model_; }
   /// `raw` must be 8-bit gray of the model's size (false otherwise, *rectified untouched).
   bool rectify(const cv::Mat& raw, cv::Mat* rectified) const;
@@ -41,7 +43,8 @@ class ImageRectifier {
 
  private:
   RawCameraModel model_;
-  cv::Mat map_xy_, map_fraction_;  ///< cv::initUndistortRectifyMap, fixed point (CV_16SC2)
+  std::vector<double> distortion_;  ///< model_.D padded with zeros to its model's count
+  cv::Mat map_xy_, map_fraction_;   ///< cv::initUndistortRectifyMap, fixed point (CV_16SC2)
 };
 
 }  // namespace ekf_vislam

@@ -276,6 +276,7 @@ bool BagStereoTracker::rectifyPair(cv::Mat* left, cv::Mat* right, std_msgs::Head
     refuse(why, stamp);
     return false;
   }
+  counts_.rectify_ms.push_back(rectifier_.rectifyMsLast());
   if (new_transform) {
     // As the node: the rectified frame's static tf, for the motion prior now and in the bag.
     static_transforms_.erase(

@@ -6,6 +6,7 @@
 //
 //   rosrun ekf_vislam track_stereo_bag --bag robot.bag --out features.bag [--config tracker.yaml]
 //   rosrun ekf_vislam vislam_offline --bag features.bag --out DIR
+#include "ekf_vislam/core/median.h"
 #include "ekf_vislam/core/yaml_parameter_source.h"
 #include "ekf_vislam/ros/bag_stereo_tracker.h"
 #include "ekf_vislam/tracker/image_mask.h"
@@ -14,11 +15,13 @@
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <exception>
 #include <iostream>
 #include <map>
 #include <string>
+#include <vector>
 
 namespace {
 
@@ -175,6 +178,12 @@ int run(int argc, char** argv) {
             << c.time_jump_resets << " restarts (time went back); observations per pair "
             << (c.tracked ? static_cast<double>(c.observations) / c.tracked : 0.0) << " -> "
             << args.out << "\n";
+  if (!c.rectify_ms.empty()) {
+    std::vector<double> ms = c.rectify_ms;
+    std::cout << "track_stereo_bag: rectification (ros/rectify) per pair: median " << median(&ms)
+              << " ms, max " << *std::max_element(ms.begin(), ms.end()) << " ms (the first pair's "
+              << c.rectify_ms.front() << " ms includes making the maps)\n";
+  }
   if (c.tracked == 0) {
     std::cerr << "track_stereo_bag: no pair tracked"
               << (c.no_camera_info > 0 ? ": the bag has no camera_info pair on --left-info-topic "

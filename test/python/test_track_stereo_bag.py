@@ -237,6 +237,9 @@ class TrackStereoBagTest(unittest.TestCase):
         self.assertEqual(rc, 0, errors)
         c = counts(report)
         self.assertEqual((c['tracked'], c['refused']), (FRAMES, 0), report)
+        self.assertGreater(float(re.search(r'rectification \(ros/rectify\) per pair: median '
+                                           r'([0-9.]+) ms', report).group(1)), 0.0, report)
+        self.assertNotIn('rectification', self.report)  # rectified images: none
         tracked, clean = read_feature_rows(out), read_feature_rows(self.tracked)
         self.assertEqual({frame for _, frame, _ in tracked}, {'camera_left_rect'})
         observations = sum(len(rows) for _, _, rows in tracked)

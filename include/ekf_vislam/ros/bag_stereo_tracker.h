@@ -47,8 +47,9 @@ struct BagTrackingCounts {
   uint64_t no_camera_info = 0;  ///< pairs dropped for want of camera_info
   uint64_t twist_predicted = 0;
   uint64_t time_jump_resets = 0;
-  uint64_t without_features = 0;  ///< tracked pairs that gave no feature
-  uint64_t undecodable = 0;       ///< compressed images that could not be decoded
+  uint64_t without_features = 0;   ///< tracked pairs that gave no feature
+  uint64_t undecodable = 0;        ///< compressed images that could not be decoded
+  std::vector<double> rectify_ms;  ///< wall ms of each pair's rectification (ros/rectify)
 };
 
 /// The stereo_tracker_node's tracking thread, fed from a bag in bag order.

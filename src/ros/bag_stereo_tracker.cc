@@ -114,12 +114,10 @@ void BagStereoTracker::addCompressedPair(const sensor_msgs::CompressedImageConst
                                          const sensor_msgs::CompressedImageConstPtr& right) {
   // As the node: the pair decoded after the synchronizer, both images counted when they fail.
   ++counts_.pairs;
-  std::string why_left, why_right;
-  const sensor_msgs::ImageConstPtr left_image = decompressedImage(*left, &why_left);
-  const sensor_msgs::ImageConstPtr right_image = decompressedImage(*right, &why_right);
-  if (left_image && right_image) return queuePair(left_image, right_image);
+  const DecompressedPair pair = decompressedPair(*left, *right);
+  if (pair.left && pair.right) return queuePair(pair.left, pair.right);
   for (const auto& [image, why] :
-       {std::make_pair(left_image, why_left), std::make_pair(right_image, why_right)}) {
+       {std::make_pair(pair.left, pair.why_left), std::make_pair(pair.right, pair.why_right)}) {
     if (!image) {
       say(&counts_.undecodable,
           "pair at " + stampText(left->header.stamp.toSec()) + ": " + why + ": skipped");

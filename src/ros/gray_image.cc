@@ -7,6 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <future>
 #include <string>
 
 namespace ekf_vislam {
@@ -86,6 +87,16 @@ sensor_msgs::ImagePtr decompressedImage(const sensor_msgs::CompressedImage& msg,
   if (decoded.type() == CV_16UC1) encoding = enc::MONO16;
   cv_bridge::CvImage image(msg.header, encoding, decoded);
   return image.toImageMsg();
+}
+
+DecompressedPair decompressedPair(const sensor_msgs::CompressedImage& left,
+                                  const sensor_msgs::CompressedImage& right) {
+  DecompressedPair pair;
+  std::future<sensor_msgs::ImagePtr> right_future =
+      std::async(std::launch::async, [&] { return decompressedImage(right, &pair.why_right); });
+  pair.left = decompressedImage(left, &pair.why_left);
+  pair.right = right_future.get();
+  return pair;
 }
 
 PairCalibration pairCalibration(const sensor_msgs::CameraInfo& left_info,

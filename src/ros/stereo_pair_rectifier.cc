@@ -28,6 +28,7 @@ StereoPairRectifier::Result StereoPairRectifier::rectify(
   ImageRectifier* rectifiers[2] = {&left_, &right_};
   const sensor_msgs::CameraInfo* infos[2] = {&left_info, &right_info};
   cv::Mat* images[2] = {left, right};
+  cv::Mat rectified[2];
   for (int side = 0; side < 2; ++side) {
     const RawCameraModel model = rawCameraModel(*infos[side]);
     if (!rectifiers[side]->ready() || rectifiers[side]->model() != model) {
@@ -38,16 +39,14 @@ StereoPairRectifier::Result StereoPairRectifier::rectify(
       }
       if (side == 0) new_left_model_ = true;
     }
-    if (images[side]->cols != model.width || images[side]->rows != model.height) {
+    // The gray images are 8-bit: rectify() refuses only a size other than the camera_info's.
+    if (!rectifiers[side]->rectify(*images[side], &rectified[side])) {
       *why = std::string(sides[side]) + " image size differs from its camera_info's";
       return Result::kSizeMismatch;
     }
   }
-  cv::Mat left_rectified, right_rectified;
-  left_.rectify(*left, &left_rectified);
-  right_.rectify(*right, &right_rectified);
-  *left = left_rectified;
-  *right = right_rectified;
+  *left = rectified[0];
+  *right = rectified[1];
   const std::string frame = header->frame_id.empty() ? left_info.header.frame_id : header->frame_id;
   new_transform->reset();
   if (new_left_model_ || frame != rectified_from_frame_) {

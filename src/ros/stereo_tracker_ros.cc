@@ -15,7 +15,6 @@
 #include <tf2_eigen/tf2_eigen.h>
 
 #include <cmath>
-#include <future>
 #include <stdexcept>
 
 namespace ekf_vislam {
@@ -359,22 +358,19 @@ void StereoTrackerRos::compressedImageCallback(
       [this, left_msg, right_msg, stamp] {
         // The right image decoded beside the left (3.6 ms each for a 1241x376 jpeg here).
         const double start = steadyClockSeconds();
-        std::string why_left, why_right;
-        std::future<sensor_msgs::ImagePtr> right_future = std::async(
-            std::launch::async, [&] { return decompressedImage(*right_msg, &why_right); });
-        const sensor_msgs::ImageConstPtr left = decompressedImage(*left_msg, &why_left);
-        const sensor_msgs::ImageConstPtr right = right_future.get();
+        const DecompressedPair pair = decompressedPair(*left_msg, *right_msg);
         decode_ms_last_ = 1e3 * (steadyClockSeconds() - start);
-        if (left && right) {
-          receivePair(left, right);
+        if (pair.left && pair.right) {
+          receivePair(pair.left, pair.right);
           return;
         }
         ++pairs_received_;
         noteMissingPairs(stamp);  // it came: no gap
-        undecodable_images_ += static_cast<uint64_t>(!left) + static_cast<uint64_t>(!right);
-        ROS_WARN_THROTTLE(kWarnPeriod, "%s: pair at %.3f: %s: pair skipped (%lu images so far)",
-                          name_.c_str(), stamp, (left ? why_right : why_left).c_str(),
-                          undecodable_images_);
+        undecodable_images_ +=
+            static_cast<uint64_t>(!pair.left) + static_cast<uint64_t>(!pair.right);
+        ROS_WARN_THROTTLE(
+            kWarnPeriod, "%s: pair at %.3f: %s: pair skipped (%lu images so far)", name_.c_str(),
+            stamp, (pair.left ? pair.why_right : pair.why_left).c_str(), undecodable_images_);
       },
       left_msg->data.size() + right_msg->data.size(), stamp);
 }

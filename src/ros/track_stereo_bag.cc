@@ -149,11 +149,9 @@ int run(int argc, char** argv) {
     std::cerr << "track_stereo_bag: " << error << "\n" << kUsage;
     return 2;
   }
-  if (ros_options.rectify) {  // the node's topics with ros/rectify, unless given
-    for (auto [topic, raw] : {std::make_pair(&args.topics.left, "/stereo/left/image_raw"),
-                              std::make_pair(&args.topics.right, "/stereo/right/image_raw")}) {
-      if (!args.given_image_topic) *topic = raw;
-    }
+  if (ros_options.rectify && !args.given_image_topic) {  // the node's topics with ros/rectify
+    args.topics.left = "/stereo/left/image_raw";
+    args.topics.right = "/stereo/right/image_raw";
   }
   rosbag::Bag in(args.bag, rosbag::bagmode::Read);
   rosbag::View view(in);

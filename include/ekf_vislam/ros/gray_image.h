@@ -34,6 +34,15 @@ bool toGrayImage(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::stri
 /// cannot be decoded.
 sensor_msgs::ImagePtr decompressedImage(const sensor_msgs::CompressedImage& msg, std::string* why);
 
+/// A compressed stereo pair decoded (decompressedImage), the right image on a second thread
+/// beside the left; an image that does not decode is null, with its reason.
+struct DecompressedPair {
+  sensor_msgs::ImageConstPtr left, right;
+  std::string why_left, why_right;
+};
+DecompressedPair decompressedPair(const sensor_msgs::CompressedImage& left,
+                                  const sensor_msgs::CompressedImage& right);
+
 /// Why pairCalibration refused a pair (a counter each, in the nodelet's diagnostics).
 enum class PairCalibration { kOk, kCameraInfoRefused, kSizeMismatch };
 

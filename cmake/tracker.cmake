@@ -100,7 +100,9 @@ add_executable(track_stereo_bag src/ros/track_stereo_bag.cc src/ros/bag_stereo_t
 target_link_libraries(track_stereo_bag ekf_vislam_tracker_ros)
 
 if(CATKIN_ENABLE_TESTING)
-  catkin_add_gtest(ekf_vislam_tracker_ros_test src/core/gtest_main.cc src/ros/gray_image_test.cc)
+  catkin_add_gtest(ekf_vislam_tracker_ros_test src/core/gtest_main.cc src/ros/gray_image_test.cc
+    src/ros/stereo_pair_rectifier_test.cc)
+  target_include_directories(ekf_vislam_tracker_ros_test PRIVATE ${PROJECT_SOURCE_DIR}/src/tracker)
   target_link_libraries(ekf_vislam_tracker_ros_test ekf_vislam_tracker_ros)
 endif()
 

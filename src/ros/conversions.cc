@@ -29,7 +29,37 @@ bool allZero(const boost::array<double, 12>& p) {
 
 }  // namespace
 
-PinholeProjection projectionOf(const sensor_msgs::CameraInfo& info) {
+sensor_msgs::CameraInfo cameraInfoOfImage(const sensor_msgs::CameraInfo& full) {
+  const sensor_msgs::RegionOfInterest& roi = full.roi;
+  const bool has_roi = roi.x_offset != 0 || roi.y_offset != 0 ||
+                       (roi.width != 0 && roi.width != full.width) ||
+                       (roi.height != 0 && roi.height != full.height);
+  const uint32_t binning_x = std::max<uint32_t>(1, full.binning_x);
+  const uint32_t binning_y = std::max<uint32_t>(1, full.binning_y);
+  if (!has_roi && binning_x == 1 && binning_y == 1) return full;
+  sensor_msgs::CameraInfo info = full;
+  if (has_roi) {
+    info.K[2] -= roi.x_offset;
+    info.K[5] -= roi.y_offset;
+    info.P[2] -= roi.x_offset;
+    info.P[6] -= roi.y_offset;
+    info.width = roi.width != 0 ? roi.width : full.width - std::min(full.width, roi.x_offset);
+    info.height = roi.height != 0 ? roi.height : full.height - std::min(full.height, roi.y_offset);
+  }
+  const double scale_x = 1.0 / binning_x, scale_y = 1.0 / binning_y;
+  for (int i : {0, 2}) info.K[i] *= scale_x;
+  for (int i : {4, 5}) info.K[i] *= scale_y;
+  for (int i : {0, 2, 3}) info.P[i] *= scale_x;
+  for (int i : {5, 6, 7}) info.P[i] *= scale_y;
+  info.width /= binning_x;
+  info.height /= binning_y;
+  info.binning_x = info.binning_y = 0;
+  info.roi = sensor_msgs::RegionOfInterest();
+  return info;
+}
+
+PinholeProjection projectionOf(const sensor_msgs::CameraInfo& full) {
+  const sensor_msgs::CameraInfo info = cameraInfoOfImage(full);
   PinholeProjection projection;
   if (!allZero(info.P)) {
     projection = {info.P[0], info.P[5], info.P[2], info.P[6], info.P[3]};

@@ -278,6 +278,58 @@ TEST(Conversions, CameraInfoFallsBackToKWithoutP) {
   EXPECT_DOUBLE_EQ(c.cy, 183.1104);
 }
 
+// A driver's binning and region of interest: the calibration is the full sensor's, the image is
+// the ROI binned. The image's projection follows image_geometry: principal point moved by the
+// ROI's offset, then x and y scaled by the binning; the baseline (P[3] / fx) is unchanged.
+TEST(Conversions, BinningAndRoiGiveTheImagesProjection) {
+  sensor_msgs::CameraInfo left, right;
+  rc::cameraInfoFromCalibration(kittiLike(), &left, &right);
+  for (sensor_msgs::CameraInfo* info : {&left, &right}) {
+    info->binning_x = 2;
+    info->binning_y = 2;
+    info->roi.x_offset = 100;
+    info->roi.y_offset = 40;
+    info->roi.width = 800;
+    info->roi.height = 300;
+  }
+  const PinholeProjection p = rc::projectionOf(left);
+  EXPECT_DOUBLE_EQ(p.fx, 707.0912 / 2);
+  EXPECT_DOUBLE_EQ(p.fy, 707.0912 / 2);
+  EXPECT_DOUBLE_EQ(p.cx, (601.8873 - 100) / 2);
+  EXPECT_DOUBLE_EQ(p.cy, (183.1104 - 40) / 2);
+  EXPECT_EQ(p.width, 400);
+  EXPECT_EQ(p.height, 150);
+  const sensor_msgs::CameraInfo of_image = rc::cameraInfoOfImage(left);
+  EXPECT_DOUBLE_EQ(of_image.K[2], (601.8873 - 100) / 2);  // K alike (the raw camera's)
+  EXPECT_DOUBLE_EQ(of_image.K[5], (183.1104 - 40) / 2);
+  EXPECT_EQ(of_image.binning_x, 0u);
+  EXPECT_EQ(of_image.roi.width, 0u);
+  StereoCalibration c;
+  std::string error;
+  ASSERT_TRUE(rc::calibrationFromCameraInfo(left, right, &c, &error)) << error;
+  EXPECT_NEAR(c.baseline, 0.5379, 1e-12);
+  EXPECT_EQ(c.image_width, 400);
+
+  // Binning alone (x only), and an ROI whose width and height are 0: from its offset to the end.
+  rc::cameraInfoFromCalibration(kittiLike(), &left, &right);
+  left.binning_x = 4;
+  EXPECT_DOUBLE_EQ(rc::projectionOf(left).fx, 707.0912 / 4);
+  EXPECT_DOUBLE_EQ(rc::projectionOf(left).fy, 707.0912);
+  EXPECT_EQ(rc::projectionOf(left).width, 1241 / 4);
+  EXPECT_EQ(rc::projectionOf(left).height, 376);
+  left.binning_x = 1;
+  left.roi.x_offset = 41;
+  EXPECT_EQ(rc::projectionOf(left).width, 1200);
+  EXPECT_DOUBLE_EQ(rc::projectionOf(left).cx, 601.8873 - 41);
+
+  // Without either (binning 0 or 1, an ROI all zero or the full image): unchanged.
+  rc::cameraInfoFromCalibration(kittiLike(), &left, &right);
+  left.binning_x = 1;
+  left.roi.width = 1241;
+  left.roi.height = 376;
+  EXPECT_EQ(rc::cameraInfoOfImage(left), left);
+}
+
 TEST(Conversions, BadCameraInfoIsRefusedWithAMessage) {
   sensor_msgs::CameraInfo left, right;
   StereoCalibration c;

@@ -109,9 +109,12 @@ PairCalibration pairCalibration(const sensor_msgs::CameraInfo& left_info,
     *why = "camera_info refused: " + error;
     return PairCalibration::kCameraInfoRefused;
   }
-  if ((left_info.width != 0 && left_info.width != left.width) ||
-      (left_info.height != 0 && left_info.height != left.height)) {
-    *why = "image size differs from its camera_info's";
+  const sensor_msgs::CameraInfo left_of_image = ros_conversions::cameraInfoOfImage(left_info);
+  if ((left_of_image.width != 0 && left_of_image.width != left.width) ||
+      (left_of_image.height != 0 && left_of_image.height != left.height)) {
+    *why = "image size " + std::to_string(left.width) + "x" + std::to_string(left.height) +
+           " differs from its camera_info's, " + std::to_string(left_of_image.width) + "x" +
+           std::to_string(left_of_image.height) + " (binning and roi applied)";
     return PairCalibration::kSizeMismatch;
   }
   *stereo = calibration;

@@ -1,5 +1,7 @@
 #include "ekf_vislam/ros/stereo_pair_rectifier.h"
 
+#include "ekf_vislam/ros/conversions.h"
+
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -7,7 +9,8 @@
 
 namespace ekf_vislam {
 
-RawCameraModel rawCameraModel(const sensor_msgs::CameraInfo& info) {
+RawCameraModel rawCameraModel(const sensor_msgs::CameraInfo& full) {
+  const sensor_msgs::CameraInfo info = ros_conversions::cameraInfoOfImage(full);
   RawCameraModel model;
   model.width = static_cast<int>(info.width);
   model.height = static_cast<int>(info.height);
@@ -41,7 +44,11 @@ StereoPairRectifier::Result StereoPairRectifier::rectify(
     }
     // The gray images are 8-bit: rectify() refuses only a size other than the camera_info's.
     if (!rectifiers[side]->rectify(*images[side], &rectified[side])) {
-      *why = std::string(sides[side]) + " image size differs from its camera_info's";
+      const RawCameraModel& expected = rectifiers[side]->model();
+      *why = std::string(sides[side]) + " image size " + std::to_string(images[side]->cols) + "x" +
+             std::to_string(images[side]->rows) + " differs from its camera_info's, " +
+             std::to_string(expected.width) + "x" + std::to_string(expected.height) +
+             " (binning and roi applied)";
       return Result::kSizeMismatch;
     }
   }

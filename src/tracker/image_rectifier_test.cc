@@ -1,5 +1,7 @@
 #include "ekf_vislam/tracker/image_rectifier.h"
 
+#include "testing/raw_camera_image.h"
+
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
@@ -7,6 +9,8 @@
 
 namespace ekf_vislam {
 namespace {
+
+using testing::rawImageOf;
 
 // A KITTI-sized raw camera with a strong barrel distortion and a rectifying turn of 0.5 degrees.
 RawCameraModel distortedCamera(const std::string& distortion_model = "plumb_bob") {
@@ -26,22 +30,6 @@ RawCameraModel distortedCamera(const std::string& distortion_model = "plumb_bob"
   model.R = {std::cos(a), 0.0, std::sin(a), 0.0, 1.0, 0.0, -std::sin(a), 0.0, std::cos(a)};
   model.P = {700.0, 0.0, 610.0, 0.0, 0.0, 700.0, 186.0, 0.0, 0.0, 0.0, 1.0, 0.0};
   return model;
-}
-
-// The raw image a camera of `rectifier`'s model takes of the scene whose rectified image is
-// `truth`: each raw pixel samples the truth where the rectified image sees it.
-cv::Mat rawImageOf(const cv::Mat& truth, const ImageRectifier& rectifier) {
-  cv::Mat map_x(truth.size(), CV_32F), map_y(truth.size(), CV_32F);
-  for (int v = 0; v < truth.rows; ++v) {
-    for (int u = 0; u < truth.cols; ++u) {
-      const cv::Point2d r = rectifier.rectifiedPixel(cv::Point2d(u, v));
-      map_x.at<float>(v, u) = static_cast<float>(r.x);
-      map_y.at<float>(v, u) = static_cast<float>(r.y);
-    }
-  }
-  cv::Mat raw;
-  cv::remap(truth, raw, map_x, map_y, cv::INTER_CUBIC, cv::BORDER_CONSTANT, 0);
-  return raw;
 }
 
 cv::Point2d centroidNear(const cv::Mat& image, const cv::Point2d& around, int radius) {

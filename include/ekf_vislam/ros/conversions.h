@@ -70,7 +70,15 @@ FeatureFrame toFeatureFrame(const ekf_vislam::StereoFeatureArray& msg);
 ekf_vislam::StereoFeatureArray toFeatureArrayMsg(const FeatureFrame& frame,
                                                  const std::string& frame_id);
 
-/// A camera_info's rectified projection: P (K when P is all zero) and the image size.
+/// The camera_info of the image a driver sends with binning (binning_x / binning_y above 1) or a
+/// region of interest (roi), whose K, P and size are the full sensor's: the principal points moved
+/// by the ROI's offset, then K's and P's x (y) row scaled by 1 / binning_x (binning_y), the size
+/// the ROI's (the full size from its offset on when its width / height is 0) divided by the
+/// binning; the result has neither. As image_geometry's PinholeCameraModel reads a camera_info (a
+/// rectified image with an ROI is the same crop of the full rectified image). Unchanged without.
+sensor_msgs::CameraInfo cameraInfoOfImage(const sensor_msgs::CameraInfo& info);
+/// A camera_info's rectified projection: P (K when P is all zero) and the image size, of the image
+/// as sent (cameraInfoOfImage: binning and ROI applied).
 PinholeProjection projectionOf(const sensor_msgs::CameraInfo& info);
 /// Rectified stereo intrinsics from the left/right camera_info pair
 /// (stereoIntrinsicsFromProjections of their projections). Leaves calibration->cam_T_imu

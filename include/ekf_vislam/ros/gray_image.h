@@ -48,8 +48,8 @@ enum class PairCalibration { kOk, kCameraInfoRefused, kSizeMismatch };
 
 /// The rectified calibration a pair whose left image is `left` is tracked with, from the
 /// camera_info pair by the estimator's rule (ros_conversions::calibrationFromCameraInfo); the
-/// camera_info's size, when it gives one, must be the image's. *stereo is set only for kOk, *why
-/// otherwise.
+/// camera_info's size (binning and roi applied), when it gives one, must be the image's. *stereo
+/// is set only for kOk, *why otherwise.
 PairCalibration pairCalibration(const sensor_msgs::CameraInfo& left_info,
                                 const sensor_msgs::CameraInfo& right_info,
                                 const sensor_msgs::Image& left, StereoCalibration* stereo,

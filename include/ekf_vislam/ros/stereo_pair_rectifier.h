@@ -17,7 +17,8 @@
 
 namespace ekf_vislam {
 
-/// The camera model of a camera_info (its size, distortion, K, R and P).
+/// The camera model of a camera_info's image (its size, distortion, K, R and P; binning and ROI
+/// applied: ros_conversions::cameraInfoOfImage).
 RawCameraModel rawCameraModel(const sensor_msgs::CameraInfo& info);
 
 class StereoPairRectifier {

@@ -45,6 +45,19 @@ Scene fullResolutionScene() {
   return scene;
 }
 
+// Rectifies *image as the left image of a pair whose right image is the same (the right camera
+// only has to be rectifiable here).
+StereoPairRectifier::Result rectifyBoth(StereoPairRectifier* rectifier,
+                                        const sensor_msgs::CameraInfo& left_info,
+                                        const sensor_msgs::CameraInfo& right_info, cv::Mat* image,
+                                        std::string* why) {
+  cv::Mat right = image->clone();
+  std_msgs::Header header;
+  header.frame_id = "camera_left";
+  std::optional<geometry_msgs::TransformStamped> transform;
+  return rectifier->rectify(left_info, right_info, image, &right, &header, &transform, why);
+}
+
 double meanDifference(const cv::Mat& a, const cv::Mat& b) {
   cv::Mat difference;
   cv::absdiff(a, b, difference);
@@ -63,13 +76,10 @@ TEST(StereoPairRectifier, ARegionOfInterestGivesTheCropOfTheFullRectifiedImage) 
     info->roi.width = roi.width;
     info->roi.height = roi.height;
   }
-  cv::Mat left = scene.raw(roi).clone(), right = left.clone();
-  std_msgs::Header header;
-  header.frame_id = "camera_left";
-  std::optional<geometry_msgs::TransformStamped> transform;
-  std::string why;
+  cv::Mat left = scene.raw(roi).clone();
   StereoPairRectifier rectifier;
-  ASSERT_EQ(rectifier.rectify(left_info, right_info, &left, &right, &header, &transform, &why),
+  std::string why;
+  ASSERT_EQ(rectifyBoth(&rectifier, left_info, right_info, &left, &why),
             StereoPairRectifier::Result::kOk)
       << why;
   ASSERT_EQ(left.size(), roi.size());
@@ -94,12 +104,9 @@ TEST(StereoPairRectifier, BinningGivesTheRectifiedSceneAtTheBinnedResolution) {
              cv::INTER_AREA);
   cv::resize(scene.truth(cv::Rect(0, 0, 2 * binned.width, 2 * binned.height)), truth, binned, 0, 0,
              cv::INTER_AREA);
-  cv::Mat right = left.clone();
-  std_msgs::Header header;
-  std::optional<geometry_msgs::TransformStamped> transform;
-  std::string why;
   StereoPairRectifier rectifier;
-  ASSERT_EQ(rectifier.rectify(left_info, right_info, &left, &right, &header, &transform, &why),
+  std::string why;
+  ASSERT_EQ(rectifyBoth(&rectifier, left_info, right_info, &left, &why),
             StereoPairRectifier::Result::kOk)
       << why;
   ASSERT_EQ(left.size(), binned);
@@ -107,10 +114,9 @@ TEST(StereoPairRectifier, BinningGivesTheRectifiedSceneAtTheBinnedResolution) {
   EXPECT_LT(meanDifference(left(inner), truth(inner)), 2.0);
 
   // The full-resolution raw image with the binned camera_info: refused, both sizes named.
-  cv::Mat full_left = scene.raw.clone(), full_right = scene.raw.clone();
-  EXPECT_EQ(
-      rectifier.rectify(left_info, right_info, &full_left, &full_right, &header, &transform, &why),
-      StereoPairRectifier::Result::kSizeMismatch);
+  cv::Mat full_left = scene.raw.clone();
+  EXPECT_EQ(rectifyBoth(&rectifier, left_info, right_info, &full_left, &why),
+            StereoPairRectifier::Result::kSizeMismatch);
   EXPECT_NE(why.find("1241x376"), std::string::npos) << why;
   EXPECT_NE(why.find("620x188"), std::string::npos) << why;
 }

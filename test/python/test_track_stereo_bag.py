@@ -90,6 +90,17 @@ class TrackStereoBagTest(unittest.TestCase):
     def tearDownClass(cls):
         paths.remove_dir(cls.tmp)
 
+    def end_error(self, features_bag, images_bag, name):
+        """vislam_offline over `features_bag`: its last position's distance (m) from the last
+        ground truth of `images_bag`, unaligned."""
+        result = paths.run_vislam_offline(features_bag, os.path.join(self.tmp, name))
+        self.assertEqual(result.returncode, 0, result.stderr)
+        last = np.loadtxt(os.path.join(self.tmp, name, 'trajectory.tum'))[-1]
+        with rosbag.Bag(images_bag) as bag:
+            truth = [m.pose.pose.position
+                     for _, m, _ in bag.read_messages(['/groundtruth/odometry'])][-1]
+        return np.linalg.norm(last[1:4] - [truth.x, truth.y, truth.z])
+
     def test_every_pair_is_tracked_into_a_bag_vislam_offline_takes(self):
         self.assertEqual(self.rc, 0, self.errors)
         c = counts(self.report)
@@ -251,13 +262,7 @@ class TrackStereoBagTest(unittest.TestCase):
         self.assertEqual([t.header.frame_id for t in rectified], ['camera_left'])
         # vislam_offline: the last pose against the ground truth, unaligned: 0.0333 m measured;
         # 0.0698 m with the features given in the raw camera's frame instead (its turn ignored).
-        result = paths.run_vislam_offline(out, os.path.join(self.tmp, 'raw_slam'))
-        self.assertEqual(result.returncode, 0, result.stderr)
-        last = np.loadtxt(os.path.join(self.tmp, 'raw_slam', 'trajectory.tum'))[-1]
-        with rosbag.Bag(raw) as bag:
-            truth = [m.pose.pose.position
-                     for _, m, _ in bag.read_messages(['/groundtruth/odometry'])][-1]
-        self.assertLess(np.linalg.norm(last[1:4] - [truth.x, truth.y, truth.z]), 0.05)
+        self.assertLess(self.end_error(out, raw, 'raw_slam'), 0.05)
         # The same images tracked without rectification: almost no stereo match survives.
         rc, _, errors = track(raw, os.path.join(self.tmp, 'raw_unrectified.bag'),
                               '--left-topic', '/stereo/left/image_raw', '--right-topic',
@@ -303,13 +308,7 @@ class TrackStereoBagTest(unittest.TestCase):
             self.assertGreater(rows.shape[0], 100 * FRAMES)
             # The last pose against the ground truth, unaligned: 0.0338 m measured (0.0333 m
             # uncropped); 0.6735 m with the estimator's projection ignoring the roi.
-            result = paths.run_vislam_offline(out, os.path.join(self.tmp, 'roi_slam'))
-            self.assertEqual(result.returncode, 0, result.stderr)
-            last = np.loadtxt(os.path.join(self.tmp, 'roi_slam', 'trajectory.tum'))[-1]
-            with rosbag.Bag(raw) as bag:
-                truth = [m.pose.pose.position
-                         for _, m, _ in bag.read_messages(['/groundtruth/odometry'])][-1]
-            self.assertLess(np.linalg.norm(last[1:4] - [truth.x, truth.y, truth.z]), 0.05)
+            self.assertLess(self.end_error(out, raw, 'roi_slam'), 0.05)
 
     def test_a_camera_info_that_cannot_rectify_is_refused(self):
         raw = os.path.join(self.tmp, 'raw_fov.bag')

@@ -58,6 +58,29 @@ sensor_msgs::CameraInfo cameraInfoOfImage(const sensor_msgs::CameraInfo& full) {
   return info;
 }
 
+std::string binningRoiError(const sensor_msgs::CameraInfo& full) {
+  const sensor_msgs::RegionOfInterest& roi = full.roi;
+  const uint64_t right_edge = uint64_t{roi.x_offset} + roi.width;
+  const uint64_t bottom_edge = uint64_t{roi.y_offset} + roi.height;
+  if (full.width != 0 && full.height != 0 &&
+      (right_edge > full.width || bottom_edge > full.height || roi.x_offset >= full.width ||
+       roi.y_offset >= full.height)) {
+    std::ostringstream why;
+    why << "roi (x " << roi.x_offset << ", y " << roi.y_offset << ", " << roi.width << "x"
+        << roi.height << ") leaves the " << full.width << "x" << full.height << " image";
+    return why.str();
+  }
+  const sensor_msgs::CameraInfo info = cameraInfoOfImage(full);
+  if (full.width != 0 && full.height != 0 && (info.width == 0 || info.height == 0)) {
+    std::ostringstream why;
+    why << "binning " << full.binning_x << "x" << full.binning_y << " leaves no pixel of the "
+        << (roi.width != 0 ? roi.width : full.width) << "x"
+        << (roi.height != 0 ? roi.height : full.height) << " image";
+    return why.str();
+  }
+  return "";
+}
+
 PinholeProjection projectionOf(const sensor_msgs::CameraInfo& full) {
   const sensor_msgs::CameraInfo info = cameraInfoOfImage(full);
   PinholeProjection projection;
@@ -220,6 +243,13 @@ ekf_vislam::StereoFeatureArray toFeatureArrayMsg(const FeatureFrame& frame,
 bool calibrationFromCameraInfo(const sensor_msgs::CameraInfo& left,
                                const sensor_msgs::CameraInfo& right, StereoCalibration* calibration,
                                std::string* error, double tolerance_px) {
+  for (const sensor_msgs::CameraInfo* info : {&left, &right}) {
+    const std::string why = binningRoiError(*info);
+    if (!why.empty()) {
+      *error = std::string(info == &left ? "left" : "right") + " camera_info: " + why;
+      return false;
+    }
+  }
   return stereoIntrinsicsFromProjections(projectionOf(left), projectionOf(right), calibration,
                                          error, tolerance_px);
 }

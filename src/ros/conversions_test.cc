@@ -322,6 +322,17 @@ TEST(Conversions, BinningAndRoiGiveTheImagesProjection) {
   EXPECT_EQ(rc::projectionOf(left).width, 1200);
   EXPECT_DOUBLE_EQ(rc::projectionOf(left).cx, 601.8873 - 41);
 
+  // An ROI beyond the image, or a binning that leaves no pixel: refused with what is wrong.
+  rc::cameraInfoFromCalibration(kittiLike(), &left, &right);
+  right.roi.x_offset = 1000;
+  right.roi.width = 300;
+  EXPECT_FALSE(rc::calibrationFromCameraInfo(left, right, &c, &error));
+  EXPECT_EQ(error, "right camera_info: roi (x 1000, y 0, 300x0) leaves the 1241x376 image");
+  right.roi = sensor_msgs::RegionOfInterest();
+  left.binning_y = 400;
+  EXPECT_FALSE(rc::calibrationFromCameraInfo(left, right, &c, &error));
+  EXPECT_EQ(error, "left camera_info: binning 0x400 leaves no pixel of the 1241x376 image");
+
   // Without either (binning 0 or 1, an ROI all zero or the full image): unchanged.
   rc::cameraInfoFromCalibration(kittiLike(), &left, &right);
   left.binning_x = 1;

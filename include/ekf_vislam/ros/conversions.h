@@ -77,12 +77,15 @@ ekf_vislam::StereoFeatureArray toFeatureArrayMsg(const FeatureFrame& frame,
 /// binning; the result has neither. As image_geometry's PinholeCameraModel reads a camera_info (a
 /// rectified image with an ROI is the same crop of the full rectified image). Unchanged without.
 sensor_msgs::CameraInfo cameraInfoOfImage(const sensor_msgs::CameraInfo& info);
+/// Why a camera_info's ROI and binning give no image ("" when they do): an ROI that leaves the
+/// full image (when the camera_info gives its size), or no pixel left after the binning.
+std::string binningRoiError(const sensor_msgs::CameraInfo& info);
 /// A camera_info's rectified projection: P (K when P is all zero) and the image size, of the image
 /// as sent (cameraInfoOfImage: binning and ROI applied).
 PinholeProjection projectionOf(const sensor_msgs::CameraInfo& info);
 /// Rectified stereo intrinsics from the left/right camera_info pair
-/// (stereoIntrinsicsFromProjections of their projections). Leaves calibration->cam_T_imu
-/// unchanged (it comes from tf).
+/// (stereoIntrinsicsFromProjections of their projections; binningRoiError refuses first). Leaves
+/// calibration->cam_T_imu unchanged (it comes from tf).
 bool calibrationFromCameraInfo(const sensor_msgs::CameraInfo& left,
                                const sensor_msgs::CameraInfo& right, StereoCalibration* calibration,
                                std::string* error, double tolerance_px = 1e-3);

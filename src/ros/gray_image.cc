@@ -43,6 +43,11 @@ bool isTrackableEncoding(const std::string& encoding) {
 bool toGrayImage(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* why) {
   if (!isTrackableEncoding(msg->encoding)) {
     *why = "encoding '" + msg->encoding + "' (expected " + kTrackableEncodings + ")";
+    // 16-bit images: cv_bridge would scale them by 255 / 65535, which leaves a 10- or 12-bit
+    // camera's image nearly black; the corner and match thresholds assume 8-bit gray levels.
+    if (msg->encoding.find("16") != std::string::npos) {
+      *why += ": set the camera driver to 8 bits per pixel";
+    }
     return false;
   }
   const size_t channels = static_cast<size_t>(enc::numChannels(msg->encoding));

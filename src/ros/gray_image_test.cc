@@ -114,6 +114,8 @@ TEST(GrayImage, OtherEncodingsAndShortDataAreRefusedWithAReason) {
     std::string why;
     EXPECT_FALSE(toGrayImage(uniformImage(encoding, {1, 2}), &gray, &why));
     EXPECT_NE(why.find("expected mono8"), std::string::npos) << why;
+    const bool deep = std::string(encoding).find("16") != std::string::npos;
+    EXPECT_EQ(why.find("set the camera driver to 8 bits") != std::string::npos, deep) << why;
   }
   auto shorter = boost::make_shared<sensor_msgs::Image>(*uniformImage("bgr8", {1, 2, 3}));
   shorter->data.resize(shorter->data.size() - 1);

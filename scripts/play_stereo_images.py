@@ -11,6 +11,7 @@ a bag: what a stereo camera driver with rectification and a twist source would g
     /stereo/{left,right}/image_raw, with its camera_info (K, D, R, P: the tracker's
     ros/rectify; ekf_vislam_tools.raw_camera): lenses with a barrel distortion, each camera
     turned from its rectified one by under a degree; the tf gives the raw left camera
+    (--distortion-model rational_polynomial or equidistant for other lenses)
 
 FOLDER holds image_left/ and image_right/ (or KITTI's image_0/ and image_1/), calib.txt (P0,
 P1), times.txt and optionally poses.txt (world_T_cam0 per line; --poses FILE for poses kept
@@ -68,6 +69,8 @@ def parse_args(argv):
     p.add_argument('--jpeg-quality', type=int, default=95, help='--compressed jpeg (default 95)')
     p.add_argument('--raw-camera', action='store_true',
                    help='the raw images and camera_info of a calibrated rig (ros/rectify)')
+    p.add_argument('--distortion-model', choices=raw_camera.DISTORTION_MODELS,
+                   default='plumb_bob', help='--raw-camera: the lenses\' model (default plumb_bob)')
     return p.parse_args(argv)
 
 
@@ -123,7 +126,7 @@ def messages(folder, args):
     image_size = (first.shape[1], first.shape[0])
     raw = None
     if args.raw_camera:
-        raw = raw_camera.RawStereoCamera(folder.K, folder.b, image_size)
+        raw = raw_camera.RawStereoCamera(folder.K, folder.b, image_size, args.distortion_model)
         # The tf gives the raw left camera; the tracker turns it to the rectified one.
         cam_T_imu = raw.raw_T_rectified(0) @ cam_T_imu
     calib = _Calibration(folder.K, folder.b, cam_T_imu, image_size, v, w)

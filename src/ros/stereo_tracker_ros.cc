@@ -14,6 +14,7 @@
 #include <sensor_msgs/image_encodings.h>
 #include <tf2_eigen/tf2_eigen.h>
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -28,6 +29,22 @@ constexpr double kCameraInfoPatience = 1.0;  // s of image time pairs wait befor
 constexpr int kFeatureQueue = 2000;
 constexpr const char* kNoCameraInfo =
     "no camera_info yet on stereo/left/camera_info and stereo/right/camera_info";
+
+// The camera_info's binning and region of interest, when it has either ("" otherwise), for the
+// log line of a new calibration.
+std::string binningAndRoi(const sensor_msgs::CameraInfo& info) {
+  std::string text;
+  if (info.binning_x > 1 || info.binning_y > 1) {
+    text += ", binning " + std::to_string(std::max(1u, info.binning_x)) + "x" +
+            std::to_string(std::max(1u, info.binning_y));
+  }
+  const sensor_msgs::RegionOfInterest& roi = info.roi;
+  if (roi.x_offset != 0 || roi.y_offset != 0 || roi.width != 0 || roi.height != 0) {
+    text += ", roi " + std::to_string(roi.width) + "x" + std::to_string(roi.height) + " at (" +
+            std::to_string(roi.x_offset) + ", " + std::to_string(roi.y_offset) + ")";
+  }
+  return text.empty() ? text : " (camera_info" + text + ")";
+}
 
 }  // namespace
 
@@ -430,6 +447,9 @@ void StereoTrackerRos::trackPair(const ImagePair& pair) {
     tracker_ = std::make_unique<StereoTracker>(options_, stereo, masks_, first_id);
     stereo_ = stereo;
     prev_stamp_ = -1;
+    ROS_INFO("%s: tracking %dx%d pairs: fx %.3f, fy %.3f, cx %.3f, cy %.3f, baseline %.4f m%s",
+             name_.c_str(), stereo.image_width, stereo.image_height, stereo.fx, stereo.fy,
+             stereo.cx, stereo.cy, stereo.baseline, binningAndRoi(*left_info_).c_str());
   }
   std_msgs::Header header = left_msg->header;
   if (ros_options_.rectify && !rectifyPair(&left, &right, &header)) return;

@@ -6,18 +6,20 @@ Each raw camera has its own lens (by default plumb_bob, a barrel distortion like
 raw cameras: k1 -0.26, which moves the corners of a 1241x376 image by 170-195 px; or
 rational_polynomial, or equidistant, a fisheye's; a focal length 3 % longer than the rectified
 one; a principal point a few pixels off) and is turned from its rectified camera by 0.65 (left)
-and 0.48 degrees (right), as a real rig's two cameras are. The
-rectified images are the folder's: rectifying the raw images with these camera_info gives them
-back (up to two interpolations), and the rectified projections P are the folder's calibration.
+and 0.48 degrees (right), as a real rig's two cameras are. The rectified images are the folder's:
+rectifying the raw images with these camera_info gives them back (up to two interpolations), and
+the rectified projections P are the folder's calibration.
 """
 import cv2
 import numpy as np
 
 from ekf_vislam_tools import se3
 
-# Per camera (left, right): distortion (k1, k2, p1, p2, k3), the turn R from the raw camera to the
-# rectified one as a rotation vector (rad), and the raw intrinsics relative to the rectified ones.
+# Per camera (left, right): the distortion coefficients of each model, in camera_info's order, the
+# turn R from the raw camera to the rectified one as a rotation vector (rad), and the raw
+# intrinsics relative to the rectified ones.
 DISTORTION = {
+    # k1, k2, p1, p2, k3
     'plumb_bob': ((-0.26, 0.08, 4e-4, -3e-4, -0.01), (-0.25, 0.07, -2e-4, 5e-4, -0.008)),
     # k1, k2, p1, p2, k3, then the denominator's k4, k5, k6
     'rational_polynomial': ((-0.22, 0.05, 4e-4, -3e-4, -0.006, 0.04, 0.01, 0.002),

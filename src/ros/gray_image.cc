@@ -114,12 +114,13 @@ PairCalibration pairCalibration(const sensor_msgs::CameraInfo& left_info,
     *why = "camera_info refused: " + error;
     return PairCalibration::kCameraInfoRefused;
   }
-  const sensor_msgs::CameraInfo left_of_image = ros_conversions::cameraInfoOfImage(left_info);
-  if ((left_of_image.width != 0 && left_of_image.width != left.width) ||
-      (left_of_image.height != 0 && left_of_image.height != left.height)) {
+  // The calibration's size is the left camera_info's with its binning and roi applied.
+  const int width = calibration.image_width, height = calibration.image_height;
+  if ((width != 0 && width != static_cast<int>(left.width)) ||
+      (height != 0 && height != static_cast<int>(left.height))) {
     *why = "image size " + std::to_string(left.width) + "x" + std::to_string(left.height) +
-           " differs from its camera_info's, " + std::to_string(left_of_image.width) + "x" +
-           std::to_string(left_of_image.height) + " (binning and roi applied)";
+           " differs from its camera_info's, " + std::to_string(width) + "x" +
+           std::to_string(height) + " (binning and roi applied)";
     return PairCalibration::kSizeMismatch;
   }
   *stereo = calibration;

@@ -33,11 +33,6 @@ StereoPairRectifier::Result StereoPairRectifier::rectify(
   cv::Mat* images[2] = {left, right};
   cv::Mat rectified[2];
   for (int side = 0; side < 2; ++side) {
-    const std::string roi_error = ros_conversions::binningRoiError(*infos[side]);
-    if (!roi_error.empty()) {
-      *why = std::string(sides[side]) + " camera_info refused for ros/rectify: " + roi_error;
-      return Result::kCameraInfoRefused;
-    }
     const RawCameraModel model = rawCameraModel(*infos[side]);
     if (!rectifiers[side]->ready() || rectifiers[side]->model() != model) {
       std::string error;

@@ -378,19 +378,18 @@ void VislamRos::tryCalibrate() {
 }
 
 bool VislamRos::lookUpImuTCam(CalibrationBuilder* builder) {
-  const std::string& camera_frame = camera_frame_;
-  if (camera_frame.empty()) {
+  if (camera_frame_.empty()) {
     calibration_status_ = "waiting for the camera frame id (stereo/features header.frame_id)";
     return false;
   }
   std::string tf_error;
-  if (!tf_buffer_.canTransform(ros_options_.imu_frame, camera_frame, ros::Time(0), &tf_error)) {
-    calibration_status_ = "waiting for tf " + ros_options_.imu_frame + " -> " + camera_frame;
+  if (!tf_buffer_.canTransform(ros_options_.imu_frame, camera_frame_, ros::Time(0), &tf_error)) {
+    calibration_status_ = "waiting for tf " + ros_options_.imu_frame + " -> " + camera_frame_;
     return false;
   }
   try {
     const geometry_msgs::TransformStamped imu_T_cam =
-        tf_buffer_.lookupTransform(ros_options_.imu_frame, camera_frame, ros::Time(0));
+        tf_buffer_.lookupTransform(ros_options_.imu_frame, camera_frame_, ros::Time(0));
     builder->setImuTCam(ros_conversions::toIsometry(imu_T_cam.transform));
   } catch (const tf2::TransformException& e) {
     calibration_status_ = std::string("tf lookup failed: ") + e.what();

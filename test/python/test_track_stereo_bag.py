@@ -86,6 +86,11 @@ class TrackStereoBagTest(unittest.TestCase):
         assert result.returncode == 0, result.stderr
         cls.tracked = os.path.join(cls.tmp, 'tracked.bag')
         cls.rc, cls.report, cls.errors = track(cls.bag, cls.tracked)
+        # The same drive as a raw rig's (play_stereo_images.py --raw-camera, plumb_bob lenses).
+        cls.raw_bag = os.path.join(cls.tmp, 'raw.bag')
+        result = paths.run_script('play_stereo_images.py', folder, '--bag', cls.raw_bag,
+                                  '--raw-camera')
+        assert result.returncode == 0, result.stderr
 
     @classmethod
     def tearDownClass(cls):
@@ -240,10 +245,7 @@ class TrackStereoBagTest(unittest.TestCase):
         # play_stereo_images.py --raw-camera: the raw images of distorted, turned cameras with
         # their camera_info. --rectify tracks them about as the rectified images, in the
         # rectified frame, whose tf it writes; the estimator's trajectory ends at the ground truth.
-        raw = os.path.join(self.tmp, 'raw.bag')
-        result = paths.run_script('play_stereo_images.py', os.path.join(self.tmp, 'drive'),
-                                  '--bag', raw, '--raw-camera')
-        self.assertEqual(result.returncode, 0, result.stderr)
+        raw = self.raw_bag
         out = os.path.join(self.tmp, 'raw_tracked.bag')
         rc, report, errors = track(raw, out, '--rectify')
         self.assertEqual(rc, 0, errors)
@@ -301,10 +303,7 @@ class TrackStereoBagTest(unittest.TestCase):
         # but for its roi (K, P and the size stay the sensor's): --rectify tracks the crops in
         # their own pixels and the estimator takes the same projection, so the trajectory still
         # ends at the ground truth. The crops without the roi in camera_info are refused.
-        raw = os.path.join(self.tmp, 'raw_roi_source.bag')
-        result = paths.run_script('play_stereo_images.py', os.path.join(self.tmp, 'drive'),
-                                  '--bag', raw, '--raw-camera')
-        self.assertEqual(result.returncode, 0, result.stderr)
+        raw = self.raw_bag
         x, y, width, height = 48, 16, 560, 168
         for with_roi in (True, False):
             cropped = os.path.join(self.tmp, 'raw_roi_%s.bag' % with_roi)

@@ -29,7 +29,8 @@ class StereoPairRectifier {
   /// and makes *header's frame the rectified one (rectifiedFrame of its frame_id, or of the left
   /// camera_info's when empty). *new_transform is set to that frame's static transform when it is
   /// new (a first pair, another R or frame: to publish), else reset. Otherwise *why says what is
-  /// wrong and nothing is changed.
+  /// wrong and nothing is changed. The camera_info pair has passed pairCalibration (gray_image.h),
+  /// which refuses a binning or roi that gives no image.
   Result rectify(const sensor_msgs::CameraInfo& left_info,
                  const sensor_msgs::CameraInfo& right_info, cv::Mat* left, cv::Mat* right,
                  std_msgs::Header* header,

@@ -1,6 +1,7 @@
 #include "ekf_vislam/core/vislam_estimator.h"
 
 #include "ekf_vislam/core/landmark_drift.h"
+#include "ekf_vislam/core/pose_covariance.h"
 #include "ekf_vislam/core/se3.h"
 
 #include <algorithm>
@@ -409,7 +410,9 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result
 
 double VislamEstimator::positionSigma() const {
   // Of the position in world axes (the internal rho also carries rotation error x distance).
-  return std::sqrt(poseCovarianceWorld().diagonal().head<3>().maxCoeff());
+  const Matrix6d linear = linearWorldPoseCovariance(
+      state_.poseCovariance(state_.covarianceCount() - 1), worldTImu().translation());
+  return std::sqrt(linear.diagonal().head<3>().maxCoeff());
 }
 
 void VislamEstimator::checkHealth(int candidates, int disagreeing, FeedResult* result) {
@@ -441,13 +444,8 @@ Eigen::Isometry3d VislamEstimator::worldTImu() const {
 }
 
 Matrix6d VislamEstimator::poseCovarianceWorld() const {
-  // exp(eps^) T: position p + rho + phi x p, rotation exp(phi) R. In (delta p, delta theta):
-  // M = [[I, -p^], [0, I]].
-  const Eigen::Vector3d p = worldTImu().translation();
-  Matrix6d M = Matrix6d::Identity();
-  M.topRightCorner<3, 3>() = -se3::hat(p);
-  const Matrix6d pose = state_.poseCovariance(state_.covarianceCount() - 1);
-  return M * pose * M.transpose();
+  return reportedWorldPoseCovariance(state_.poseCovariance(state_.covarianceCount() - 1),
+                                     worldTImu().translation());
 }
 
 TwistData VislamEstimator::correctedTwist() const {

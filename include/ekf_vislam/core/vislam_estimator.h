@@ -80,7 +80,8 @@ class VislamEstimator {
 
   Eigen::Isometry3d worldTImu() const;
   /// Covariance of [position; rotation] of world_T_imu, errors expressed in world axes
-  /// (delta p_world, delta theta_world), ROS order (x, y, z, rot x, rot y, rot z).
+  /// (delta p_world, delta theta_world), ROS order (x, y, z, rot x, rot y, rot z): the reported
+  /// one, with the spread of a large rotation uncertainty (pose_covariance.h).
   Matrix6d poseCovarianceWorld() const;
   /// Latest twist with the estimated bias removed, and the covariance of [v; w] (measurement
   /// noise density over the last step plus bias covariance).
@@ -151,6 +152,7 @@ class VislamEstimator {
   void checkHealth(int candidates, int disagreeing, FeedResult* result);
   void resetToPrior();
   StatePrior prior() const;
+  // The largest position sigma of the linear world-axes covariance (the health check's).
   double positionSigma() const;
   void initializeState();
 

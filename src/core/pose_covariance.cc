@@ -78,10 +78,12 @@ Matrix6d reportedWorldPoseCovariance(const Matrix6d& eps_covariance,
   Matrix6d second_moment = Matrix6d::Zero();
   for (size_t k = 0; k < rule.points.size(); ++k) {
     const Vector6d eps = root * rule.points[k];
-    const Eigen::Vector3d rho = eps.head<3>(), phi = eps.tail<3>();
+    // exp(eps^) moves p to exp(phi) p + J_l(phi) rho.
+    const Eigen::Matrix4d moved = se3::exp(eps);
     Vector6d error;
-    error.head<3>() = se3::expSO3(phi) * p_world + se3::leftJacobianSO3(phi) * rho - p_world;
-    error.tail<3>() = phi;
+    error.head<3>() =
+        moved.topLeftCorner<3, 3>() * p_world + moved.topRightCorner<3, 1>() - p_world;
+    error.tail<3>() = eps.tail<3>();
     second_moment += rule.weights[k] * error * error.transpose();
   }
   return linear + positivePart(second_moment - linear);

@@ -24,6 +24,7 @@ add_library(ekf_vislam_tracker
   src/tracker/disparity_offset_fit.cc
   src/tracker/stereo_roll_fit.cc
   src/tracker/frame_rate_limit.cc
+  src/tracker/deep_image_scale.cc
   src/tracker/image_rectifier.cc
   src/tracker/stereo_tracker.cc
   src/tracker/debug_drawing.cc
@@ -61,6 +62,7 @@ if(CATKIN_ENABLE_TESTING)
     src/tracker/disparity_offset_fit_test.cc
     src/tracker/stereo_roll_fit_test.cc
     src/tracker/frame_rate_limit_test.cc
+    src/tracker/deep_image_scale_test.cc
     src/tracker/kitti_sequence_test.cc
     src/tracker/exposure_compensation_test.cc
     src/tracker/image_rectifier_test.cc

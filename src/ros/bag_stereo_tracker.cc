@@ -53,6 +53,7 @@ BagStereoTracker::BagStereoTracker(const BagTrackerTopics& topics, const Tracker
       compressed_sync_(makeStereoImageSync<sensor_msgs::CompressedImage>(ros_options)) {
   sync_->registerCallback(&BagStereoTracker::addPair, this);
   compressed_sync_->registerCallback(&BagStereoTracker::addCompressedPair, this);
+  image_scale_ = DeepImageScale(ros_options.image_bits);
 }
 
 void BagStereoTracker::add(const rosbag::MessageInstance& m) {
@@ -225,11 +226,12 @@ void BagStereoTracker::track(const Pair& pair) {
   cv::Mat left, right;
   StereoCalibration stereo;
   std::string why;
-  if (!toGrayImage(pair.left, &left, &why) || !toGrayImage(pair.right, &right, &why) ||
+  if (!toGrayPair(pair.left, pair.right, &image_scale_, &left, &right, &why) ||
       pairCalibration(*left_info_, *right_info_, *pair.left, &stereo, &why) !=
           PairCalibration::kOk) {
     return refuse(why, stamp);
   }
+  if (image_scale_.changed()) std::cerr << "track_stereo_bag: " << image_scale_.describe() << "\n";
   if (!tracker_ || !sameRectifiedPair(stereo, stereo_)) {
     const uint32_t first_id = tracker_ ? tracker_->nextId() : 0;
     tracker_ = std::make_unique<StereoTracker>(options_, stereo, masks_, first_id);

@@ -15,43 +15,53 @@ namespace ekf_vislam {
 namespace enc = sensor_msgs::image_encodings;
 
 const char* const kTrackableEncodings =
-    "mono8, 8UC1, bgr8, rgb8, bgra8, rgba8 or bayer_rggb8, bayer_bggr8, bayer_gbrg8, bayer_grbg8";
+    "mono8, 8UC1, bgr8, rgb8, bgra8, rgba8, bayer_rggb8, bayer_bggr8, bayer_gbrg8, bayer_grbg8 or "
+    "the same at 16 bits (mono16, 16UC1, bgr16, ..., bayer_grbg16)";
 
 namespace {
 
-// The cv::cvtColor code that takes a colour or Bayer encoding to gray, or -1 for a gray one.
-// OpenCV names a Bayer pattern by the second row's first two pixels: ROS's RGGB is its BG (as
-// cv_bridge and image_proc's debayer convert them).
+// The cv::cvtColor code that takes a colour or Bayer encoding (8 or 16 bits) to gray, or -1 for
+// another one. OpenCV names a Bayer pattern by the second row's first two pixels: ROS's RGGB is
+// its BG (as cv_bridge and image_proc's debayer convert them).
 int toGrayCode(const std::string& encoding) {
-  if (encoding == enc::BGR8) return cv::COLOR_BGR2GRAY;
-  if (encoding == enc::RGB8) return cv::COLOR_RGB2GRAY;
-  if (encoding == enc::BGRA8) return cv::COLOR_BGRA2GRAY;
-  if (encoding == enc::RGBA8) return cv::COLOR_RGBA2GRAY;
-  if (encoding == enc::BAYER_RGGB8) return cv::COLOR_BayerBG2GRAY;
-  if (encoding == enc::BAYER_BGGR8) return cv::COLOR_BayerRG2GRAY;
-  if (encoding == enc::BAYER_GBRG8) return cv::COLOR_BayerGR2GRAY;
-  if (encoding == enc::BAYER_GRBG8) return cv::COLOR_BayerGB2GRAY;
+  if (encoding == enc::BGR8 || encoding == enc::BGR16) return cv::COLOR_BGR2GRAY;
+  if (encoding == enc::RGB8 || encoding == enc::RGB16) return cv::COLOR_RGB2GRAY;
+  if (encoding == enc::BGRA8 || encoding == enc::BGRA16) return cv::COLOR_BGRA2GRAY;
+  if (encoding == enc::RGBA8 || encoding == enc::RGBA16) return cv::COLOR_RGBA2GRAY;
+  if (encoding == enc::BAYER_RGGB8 || encoding == enc::BAYER_RGGB16) {
+    return cv::COLOR_BayerBG2GRAY;
+  }
+  if (encoding == enc::BAYER_BGGR8 || encoding == enc::BAYER_BGGR16) {
+    return cv::COLOR_BayerRG2GRAY;
+  }
+  if (encoding == enc::BAYER_GBRG8 || encoding == enc::BAYER_GBRG16) {
+    return cv::COLOR_BayerGR2GRAY;
+  }
+  if (encoding == enc::BAYER_GRBG8 || encoding == enc::BAYER_GRBG16) {
+    return cv::COLOR_BayerGB2GRAY;
+  }
   return -1;
+}
+
+bool isGrayEncoding(const std::string& encoding) {
+  return encoding == enc::MONO8 || encoding == enc::TYPE_8UC1 || encoding == enc::MONO16 ||
+         encoding == enc::TYPE_16UC1;
 }
 
 }  // namespace
 
 bool isTrackableEncoding(const std::string& encoding) {
-  return encoding == enc::MONO8 || encoding == enc::TYPE_8UC1 || toGrayCode(encoding) >= 0;
+  return isGrayEncoding(encoding) || toGrayCode(encoding) >= 0;
 }
 
 bool toGrayImage(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* why) {
   if (!isTrackableEncoding(msg->encoding)) {
     *why = "encoding '" + msg->encoding + "' (expected " + kTrackableEncodings + ")";
-    // 16-bit images: cv_bridge would scale them by 255 / 65535, which leaves a 10- or 12-bit
-    // camera's image nearly black; the corner and match thresholds assume 8-bit gray levels.
-    if (msg->encoding.find("16") != std::string::npos) {
-      *why += ": set the camera driver to 8 bits per pixel";
-    }
     return false;
   }
-  const size_t channels = static_cast<size_t>(enc::numChannels(msg->encoding));
-  if (msg->step < msg->width * channels ||
+  const size_t bytes_per_pixel = static_cast<size_t>(enc::numChannels(msg->encoding)) *
+                                 static_cast<size_t>(enc::bitDepth(msg->encoding) / 8);
+  if (msg->step < msg->width * bytes_per_pixel ||
       static_cast<size_t>(msg->step) * msg->height > msg->data.size()) {
     *why = "image data shorter than its step and height say (" + std::to_string(msg->data.size()) +
            " bytes for step " + std::to_string(msg->step) + " and " + std::to_string(msg->height) +
@@ -73,6 +83,13 @@ bool toGrayImage(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::stri
   return true;
 }
 
+bool toGrayPair(const sensor_msgs::ImageConstPtr& left, const sensor_msgs::ImageConstPtr& right,
+                DeepImageScale* scale, cv::Mat* left_gray, cv::Mat* right_gray, std::string* why) {
+  if (!toGrayImage(left, left_gray, why) || !toGrayImage(right, right_gray, why)) return false;
+  scale->scalePair(left_gray, right_gray);
+  return true;
+}
+
 sensor_msgs::ImagePtr decompressedImage(const sensor_msgs::CompressedImage& msg, std::string* why) {
   cv::Mat decoded;
   try {
@@ -90,6 +107,8 @@ sensor_msgs::ImagePtr decompressedImage(const sensor_msgs::CompressedImage& msg,
   if (decoded.type() == CV_8UC3) encoding = enc::BGR8;
   if (decoded.type() == CV_8UC4) encoding = enc::BGRA8;
   if (decoded.type() == CV_16UC1) encoding = enc::MONO16;
+  if (decoded.type() == CV_16UC3) encoding = enc::BGR16;
+  if (decoded.type() == CV_16UC4) encoding = enc::BGRA16;
   cv_bridge::CvImage image(msg.header, encoding, decoded);
   return image.toImageMsg();
 }

@@ -66,6 +66,7 @@ StereoTrackerRos::StereoTrackerRos(const ros::NodeHandle& nh, const ros::NodeHan
   ROS_INFO("%s: tracker options (from %s):\n%s", name_.c_str(), source.describe().c_str(),
            describeOptions(options_).c_str());
   time_jumps_ = TimeJumpDetector(ros_options_.time_jump_reset, 2);
+  image_scale_ = DeepImageScale(ros_options_.image_bits);
 
   features_pub_ = nh_.advertise<ekf_vislam::StereoFeatureArray>("stereo/features", kFeatureQueue);
   debug_pub_ = image_transport_.advertise("stereo/debug_image", 1);
@@ -430,12 +431,13 @@ void StereoTrackerRos::trackPair(const ImagePair& pair) {
   }
   cv::Mat left, right;
   std::string why;
-  if (!toGrayImage(left_msg, &left, &why) || !toGrayImage(right_msg, &right, &why)) {
+  if (!toGrayPair(left_msg, right_msg, &image_scale_, &left, &right, &why)) {
     ++bad_encoding_;  // an encoding checked at arrival whose data cannot be read
     ROS_WARN_THROTTLE(kWarnPeriod, "%s: %s: pair skipped (%lu so far)", name_.c_str(), why.c_str(),
                       bad_encoding_);
     return;
   }
+  if (image_scale_.changed()) ROS_INFO("%s: %s", name_.c_str(), image_scale_.describe().c_str());
   StereoCalibration stereo;
   if (!calibrationFor(*left_msg, &stereo, &why)) {
     ROS_WARN_THROTTLE(kWarnPeriod, "%s: %s: pair skipped", name_.c_str(), why.c_str());
@@ -600,6 +602,7 @@ void StereoTrackerRos::fillDiagnostics(uint64_t dropped_from_backlog,
   status.add("features_last", last_stats_.published);
   status.add("track_ms_last", last_stats_.ms_total);
   status.add("decode_ms_last", decode_ms_last_);
+  status.add("image_bits", image_scale_.bits());
   if (ros_options_.rectify) status.add("rectify_ms_last", rectifier_.rectifyMsLast());
   status.add("exposure_gain_last", last_stats_.exposure_gain_temporal);
   status.add("stereo_exposure_gain_last", last_stats_.exposure_gain_stereo);

@@ -4,6 +4,7 @@
 #include "ekf_vislam/core/se3.h"
 #include "ekf_vislam/core/yaml_parameter_source.h"
 #include "ekf_vislam/tracker/debug_drawing.h"
+#include "ekf_vislam/tracker/deep_image_scale.h"
 #include "ekf_vislam/tracker/feature_columns.h"
 #include "ekf_vislam/tracker/frame_rate_limit.h"
 #include "ekf_vislam/tracker/image_mask.h"
@@ -54,7 +55,8 @@ const char* kUsage =
     "--first-frame: starts at frame N of the folder (images, times and poses; default 0).\n"
     "--predict-with-twist (needs --poses): the tracker predicts each image's motion from that\n"
     "twist, as the nodelet does from imu/twist.\n"
-    "--config: tracker options (config/tracker.yaml; absent keys keep the defaults).\n"
+    "--config: tracker options (config/tracker.yaml; absent keys keep the defaults; of its ros/\n"
+    "group, image_bits for 16-bit images).\n"
     "--debug-dir: writes the debug drawing of every frame as DIR/NNNNNN.png.\n"
     "--stats: writes the tracker's per-frame counters and times (ms) as CSV.\n"
     "--cameras: the left and right images are KITTI's cameras L and R: their projections PL and\n"
@@ -165,14 +167,21 @@ bool parseArguments(int argc, char** argv, Arguments* args, std::string* error) 
   return true;
 }
 
-bool loadOptions(const std::string& path, TrackerOptions* options, std::string* error) {
+/// The tracker's options and, of the ros/ group, ros/image_bits (16-bit images).
+bool loadOptions(const std::string& path, TrackerOptions* options, int* image_bits,
+                 std::string* error) {
   if (!path.empty()) {
     YamlParameterSource source(path);
     if (!source.ok()) {
       *error = source.error();
       return false;
     }
-    if (!parseTrackerOptions(source, options, error)) return false;
+    StereoTrackerRosOptions ros_options;
+    if (!parseTrackerOptions(source, options, error) ||
+        !parseTrackerRosOptions(source, &ros_options, error)) {
+      return false;
+    }
+    *image_bits = ros_options.image_bits;
     const std::string unknown = unknownTrackerKeys(source);
     if (!unknown.empty()) std::cerr << "track_stereo_images: " << path << ": " << unknown << "\n";
   }
@@ -379,7 +388,9 @@ int run(int argc, char** argv) {
   StereoMasks masks;
   KittiSequence sequence;
   std::string error;
-  if (!parseArguments(argc, argv, &args, &error) || !loadOptions(args.config, &options, &error) ||
+  int image_bits = 0;
+  if (!parseArguments(argc, argv, &args, &error) ||
+      !loadOptions(args.config, &options, &image_bits, &error) ||
       !loadStereoMasks(options, &masks, &error) ||
       !loadKittiSequence(args.left, args.right, args.calib, args.times, args.poses, &sequence,
                          &error, args.cameras)) {
@@ -410,9 +421,17 @@ int run(int argc, char** argv) {
   ProcessingTimes ms;
   cv::Size image_size;
   bool rig_warned = false;  // the rig check's first hint goes to stderr
+  DeepImageScale image_scale(image_bits);
   for (size_t k = 0; k < T; ++k) {
-    const cv::Mat left = cv::imread(sequence.left_images[k], cv::IMREAD_GRAYSCALE);
-    const cv::Mat right = cv::imread(sequence.right_images[k], cv::IMREAD_GRAYSCALE);
+    // Gray, at the file's depth (16-bit png: scaled as the node scales mono16).
+    cv::Mat left = cv::imread(sequence.left_images[k], cv::IMREAD_ANYDEPTH);
+    cv::Mat right = cv::imread(sequence.right_images[k], cv::IMREAD_ANYDEPTH);
+    if (!left.empty() && !right.empty()) {
+      image_scale.scalePair(&left, &right);
+      if (image_scale.changed() && !args.quiet) {
+        std::cerr << "track_stereo_images: " << image_scale.describe() << "\n";
+      }
+    }
     StereoFrame frame;
     std::optional<CameraMotionPrior> prior;
     if (args.predict_with_twist && k > 0) {

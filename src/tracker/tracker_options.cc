@@ -70,6 +70,7 @@ void visitTrackerRosOptions(Options& o, Visitor& v) {
   v.number("ros/max_stamp_difference", o.max_stamp_difference, Bound::kNonNegative);
   v.choice("ros/image_transport", o.image_transport, kImageTransportNames);
   v.flag("ros/rectify", o.rectify);
+  v.integer("ros/image_bits", o.image_bits, Bound::kNonNegative);
   v.flag("ros/use_twist", o.use_twist);
   v.choice("ros/twist_type", o.twist_type, kTwistMessageTypeNames);
   v.number("ros/max_twist_wait", o.max_twist_wait, Bound::kNonNegative);
@@ -130,7 +131,15 @@ std::vector<OptionKeyList::Key> trackerOptionKeys() {
 
 bool parseTrackerRosOptions(const ParameterSource& source, StereoTrackerRosOptions* options,
                             std::string* error) {
-  return readOptionTable(source, kRosTable, options, error);
+  return readOptionTable(source, kRosTable, options, error,
+                         [](const StereoTrackerRosOptions& o, OptionValidator* validator) {
+                           if (o.image_bits != 0 && (o.image_bits < 8 || o.image_bits > 16)) {
+                             validator->fail(
+                                 "ros/image_bits must be 0 (read from the images) or "
+                                 "8-16, not " +
+                                 std::to_string(o.image_bits));
+                           }
+                         });
 }
 
 std::vector<OptionKeyList::Key> trackerRosOptionKeys() {

@@ -34,7 +34,7 @@ TEST(TrackerRosOptions, ShippedFileEqualsTheDefaultsAndRangesAreChecked) {
   YamlParameterSource source(std::string(EKF_VISLAM_SOURCE_DIR) + "/config/tracker.yaml");
   ASSERT_TRUE(source.ok()) << source.error();
   const std::vector<OptionKeyList::Key> keys = trackerRosOptionKeys();
-  EXPECT_EQ(keys.size(), 10u);
+  EXPECT_EQ(keys.size(), 11u);
   for (const OptionKeyList::Key& key : keys) {
     EXPECT_TRUE(source.has(key.name)) << key.name << " is not documented in config/tracker.yaml";
   }
@@ -46,18 +46,22 @@ TEST(TrackerRosOptions, ShippedFileEqualsTheDefaultsAndRangesAreChecked) {
   EXPECT_TRUE(options.use_twist);
   EXPECT_EQ(options.image_transport, ImageTransportType::kRaw);
   EXPECT_FALSE(options.rectify);
+  EXPECT_EQ(options.image_bits, 0);
   const YamlParameterSource changed = YamlParameterSource::fromString(
-      "ros: {queue_size: 7, use_twist: false, image_transport: compressed, rectify: true}\n");
+      "ros: {queue_size: 7, use_twist: false, image_transport: compressed, rectify: true, "
+      "image_bits: 12}\n");
   ASSERT_TRUE(parseTrackerRosOptions(changed, &options, &error)) << error;
   EXPECT_EQ(options.queue_size, 7);
   EXPECT_FALSE(options.use_twist);
   EXPECT_EQ(options.image_transport, ImageTransportType::kCompressed);
   EXPECT_TRUE(options.rectify);
+  EXPECT_EQ(options.image_bits, 12);
   // Each range the nodelet has always checked: the options stay as they were.
-  for (const char* bad : {"ros: {queue_size: 0}\n", "ros: {max_stamp_difference: -0.1}\n",
-                          "ros: {max_twist_wait: -1}\n", "ros: {time_jump_reset: -1}\n",
-                          "ros: {diagnostic_period: 0}\n", "ros: {twist_type: imu}\n",
-                          "ros: {max_backlog_mb: 0}\n", "ros: {image_transport: theora}\n"}) {
+  for (const char* bad :
+       {"ros: {queue_size: 0}\n", "ros: {max_stamp_difference: -0.1}\n",
+        "ros: {max_twist_wait: -1}\n", "ros: {time_jump_reset: -1}\n",
+        "ros: {diagnostic_period: 0}\n", "ros: {twist_type: imu}\n", "ros: {max_backlog_mb: 0}\n",
+        "ros: {image_transport: theora}\n", "ros: {image_bits: 7}\n", "ros: {image_bits: 17}\n"}) {
     error.clear();
     EXPECT_FALSE(parseTrackerRosOptions(YamlParameterSource::fromString(bad), &options, &error))
         << bad;

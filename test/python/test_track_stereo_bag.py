@@ -4,7 +4,8 @@ vislam_offline takes it; a bag with bad pairs (an encoding the tracker does not 
 differ, a right image 50 ms late) has them refused and counted, a black pair counted as without a
 feature, the other pairs tracked as in the clean bag up to the first fault; a bag played twice
 restarts the tracks (ids going on) and tracks its second pass as its first; a bag without
-camera_info fails with a message saying so; png-compressed images give the same features, and
+camera_info fails with a message saying so; png-compressed images give the same features, as do
+a 12-bit camera's mono16 images, and
 play_stereo_images.py's jpeg bag is tracked; its raw-camera bag is rectified (--rectify) into
 about the same features, in the rectified frame, and a trajectory that ends at the ground truth,
 with each lens model and cropped by a driver's ROI, and a camera_info that cannot rectify is
@@ -203,6 +204,29 @@ class TrackStereoBagTest(unittest.TestCase):
                          report)
         self.assertIn('cannot be decoded', errors)
         self.assertEqual(read_feature_rows(out), read_feature_rows(self.tracked)[:FRAMES - 1])
+
+    def test_a_12_bit_cameras_mono16_images_give_the_same_features(self):
+        # A 12-bit camera's values, stored from bit 0 up as mono16: each 8-bit level times 16
+        # plus seeded low bits that round away (0-7). The tracker reads 12 significant bits from
+        # the images (ros/image_bits 0) and tracks the 8-bit images' features bit for bit.
+        deep = os.path.join(self.tmp, 'mono16.bag')
+        rng = np.random.default_rng(4)
+        with rosbag.Bag(self.bag) as src, rosbag.Bag(deep, 'w') as dst:
+            for topic, msg, t in src.read_messages():
+                if topic in (LEFT, RIGHT):
+                    image = np.frombuffer(msg.data, np.uint8).reshape(msg.height, msg.width)
+                    low = rng.integers(0, 8, image.shape)
+                    values = (image.astype(np.uint16) * 16 + low).astype('<u2')
+                    msg.encoding, msg.is_bigendian, msg.step = 'mono16', 0, 2 * msg.width
+                    msg.data = values.tobytes()
+                dst.write(topic, msg, t)
+        out = os.path.join(self.tmp, 'mono16_tracked.bag')
+        rc, report, errors = track(deep, out)
+        self.assertEqual(rc, 0, errors)
+        self.assertEqual(counts(report)['tracked'], FRAMES, report)
+        self.assertIn('16-bit images: value / 16 tracked (12 significant bits, read from the '
+                      'images)', errors)
+        self.assertEqual(read_feature_rows(out), read_feature_rows(self.tracked))
 
     def test_jpeg_bag_of_play_stereo_images_is_tracked(self):
         # play_stereo_images.py --compressed jpeg writes CompressedImage on the /compressed

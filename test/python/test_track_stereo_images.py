@@ -1,6 +1,6 @@
 """track_stereo_images on a small rendered drive: the npz is a complete course dataset (loads with
 the package's validator), its twist matches the ground truth within the requested noise, and
-play_stereo_images.py writes the same drive as a bag."""
+play_stereo_images.py writes the same drive as a bag; 16-bit images give the 8-bit images' tracks."""
 import os
 import re
 import subprocess
@@ -178,6 +178,34 @@ class TrackStereoImagesTest(unittest.TestCase):
         unchanged = mean_observations(self.report)
         self.assertGreater(means[0], 0.95 * unchanged, means)
         self.assertLess(means[1], 0.8 * unchanged, means)
+
+    def test_16_bit_images(self):
+        """A 12-bit camera's images as 16-bit png, values from bit 0 up (each 8-bit level times 16
+        plus low bits that round away): the 8-bit images' tracks exactly, 12 significant bits read
+        from the images; with ros/image_bits 16 in --config, the images taken as 16 bits wide
+        (gray levels 0-15) track next to nothing."""
+        deep = self.linked_copy('deep', 'calib.txt', 'times.txt', 'poses.txt')
+        rng = np.random.default_rng(2)
+        for side in ('image_left', 'image_right'):
+            os.makedirs(os.path.join(deep, side), exist_ok=True)
+            for name in sorted(os.listdir(os.path.join(self.folder, side))):
+                image = cv2.imread(os.path.join(self.folder, side, name), cv2.IMREAD_GRAYSCALE)
+                values = image.astype(np.uint16) * 16 + rng.integers(0, 8, image.shape)
+                cv2.imwrite(os.path.join(deep, side, name), values.astype(np.uint16))
+        args = ['--poses', deep + '/poses.txt', '--twist-noise', '0', '0', '--gyro-offset', '0',
+                '--time-offset', '100']
+        npz = os.path.join(self.tmp, 'deep.npz')
+        result = subprocess.run(track_args(deep, npz) + args, check=True, stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, universal_newlines=True)
+        self.assertIn('16-bit images: value / 16 tracked (12 significant bits, read from the '
+                      'images)', result.stderr)
+        np.testing.assert_array_equal(np.load(npz)['features'], np.load(self.npz)['features'])
+        wide = os.path.join(self.tmp, 'wide.yaml')
+        with open(wide, 'w') as f:
+            f.write('ros:\n  image_bits: 16\n')
+        report = subprocess.run(track_args(deep, npz) + args + ['--config', wide], check=True,
+                                stdout=subprocess.PIPE, universal_newlines=True).stdout
+        self.assertLess(mean_observations(report), 0.2 * mean_observations(self.report))
 
     def test_image_variants(self):
         """image_variant.py makes other regimes of the drive with calibration, times and poses to

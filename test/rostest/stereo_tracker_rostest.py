@@ -4,7 +4,7 @@ drive (render_stereo_drive.py), writes it as a bag of images, camera_info, twist
 (play_stereo_images.py --bag), plays it into launch/stereo_vislam.launch and checks the tracker's
 features (count, stamps, frame, persistent ids, positive disparity, same rows), that
 track_stereo_bag over the same bag gives them bit for bit, the estimator's odometry against the
-ground truth, then bad input in the tracker's diagnostics."""
+ground truth, then bad input in the tracker's diagnostics and a 12-bit camera's mono16 pair taken."""
 import os
 import shutil
 import sys
@@ -179,22 +179,26 @@ class StereoTrackerPipelineTest(NewestStatuses, unittest.TestCase):
         time.sleep(1.0)
         stamp = rospy.Time(5000.0)
 
-        def image(width, encoding, t, channels=1, depth=1):
+        def image(width, encoding, t, depth=1, pixel=b'\x00'):
             msg = Image()
             msg.header.stamp, msg.header.frame_id = t, 'camera_left'
             msg.width, msg.height, msg.encoding = width, 192, encoding
-            msg.step = width * channels * depth
-            msg.data = bytes(msg.step * msg.height)
+            msg.step = width * depth
+            msg.data = pixel * (msg.step * msg.height // depth)
             return msg
-        for k, (lw, rw, enc, dt) in enumerate([(640, 640, 'mono16', 0.0), (640, 320, 'mono8', 0.0),
+        # A 32-bit float image is refused; a 12-bit camera's mono16 pair (every value 4095,
+        # little-endian) is taken, its 12 significant bits read from the images.
+        depths, pixels = {'32FC1': 4, 'mono16': 2}, {'mono16': b'\xff\x0f'}
+        for k, (lw, rw, enc, dt) in enumerate([(640, 640, '32FC1', 0.0), (640, 320, 'mono8', 0.0),
                                                 (640, 640, 'mono8', 0.05),
+                                                (640, 640, 'mono16', 0.0),
                                                 # ApproximateTime emits a pair once later
                                                 # messages arrive: two more, in step.
                                                 (640, 640, 'mono8', 0.0), (640, 640, 'mono8', 0.0)]):
             t = stamp + rospy.Duration(k)
-            depth = 2 if enc == 'mono16' else 1
-            left.publish(image(lw, enc, t, depth=depth))
-            right.publish(image(rw, enc, t + rospy.Duration(dt), depth=depth))
+            depth, pixel = depths.get(enc, 1), pixels.get(enc, b'\x00')
+            left.publish(image(lw, enc, t, depth, pixel))
+            right.publish(image(rw, enc, t + rospy.Duration(dt), depth, pixel))
             time.sleep(0.3)
 
         def counters():
@@ -210,9 +214,12 @@ class StereoTrackerPipelineTest(NewestStatuses, unittest.TestCase):
         ok = wait_until(lambda: int(self.latest_status('tracker_with_mask')[1].get(
             'pairs_without_features', 0)) >= 1, 10.0)
         status, values = self.latest_status('tracker_with_mask')
-        log('masked tracker: %s, pairs_without_features %s' % (
-            status.message, values.get('pairs_without_features')))
+        log('masked tracker: %s, pairs_without_features %s, image_bits %s' % (
+            status.message, values.get('pairs_without_features'), values.get('image_bits')))
         self.assertTrue(ok)
+        ok = wait_until(lambda: self.latest_status('tracker_with_mask')[1].get('image_bits') ==
+                        '12', 10.0)
+        self.assertTrue(ok, self.latest_status('tracker_with_mask')[1])
 
     def test_04_missing_camera_info_is_counted(self):
         # The second tracker (stereo_tracker.test, namespace nocalib) never gets camera_info and

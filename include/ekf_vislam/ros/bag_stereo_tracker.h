@@ -8,6 +8,7 @@
 
 #include "ekf_vislam/core/time_jump_detector.h"
 #include "ekf_vislam/ros/bag_reader.h"
+#include "ekf_vislam/ros/gray_image.h"
 #include "ekf_vislam/ros/stereo_image_sync.h"
 #include "ekf_vislam/ros/stereo_pair_rectifier.h"
 #include "ekf_vislam/tracker/image_mask.h"
@@ -117,6 +118,7 @@ class BagStereoTracker {
   sensor_msgs::CameraInfoConstPtr left_info_, right_info_;
   std::unique_ptr<StereoTracker> tracker_;
   StereoPairRectifier rectifier_;  ///< ros/rectify
+  DeepImageScale image_scale_;     ///< 16-bit images to 8 (ros/image_bits)
   StereoCalibration stereo_;
   double prev_stamp_ = -1.0;
   bool rig_warned_ = false;

@@ -10,6 +10,7 @@
 #include "ekf_vislam/tracker/stereo_tracker.h"
 #include "ekf_vislam/tracker/twist_motion_prior.h"
 
+#include "ekf_vislam/ros/gray_image.h"
 #include "ekf_vislam/ros/periodic_diagnostics.h"
 #include "ekf_vislam/ros/stereo_image_sync.h"
 #include "ekf_vislam/ros/stereo_pair_rectifier.h"
@@ -195,6 +196,7 @@ class StereoTrackerRos {
   uint64_t undecodable_images_ = 0;      ///< compressed images that did not decode
   double decode_ms_last_ = 0.0;          ///< wall ms the last compressed pair took to decode
   StereoPairRectifier rectifier_;        ///< ros/rectify
+  DeepImageScale image_scale_;           ///< 16-bit images to 8 (ros/image_bits)
   uint64_t tracks_crowded_ = 0;          ///< tracks ended near an older one (TrackerFrameStats)
   TimeJumpDetector time_jumps_{0.0, 2};  ///< images 0, twist 1 (set from ros/time_jump_reset)
   StampGapDetector pair_gaps_;           ///< pairs missing, from gaps in the left stamps

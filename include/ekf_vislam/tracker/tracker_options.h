@@ -134,6 +134,9 @@ struct StereoTrackerRosOptions {
   /// The images are raw (stereo/{left,right}/image_raw): rectified with each camera_info's K, D,
   /// R and P before tracking (StereoPairRectifier), the features in "<frame>_rect".
   bool rectify = false;
+  /// Significant bits of 16-bit images' values (DeepImageScale): 8-16, or 0 to read them from the
+  /// images.
+  int image_bits = 0;
   bool use_twist = true;  ///< predict KLT start points from imu/twist (needs tf)
   /// Message type on imu/twist, as the estimator's ros/twist_type: twist_stamped |
   /// twist_with_covariance | odometry (its twist, in child_frame_id).

@@ -7,6 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <cstdint>
 #include <future>
 #include <string>
 
@@ -43,6 +44,22 @@ int toGrayCode(const std::string& encoding) {
   return -1;
 }
 
+// A 16-bit image stored in the other byte order than this machine's, as a CV_16UC(channels) copy
+// in this machine's order (cv_bridge's own conversion of such an image returns an 8-bit one of
+// twice the channels).
+cv::Mat byteSwapped16(const sensor_msgs::Image& msg, int channels) {
+  cv::Mat swapped(static_cast<int>(msg.height), static_cast<int>(msg.width), CV_16UC(channels));
+  const size_t values = static_cast<size_t>(msg.width) * static_cast<size_t>(channels);
+  for (int row = 0; row < swapped.rows; ++row) {
+    const uint8_t* in = msg.data.data() + static_cast<size_t>(row) * msg.step;
+    auto* out = swapped.ptr<uint16_t>(row);
+    for (size_t k = 0; k < values; ++k) {
+      out[k] = static_cast<uint16_t>((in[2 * k] << 8) | in[2 * k + 1]);
+    }
+  }
+  return swapped;
+}
+
 bool isGrayEncoding(const std::string& encoding) {
   return encoding == enc::MONO8 || encoding == enc::TYPE_8UC1 || encoding == enc::MONO16 ||
          encoding == enc::TYPE_16UC1;
@@ -59,8 +76,9 @@ bool toGrayImage(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::stri
     *why = "encoding '" + msg->encoding + "' (expected " + kTrackableEncodings + ")";
     return false;
   }
-  const size_t bytes_per_pixel = static_cast<size_t>(enc::numChannels(msg->encoding)) *
-                                 static_cast<size_t>(enc::bitDepth(msg->encoding) / 8);
+  const int channels = enc::numChannels(msg->encoding);
+  const int value_bytes = enc::bitDepth(msg->encoding) / 8;
+  const size_t bytes_per_pixel = static_cast<size_t>(channels) * static_cast<size_t>(value_bytes);
   if (msg->step < msg->width * bytes_per_pixel ||
       static_cast<size_t>(msg->step) * msg->height > msg->data.size()) {
     *why = "image data shorter than its step and height say (" + std::to_string(msg->data.size()) +
@@ -69,7 +87,10 @@ bool toGrayImage(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::stri
     return false;
   }
   try {
-    const cv::Mat image = cv_bridge::toCvShare(msg)->image;  // no copy
+    constexpr bool kBigEndianMachine = __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__;
+    const bool swap = value_bytes == 2 && (msg->is_bigendian != 0) != kBigEndianMachine;
+    const cv::Mat image =
+        swap ? byteSwapped16(*msg, channels) : cv_bridge::toCvShare(msg)->image;  // no copy
     const int code = toGrayCode(msg->encoding);
     if (code < 0) {
       *gray = image;

@@ -229,6 +229,25 @@ TEST(GrayImage, SixteenBitPairsAreScaledToEightBits) {
   EXPECT_EQ(eight.bits(), 0);
 }
 
+TEST(GrayImage, BigEndianSixteenBitImagesGiveTheirValues) {
+  // 4095 stored most significant byte first (cv_bridge alone returns such an image as 8UC2).
+  auto left = boost::make_shared<sensor_msgs::Image>(*uniformImage("mono16", {0x0f, 0xff}));
+  left->is_bigendian = 1;
+  cv::Mat gray;
+  std::string why;
+  ASSERT_TRUE(toGrayImage(left, &gray, &why)) << why;
+  EXPECT_EQ(gray.type(), CV_16UC1);
+  DeepImageScale scale;
+  EXPECT_EQ(grayPair(&scale, left, left), std::make_pair(255, 255));
+  EXPECT_EQ(scale.bits(), 12);
+  // Colour: pure blue, 4095 in the first channel, then 0 and 0 (12 bits).
+  auto blue = boost::make_shared<sensor_msgs::Image>(
+      *uniformImage("bgr16", {0x0f, 0xff, 0x00, 0x00, 0x00, 0x00}));
+  blue->is_bigendian = 1;
+  DeepImageScale twelve(12);
+  EXPECT_EQ(grayPair(&twelve, blue, blue), std::make_pair(29, 29));
+}
+
 TEST(GrayImage, ColourAndBayerImagesAtSixteenBitsGiveTheirGrayLevel) {
   // Pure blue: 0.114 of full scale, as at 8 bits (29 of 255); a uniform Bayer mosaic: its value.
   DeepImageScale scale(16);

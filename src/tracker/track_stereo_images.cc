@@ -382,6 +382,19 @@ void keepFramesDue(const Arguments& args, const TrackerOptions& options, KittiSe
   }
 }
 
+/// Pair k as 8-bit gray (empty images when a file cannot be read): read at the file's depth, a
+/// 16-bit png scaled as the node scales mono16 (said on stderr when the scale changes).
+void readPair(const KittiSequence& sequence, size_t k, bool quiet, DeepImageScale* image_scale,
+              cv::Mat* left, cv::Mat* right) {
+  *left = cv::imread(sequence.left_images[k], cv::IMREAD_ANYDEPTH);
+  *right = cv::imread(sequence.right_images[k], cv::IMREAD_ANYDEPTH);
+  if (left->empty() || right->empty()) return;
+  image_scale->scalePair(left, right);
+  if (image_scale->changed() && !quiet) {
+    std::cerr << "track_stereo_images: " << image_scale->describe() << "\n";
+  }
+}
+
 int run(int argc, char** argv) {
   Arguments args;
   TrackerOptions options;
@@ -423,15 +436,8 @@ int run(int argc, char** argv) {
   bool rig_warned = false;  // the rig check's first hint goes to stderr
   DeepImageScale image_scale(image_bits);
   for (size_t k = 0; k < T; ++k) {
-    // Gray, at the file's depth (16-bit png: scaled as the node scales mono16).
-    cv::Mat left = cv::imread(sequence.left_images[k], cv::IMREAD_ANYDEPTH);
-    cv::Mat right = cv::imread(sequence.right_images[k], cv::IMREAD_ANYDEPTH);
-    if (!left.empty() && !right.empty()) {
-      image_scale.scalePair(&left, &right);
-      if (image_scale.changed() && !args.quiet) {
-        std::cerr << "track_stereo_images: " << image_scale.describe() << "\n";
-      }
-    }
+    cv::Mat left, right;
+    readPair(sequence, k, args.quiet, &image_scale, &left, &right);
     StereoFrame frame;
     std::optional<CameraMotionPrior> prior;
     if (args.predict_with_twist && k > 0) {

@@ -1,16 +1,37 @@
 #include "ekf_vislam/tracker/deep_image_scale.h"
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 
 namespace ekf_vislam {
 
 namespace {
 
-// The number of bits a value needs (0 for 0).
-int bitsOf(double value) {
-  int bits = 0;
-  for (auto v = static_cast<uint32_t>(value); v != 0; v >>= 1) ++bits;
+// At most this fraction of a pair's pixels may saturate at the bits read from it: a light or a
+// reflection in view does not darken the rest of the image.
+constexpr double kSaturatedFraction = 0.001;
+
+// How many of the image's pixels need each number of bits (0-16), every other row and column
+// counted.
+void countBits(const cv::Mat& image, std::array<size_t, 17>* counts) {
+  for (int row = 0; row < image.rows; row += 2) {
+    const auto* values = image.ptr<uint16_t>(row);
+    for (int col = 0; col < image.cols; col += 2) {
+      const unsigned value = values[col];
+      ++(*counts)[value == 0 ? 0 : 32 - __builtin_clz(value)];
+    }
+  }
+}
+
+// The fewest bits, at least 8, that hold all but kSaturatedFraction of the pair's counted pixels.
+int bitsHolding(const std::array<size_t, 17>& counts) {
+  size_t total = 0;
+  for (const size_t count : counts) total += count;
+  const auto allowed = static_cast<size_t>(kSaturatedFraction * static_cast<double>(total));
+  size_t above = 0;  // pixels that need more than `bits`
+  int bits = 16;
+  while (bits > 8 && above + counts[bits] <= allowed) above += counts[bits--];
   return bits;
 }
 
@@ -21,13 +42,11 @@ void DeepImageScale::scalePair(cv::Mat* left, cv::Mat* right) {
   if (left->depth() != CV_16U && right->depth() != CV_16U) return;
   int bits = fixed_bits_;
   if (bits == 0) {
-    bits = std::max(bits_, 8);
+    std::array<size_t, 17> counts{};
     for (const cv::Mat* image : {left, right}) {
-      if (image->depth() != CV_16U) continue;
-      double highest = 0.0;
-      cv::minMaxLoc(*image, nullptr, &highest);
-      bits = std::max(bits, bitsOf(highest));
+      if (image->depth() == CV_16U) countBits(*image, &counts);
     }
+    bits = std::max(bits_, bitsHolding(counts));
   }
   changed_ = bits != bits_;
   bits_ = bits;

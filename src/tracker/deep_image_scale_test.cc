@@ -51,6 +51,23 @@ TEST(DeepImageScale, TheBitsReadFromTheImagesOnlyGrow) {
   EXPECT_EQ(dark.bits(), 8);
 }
 
+TEST(DeepImageScale, ALightInViewDoesNotDarkenTheRest) {
+  // A dark scene using 10 of a 12-bit camera's bits, 200 x 100 pixels (a pair counts 2 x 5000,
+  // every other row and column); a light that saturates 2 of them (0.02 %) leaves it at / 4, one
+  // over 20 (0.2 %) takes the scale to 12 bits.
+  DeepImageScale scale;
+  cv::Mat left(100, 200, CV_16UC1, cv::Scalar(1000)), right = left.clone();
+  EXPECT_EQ(scaled(&scale, left, right), std::make_pair(250, 250));
+  EXPECT_EQ(scale.bits(), 10);
+  left(cv::Rect(0, 0, 4, 2)).setTo(4095);  // counted: row 0, columns 0 and 2
+  EXPECT_EQ(scaled(&scale, left, right), std::make_pair(250, 250));
+  EXPECT_EQ(scale.bits(), 10);
+  EXPECT_FALSE(scale.changed());
+  left(cv::Rect(0, 0, 40, 2)).setTo(4095);  // counted: row 0, columns 0, 2, ..., 38
+  EXPECT_EQ(scaled(&scale, left, right), std::make_pair(62, 62));  // 62.5, rounded to even
+  EXPECT_EQ(scale.bits(), 12);
+}
+
 TEST(DeepImageScale, FixedBitsSaturateAndEightBitImagesStayAsTheyAre) {
   DeepImageScale scale(12);
   EXPECT_EQ(scaled(&scale, deep(65535), deep(160)), std::make_pair(255, 10));

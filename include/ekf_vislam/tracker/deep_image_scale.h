@@ -10,12 +10,14 @@ namespace ekf_vislam {
 
 /// Both images of a pair, when 16-bit (CV_16U, one channel), are divided by 2^(bits - 8)
 /// (rounded, saturated at 255), `bits` the significant bits of the camera's values
-/// (ros/image_bits). Fixed at 8-16, or 0: read from the images, the highest bit set in any pixel of
-/// the stream so far (at least 8), so that a 10- or 12-bit camera's values, stored from bit 0 up,
-/// fill the 8-bit range, and values stored from bit 15 down (or a 16-bit camera's) give their top
-/// 8 bits. It only grows: a dark first scene may rescale the stream once or twice later, a gain
-/// change the KLT's exposure compensation takes up. (A conversion by the type's range, as
-/// cv_bridge's and cv::imread's, leaves a 12-bit camera's image at gray levels 0-16.)
+/// (ros/image_bits). Fixed at 8-16, or 0: read from the images, the fewest bits (at least 8) that
+/// hold all but 0.1 % of a pair's pixels (every other row and column counted), the most of any
+/// pair so far. So a 10- or 12-bit camera's values, stored from bit 0 up, fill the 8-bit range,
+/// values stored from bit 15 down (or a 16-bit camera's) give their top 8 bits, and a light or a
+/// reflection in view does not darken the rest. It only grows: a dark first scene may rescale the
+/// stream once or twice later, a gain change the KLT's exposure compensation takes up (up to 4x).
+/// (A conversion by the type's range, as cv_bridge's and cv::imread's, leaves a 12-bit camera's
+/// image at gray levels 0-16.)
 class DeepImageScale {
  public:
   explicit DeepImageScale(int image_bits = 0) : fixed_bits_(image_bits) {}

@@ -1,6 +1,7 @@
 """track_stereo_images on a small rendered drive: the npz is a complete course dataset (loads with
 the package's validator), its twist matches the ground truth within the requested noise, and
-play_stereo_images.py writes the same drive as a bag; 16-bit images give the 8-bit images' tracks."""
+play_stereo_images.py writes the same drive as a bag; 16-bit images give the 8-bit images'
+tracks."""
 import os
 import re
 import subprocess

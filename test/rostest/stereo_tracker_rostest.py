@@ -4,7 +4,8 @@ drive (render_stereo_drive.py), writes it as a bag of images, camera_info, twist
 (play_stereo_images.py --bag), plays it into launch/stereo_vislam.launch and checks the tracker's
 features (count, stamps, frame, persistent ids, positive disparity, same rows), that
 track_stereo_bag over the same bag gives them bit for bit, the estimator's odometry against the
-ground truth, then bad input in the tracker's diagnostics and a 12-bit camera's mono16 pair taken."""
+ground truth, then bad input in the tracker's diagnostics and a 12-bit camera's mono16 pair
+taken."""
 import os
 import shutil
 import sys

@@ -73,6 +73,10 @@ def parse_args(argv):
     parser.add_argument('--features-every', type=int, default=1, metavar='M',
                         help='one feature frame (and camera_info) every M twist samples (a camera '
                         'slower than the twist; default %(default)s)')
+    parser.add_argument('--camera-delay', type=float, default=0.0, metavar='S',
+                        help='stamp camera_info and features S s after their frame\'s twist: a '
+                        'camera whose stamps lag (the estimator takes extrinsic/'
+                        'camera_time_offset: -S); default %(default)s')
     parser.add_argument('--play', action='store_true',
                         help='publish live (needs roscore) instead of writing a bag')
     parser.add_argument('--rate', type=float, default=None,
@@ -211,7 +215,8 @@ def run(args):
                                        twist_type=args.twist_type,
                                        twist_covariance=twist_covariance(args),
                                        wheel_every=args.wheel_every,
-                                       features_every=args.features_every)
+                                       features_every=args.features_every,
+                                       camera_delay=args.camera_delay)
     except OSError as exc:
         raise ToolFailure('%s: cannot write the bag (%s)' % (args.out, exc.strerror or exc))
     finally:

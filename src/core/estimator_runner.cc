@@ -49,6 +49,9 @@ EstimatorRunner::EstimatorRunner(const VislamOptions& options,
       preview_estimator_(options) {}
 
 void EstimatorRunner::push(Measurement measurement) {
+  if (FeatureFrame* frame = std::get_if<FeatureFrame>(&measurement)) {
+    frame->stamp += estimator_.options().extrinsic.camera_time_offset;
+  }
   const MeasurementKind kind = kindOf(measurement);
   if (time_jumps_.jumpedBack(static_cast<int>(kind), stampOf(measurement))) {
     clear();

@@ -57,6 +57,7 @@ void visitVislamOptions(Options& o, Visitor& v) {
            Bound::kPositive);
   v.number("extrinsic/twist_rotation_random_walk", extrinsic.twist_rotation_random_walk,
            Bound::kNonNegative);
+  v.number("extrinsic/camera_time_offset", extrinsic.camera_time_offset, Bound::kAny);
 
   auto& intrinsic = o.intrinsic;
   v.flag("intrinsic/estimate_disparity_offset", intrinsic.estimate_disparity_offset);

@@ -3,7 +3,8 @@
 `iter_messages` yields the messages in bag order; `write_bag` writes them to a bag through a
 temporary file, and the live player of dataset_to_bag.py publishes the same stream.
 
-Topics and frames (message time = header stamp = dataset time stamp):
+Topics and frames (message time = header stamp = dataset time stamp; the camera's messages plus
+``camera_delay``, which merges them into the other messages in stamp order):
 
 - ``/tf_static`` (tf2_msgs/TFMessage, latched, once at the first stamp): imu -> camera_left
   (imu_T_cam = inverse(cam_T_imu)) and camera_left -> camera_right (+b along x);
@@ -307,11 +308,8 @@ def features_by_age(observed):
         yield ids[np.lexsort((ids, start[ids]))]
 
 
-def _frame_messages(dataset, twist_type, twist_covariance, wheel_every=1, features_every=1):
-    observed = dataset.observed()
-    by_age = features_by_age(observed) if dataset.columns_shared else None
+def _twist_messages(dataset, twist_type, twist_covariance, wheel_every=1):
     for k in range(dataset.num_frames):
-        ids = next(by_age) if by_age else np.flatnonzero(observed[:, k])
         stamp = to_ros_time(dataset.t[k])
         if twist_type == IMU_ODOMETRY:
             imu, odometry = imu_odometry_msgs(dataset, k, stamp, twist_covariance)
@@ -323,33 +321,43 @@ def _frame_messages(dataset, twist_type, twist_covariance, wheel_every=1, featur
                                                    twist_covariance)
             if dataset.specific_force is not None:
                 yield stamp, 0, TOPIC_IMU, accelerometer_msg(dataset, k, stamp)
+
+
+def _camera_messages(dataset, features_every=1, camera_delay=0.0):
+    observed = dataset.observed()
+    by_age = features_by_age(observed) if dataset.columns_shared else None
+    for k in range(dataset.num_frames):
+        ids = next(by_age) if by_age else np.flatnonzero(observed[:, k])
         if k % features_every != 0:
             continue
+        stamp = to_ros_time(dataset.t[k] + camera_delay)
         left, right = camera_info_msgs(dataset, stamp)
-        yield stamp, 0, TOPIC_LEFT_INFO, left
-        yield stamp, 0, TOPIC_RIGHT_INFO, right
-        yield stamp, 0, TOPIC_FEATURES, features_msg(dataset, k, stamp, ids)
+        yield stamp, 1, TOPIC_LEFT_INFO, left
+        yield stamp, 1, TOPIC_RIGHT_INFO, right
+        yield stamp, 1, TOPIC_FEATURES, features_msg(dataset, k, stamp, ids)
 
 
 def _groundtruth_messages(groundtruth):
     t, world_T_imu = groundtruth
     for tk, T in zip(t, world_T_imu):
         stamp = to_ros_time(tk)
-        yield stamp, 1, TOPIC_GROUNDTRUTH, odometry_msg(T, stamp)
+        yield stamp, 2, TOPIC_GROUNDTRUTH, odometry_msg(T, stamp)
 
 
 def iter_messages(dataset, groundtruth=None, twist_type='twist_stamped', twist_covariance=None,
-                  wheel_every=1, features_every=1):
+                  wheel_every=1, features_every=1, camera_delay=0.0):
     """Yield (topic, msg, stamp) in bag order: /tf_static, then per frame twist (of twist_type;
     IMU_ODOMETRY: gyro and wheel odometry; with an accelerometer and another type, the twist and
     then the accelerometer's /imu/data), left and right camera_info, features; ground truth
     (t, world_T_imu) interleaved by time (after the frame's messages at equal stamps).
     wheel_every (IMU_ODOMETRY) and features_every keep one wheel sample, one feature frame every
-    that many twist samples: slower sensors than the dataset's rate."""
-    first = to_ros_time(dataset.t[0])
+    that many twist samples: slower sensors than the dataset's rate. camera_delay (s) stamps the
+    camera's messages that much after the twist of their frame (a camera whose stamps lag; the
+    estimator's extrinsic/camera_time_offset is its negative)."""
+    first = to_ros_time(dataset.t[0] + min(0.0, camera_delay))
     yield TOPIC_TF_STATIC, tf_static_msg(dataset, first, twist_type == IMU_ODOMETRY), first
-    streams = [_frame_messages(dataset, twist_type, twist_covariance, wheel_every,
-                               features_every)]
+    streams = [_twist_messages(dataset, twist_type, twist_covariance, wheel_every),
+               _camera_messages(dataset, features_every, camera_delay)]
     if groundtruth is not None:
         streams.append(_groundtruth_messages(groundtruth))
     for stamp, _, topic, msg in heapq.merge(*streams, key=lambda item: (item[0], item[1])):
@@ -375,7 +383,8 @@ class BagSummary(object):
 
 
 def write_bag(dataset, out_path, groundtruth=None, progress=None, callerid=DEFAULT_CALLERID,
-              twist_type='twist_stamped', twist_covariance=None, wheel_every=1, features_every=1):
+              twist_type='twist_stamped', twist_covariance=None, wheel_every=1, features_every=1,
+              camera_delay=0.0):
     """Write the dataset (and optional ground truth) to `out_path` -> BagSummary.
 
     Writes `<out_path>.tmp-<pid>` and renames it on success; on any error (or KeyboardInterrupt)
@@ -387,7 +396,8 @@ def write_bag(dataset, out_path, groundtruth=None, progress=None, callerid=DEFAU
     try:
         with rosbag.Bag(tmp_path, 'w') as bag:
             for topic, msg, stamp in iter_messages(dataset, groundtruth, twist_type,
-                                                   twist_covariance, wheel_every, features_every):
+                                                   twist_covariance, wheel_every, features_every,
+                                                   camera_delay):
                 if topic == TOPIC_TF_STATIC:
                     bag.write(topic, msg, stamp,
                               connection_header=tf_static_connection_header(msg, callerid))

@@ -59,7 +59,8 @@ class EstimatorRunner {
   const VislamEstimator& estimator() const { return estimator_; }
 
   /// Buffers one message; a twist also advances the propagated copy. Call processReady()
-  /// afterwards.
+  /// afterwards. A feature frame is restamped to when its images were taken on the twist's clock
+  /// (its stamp plus extrinsic/camera_time_offset) and is sequenced, used and reported there.
   void push(Measurement measurement);
   /// Live input: a message waiting for another stream is released only after
   /// MeasurementSequencer::Options::max_delay in message time and in wall time (steady clock,

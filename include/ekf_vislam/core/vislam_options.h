@@ -98,6 +98,9 @@ struct ExtrinsicOptions {
   bool estimate_twist_rotation = false;
   double twist_rotation_prior_sigma = 0.05;  ///< rad
   double twist_rotation_random_walk = 0.0;   ///< rad/sqrt(s)
+  /// s: images stamped t were taken at t + camera_time_offset on the twist's clock (negative for
+  /// a camera whose stamps lag, e.g. stamped on arrival). Applied by EstimatorRunner::push.
+  double camera_time_offset = 0.0;
 };
 
 /// intrinsic/: stereo calibration states.

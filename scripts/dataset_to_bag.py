@@ -138,7 +138,7 @@ class ProgressBar(object):
             self.stream.flush()
 
 
-def play(dataset, groundtruth, rate, loop, delay):
+def play(dataset, groundtruth, rate, loop, delay, camera_delay=0.0):
     """Publish the dataset's messages live, paced by their stamps, with /clock; -> frames played."""
     import rosgraph
     from rosgraph_msgs.msg import Clock
@@ -157,12 +157,13 @@ def play(dataset, groundtruth, rate, loop, delay):
             if groundtruth is not None or topic != bag_writer.TOPIC_GROUNDTRUTH}
     time.sleep(delay)
 
-    t_first = dataset.t[0]
+    t_first = dataset.t[0] + min(0.0, camera_delay)
     frames = 0
     while not rospy.is_shutdown():
         wall_start = time.monotonic()
         last_clock = None
-        for topic, msg, stamp in bag_writer.iter_messages(dataset, groundtruth):
+        for topic, msg, stamp in bag_writer.iter_messages(dataset, groundtruth,
+                                                          camera_delay=camera_delay):
             target = wall_start + (stamp.to_sec() - t_first) / rate
             while not rospy.is_shutdown():
                 now = time.monotonic()
@@ -205,7 +206,7 @@ def run(args):
     if args.play:
         if args.twist_type != 'twist_stamped' or args.twist_covariance:
             raise ToolFailure('--play publishes geometry_msgs/TwistStamped only')
-        frames = play(dataset, groundtruth, args.rate, args.loop, args.delay)
+        frames = play(dataset, groundtruth, args.rate, args.loop, args.delay, args.camera_delay)
         print('%s: played %d frames of %s' % (PROG, frames, args.dataset))
         return EXIT_OK
 

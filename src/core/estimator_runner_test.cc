@@ -219,6 +219,7 @@ TEST(EstimatorRunner, ACameraTimeOffsetRestampsFramesToWhenTheImagesWereTaken) {
         "images stamped %+.4f s: position RMSE %.3f m with the offset, %.3f m without "
         "(%.3f m at the images' times), %.3f m in sync\n",
         lag, rmse(corrected, 0.0), rmse(ignored, 0.0), rmse(ignored, lag), rmse(in_sync, 0.0));
+    EXPECT_GT(rmse(ignored, 0.0), 2.0 * rmse(corrected, 0.0)) << "lag " << lag;
   }
 }
 

@@ -157,7 +157,7 @@ def play(dataset, groundtruth, rate, loop, delay, camera_delay=0.0):
             if groundtruth is not None or topic != bag_writer.TOPIC_GROUNDTRUTH}
     time.sleep(delay)
 
-    t_first = dataset.t[0] + min(0.0, camera_delay)
+    t_first = bag_writer.first_stamp(dataset, camera_delay).to_sec()
     frames = 0
     while not rospy.is_shutdown():
         wall_start = time.monotonic()

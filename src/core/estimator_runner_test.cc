@@ -199,10 +199,11 @@ TEST(EstimatorRunner, ACameraTimeOffsetRestampsFramesToWhenTheImagesWereTaken) {
   // the offset, it comes before the first twist and is rejected); `late` s: how much later than
   // the images the poses are stamped.
   auto rmse = [&s](const std::vector<StampedPose>& trajectory, double late) {
+    const double period = testing::ScenarioOptions().dt;
     double sq = 0.0;
     int n = 0;
     for (const StampedPose& pose : trajectory) {
-      const long k = std::lround((pose.stamp - late - s.frames[0].stamp) / 0.1);
+      const long k = std::lround((pose.stamp - late - s.frames[0].stamp) / period);
       if (k < 1 || k >= static_cast<long>(s.world_T_imu.size())) continue;
       sq +=
           (pose.world_T_imu.translation() - s.world_T_imu[k].topRightCorner<3, 1>()).squaredNorm();

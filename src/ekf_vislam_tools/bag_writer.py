@@ -344,6 +344,12 @@ def _groundtruth_messages(groundtruth):
         yield stamp, 2, TOPIC_GROUNDTRUTH, odometry_msg(T, stamp)
 
 
+def first_stamp(dataset, camera_delay=0.0):
+    """Stamp of the first message of iter_messages (/tf_static): the first twist's, or the first
+    camera message's when it comes earlier (camera_delay < 0)."""
+    return to_ros_time(dataset.t[0] + min(0.0, camera_delay))
+
+
 def iter_messages(dataset, groundtruth=None, twist_type='twist_stamped', twist_covariance=None,
                   wheel_every=1, features_every=1, camera_delay=0.0):
     """Yield (topic, msg, stamp) in bag order: /tf_static, then per frame twist (of twist_type;
@@ -354,7 +360,7 @@ def iter_messages(dataset, groundtruth=None, twist_type='twist_stamped', twist_c
     that many twist samples: slower sensors than the dataset's rate. camera_delay (s) stamps the
     camera's messages that much after the twist of their frame (a camera whose stamps lag; the
     estimator's extrinsic/camera_time_offset is its negative)."""
-    first = to_ros_time(dataset.t[0] + min(0.0, camera_delay))
+    first = first_stamp(dataset, camera_delay)
     yield TOPIC_TF_STATIC, tf_static_msg(dataset, first, twist_type == IMU_ODOMETRY), first
     streams = [_twist_messages(dataset, twist_type, twist_covariance, wheel_every),
                _camera_messages(dataset, features_every, camera_delay)]

@@ -3,7 +3,7 @@
 
     make_variant.py DATA.npz --groundtruth GT --twist course|accurate [--twist-noise V W]
                     [--gyro-offset B] [--accel-noise SIGMA [--accel-bias B [B B]]]
-                    [--keep-fraction F] [--seed N] --out OUT.npz
+                    [--keep-fraction F] [--split-repeated] [--seed N] --out OUT.npz
 
 course: the file's own twist. accurate: the IMU body twist computed from the ground truth
 (sample k+1 drives [t_k, t_k+1]) plus white noise of V m/s and W rad/s per sample and axis
@@ -17,6 +17,12 @@ camera frame, not level, so "up" is taken as the normalized mean of the IMU's z 
 drive (a stand-in: right when the drive's roll and pitch average out to zero). Its noise has its
 own stream from --seed: the twist and the kept ids are the same with or without it.
 --keep-fraction keeps a seeded random subset of the landmark ids.
+--split-repeated empties each frame that re-publishes the previous one (the course files hold
+8-13 %: more than half of the tracks both frames share have the same four coordinates) and gives
+each track through it a new id after it. The course files' tracks are one image period off
+after such a frame, which the estimator's repeated-frame handling knows only from the repeat
+itself; without repeats a variant may drop frames (a camera slower than the twist:
+dataset_to_bag.py --features-every N) without keeping a stale copy of a dropped frame.
 GT: a TUM file of world_T_imu, or a KITTI poses file of world_T_cam0 (a line per frame, turned
 into world_T_imu with the dataset's cam_T_imu, corrected as dataset_to_bag.py does). Frames after
 the last ground-truth pose are cut off. Every other key is kept as it is (the 2019
@@ -52,6 +58,9 @@ def main(argv):
                         help='with --accel-noise: constant accelerometer offset, one value for all '
                         'axes or three (m/s^2; default 0)')
     parser.add_argument('--keep-fraction', type=float, default=1.0, metavar='F')
+    parser.add_argument('--split-repeated', action='store_true',
+                        help='empty the repeated frames and give the tracks through each a new '
+                        'id after it')
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--out', required=True, metavar='OUT.npz')
     args = parser.parse_args(argv)
@@ -68,7 +77,8 @@ def main(argv):
                                            tuple(args.twist_noise), args.gyro_offset,
                                            args.keep_fraction, args.seed, args.accel_noise,
                                            0.0 if args.accel_bias is None else args.accel_bias,
-                                           cam_T_imu=checked.cam_T_imu)
+                                           cam_T_imu=checked.cam_T_imu,
+                                           split_repeated=args.split_repeated)
         tmp = args.out + '.tmp.npz'
         np.savez(tmp, **out)
         os.replace(tmp, args.out)

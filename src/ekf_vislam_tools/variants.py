@@ -1,7 +1,8 @@
 """Regime variants of a course dataset: another twist (the file's own, or one computed from the
 ground truth with chosen noise), optionally an accelerometer computed from the ground truth
-(``specific_force``, see `groundtruth_specific_force`) and a seeded subset of the landmark ids.
-The npz keeps its layout and every other key."""
+(``specific_force``, see `groundtruth_specific_force`), a seeded subset of the landmark ids, and
+the course files' repeated frames taken out (`split_at_repeated_frames`). The npz keeps its
+layout and every other key."""
 import numpy as np
 
 from ekf_vislam_tools import se3, simulator, trajectory
@@ -19,6 +20,49 @@ def _key(data, names):
         if name in data:
             return name
     raise VariantError('none of %s in the dataset' % ', '.join(names))
+
+
+def repeated_frames(features, min_shared=5):
+    """Frames that re-publish the previous one, by the estimator's rule (RepeatedFrameDetector):
+    at least `min_shared` tracks observed in both, and more than half of them with the same four
+    coordinates. -> bool array, one per frame."""
+    observed = features[0] != -1
+    repeated = np.zeros(features.shape[2], dtype=bool)
+    for k in range(1, features.shape[2]):
+        shared = observed[:, k] & observed[:, k - 1]
+        count = int(shared.sum())
+        if count < min_shared:
+            continue
+        same = np.all(features[:, shared, k] == features[:, shared, k - 1], axis=0)
+        repeated[k] = 2 * int(same.sum()) > count
+    return repeated
+
+
+def split_at_repeated_frames(features):
+    """-> (features, repeated frames, tracks split). Each repeated frame is emptied, and a track
+    observed both before and after one goes on under a new id (a column appended) after it: the
+    course files' tracks are one image period off their stamps after such a frame, which the
+    estimator's repeated-frame handling needs the repeat itself to know. Without them a variant
+    may drop frames (a slower camera, dataset_to_bag.py --features-every) and keep no stale copy
+    of a dropped frame."""
+    features = np.array(features)
+    repeated = repeated_frames(features)
+    features[:, :, repeated] = -1
+    cuts = np.flatnonzero(repeated)
+    observed = features[0] != -1
+    appended = []
+    for column in range(features.shape[1]):
+        frames = np.flatnonzero(observed[column])
+        segment = np.searchsorted(cuts, frames)  # how many repeated frames lie before each
+        for later in np.unique(segment)[1:]:
+            moved = frames[segment == later]
+            new = np.full((features.shape[0], features.shape[2]), -1, dtype=features.dtype)
+            new[:, moved] = features[:, column, moved]
+            features[:, column, moved] = -1
+            appended.append(new)
+    if appended:
+        features = np.concatenate([features, np.stack(appended, axis=1)], axis=1)
+    return features, int(repeated.sum()), len(appended)
 
 
 def groundtruth_poses(t_frames, t_gt, world_T_imu_gt, max_dt=0.02):
@@ -93,7 +137,7 @@ def _accel_rng(seed):
 
 def make_variant(data, groundtruth_path, twist='course', twist_noise=(0.05, 0.005),
                  gyro_offset=0.001, keep_fraction=1.0, seed=0, accel_noise=None, accel_bias=0.0,
-                 up_world=None, cam_T_imu=None):
+                 up_world=None, cam_T_imu=None, split_repeated=False):
     """-> (dict of arrays, notes). `data` is a dict of the npz's arrays. Frames after the last
     ground-truth pose are cut off (every key indexed by frame). The ground truth is a TUM file of
     world_T_imu or, with the dataset's cam_T_imu (translation corrected), a KITTI poses file.
@@ -103,7 +147,8 @@ def make_variant(data, groundtruth_path, twist='course', twist_noise=(0.05, 0.00
     (`groundtruth_specific_force`, with either twist) plus white noise and a constant offset
     accel_bias (m/s^2, one value or three, body axes). Its noise has its own stream from the
     seed. up_world: gravity's "up" in the ground truth's world axes (default: the mean IMU z axis
-    over the drive, a stand-in, since the ground truth's world is not level)."""
+    over the drive, a stand-in, since the ground truth's world is not level). split_repeated:
+    `split_at_repeated_frames`, before the id subset."""
     out = {key: np.array(value) for key, value in data.items()}
     time_key = _key(out, TIME_KEYS)
     angular_key = _key(out, ANGULAR_KEYS)
@@ -152,6 +197,10 @@ def make_variant(data, groundtruth_path, twist='course', twist_noise=(0.05, 0.00
         raise VariantError('an accelerometer offset or up needs the accelerometer noise')
     if not 0.0 < keep_fraction <= 1.0:
         raise VariantError('keep fraction must be in (0, 1]')
+    if split_repeated:
+        out['features'], repeats, split = split_at_repeated_frames(out['features'])
+        notes.append('%d repeated frames emptied, %d tracks through them split (new ids)'
+                     % (repeats, split))
     if keep_fraction < 1.0:
         features = out['features']
         ids = features.shape[1]

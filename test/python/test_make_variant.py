@@ -1,5 +1,6 @@
 """scripts/make_variant.py: the accurate twist integrates back to the ground truth, the noise and
-the id subset are what was asked, and everything is deterministic per seed."""
+the id subset are what was asked, everything is deterministic per seed, and repeated frames are
+split out."""
 import os
 import sys
 import unittest
@@ -89,6 +90,40 @@ class MakeVariantTest(unittest.TestCase):
         with np.load(out) as from_kitti:
             for key in ('linear_velocity', 'rotational_velocity'):
                 np.testing.assert_allclose(from_kitti[key], from_tum[key], atol=1e-5)
+
+    def test_split_repeated_empties_repeats_and_gives_tracks_through_them_new_ids(self):
+        original = dict(np.load(self.prefix + '.npz'))
+        features = original['features']
+        repeat = 40
+        # Frame 40 re-publishes frame 39 (the course files' repeated frames): every track the
+        # two share keeps its frame-39 coordinates; a track starting at 40 makes it no less one.
+        observed = features[0] != -1
+        shared = observed[:, repeat] & observed[:, repeat - 1]
+        self.assertGreater(shared.sum(), 5)
+        features[:, shared, repeat] = features[:, shared, repeat - 1]
+        source = os.path.join(self.tmp, 'with_repeat.npz')
+        np.savez(source, **original)
+        out = os.path.join(self.tmp, 'split.npz')
+        proc = ekf_test_paths.run_script('make_variant.py', source, '--groundtruth', self.gt,
+                                         '--twist', 'course', '--split-repeated', '--out', out)
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        self.assertIn('1 repeated frames emptied', proc.stdout)
+        split = np.load(out)['features']
+        self.assertTrue(np.all(split[:, :, repeat] == -1))
+        kept = split[0] != -1
+        self.assertFalse(np.any(kept[:, :repeat].any(axis=1) & kept[:, repeat + 1:].any(axis=1)))
+        # Every other observation is kept once, the first part of each track under its own id.
+        through = observed[:, :repeat].any(axis=1) & observed[:, repeat + 1:].any(axis=1)
+        self.assertEqual(split.shape[1], features.shape[1] + through.sum())
+        self.assertIn('%d tracks through them split' % through.sum(), proc.stdout)
+        np.testing.assert_array_equal(split[:, :features.shape[1], :repeat],
+                                      features[:, :, :repeat])
+        moved = split[:, features.shape[1]:, repeat + 1:]
+        np.testing.assert_array_equal(moved, features[:, through, repeat + 1:])
+        self.assertTrue(np.all(split[:, :features.shape[1], repeat + 1:][:, through] == -1))
+        # A file without repeats comes out unchanged.
+        plain = self.variant('plain', '--twist', 'course', '--split-repeated')
+        np.testing.assert_array_equal(plain['features'], np.load(self.prefix + '.npz')['features'])
 
     def test_bad_input_is_one_line(self):
         proc = ekf_test_paths.run_script('make_variant.py', self.prefix + '.npz', '--groundtruth',

@@ -2,13 +2,16 @@
 """Writes a regime variant of a course dataset.
 
     make_variant.py DATA.npz --groundtruth GT --twist course|accurate [--twist-noise V W]
-                    [--gyro-offset B] [--accel-noise SIGMA [--accel-bias B [B B]]]
-                    [--keep-fraction F] [--split-repeated] [--seed N] --out OUT.npz
+                    [--gyro-offset B] [--speed-scale S]
+                    [--accel-noise SIGMA [--accel-bias B [B B]]] [--keep-fraction F]
+                    [--split-repeated] [--seed N] --out OUT.npz
 
 course: the file's own twist. accurate: the IMU body twist computed from the ground truth
 (sample k+1 drives [t_k, t_k+1]) plus white noise of V m/s and W rad/s per sample and axis
 (default 0.05, 0.005) and a constant gyro offset B rad/s on each axis (default 0.001), as good as
-a decent wheel odometry. --accel-noise (with either twist) adds an accelerometer, specific_force
+a decent wheel odometry. --speed-scale multiplies the linear velocity of either twist (noise
+included) by S, as a wheel odometry whose wheel radius is off by S - 1 measures it (default 1).
+--accel-noise (with either twist) adds an accelerometer, specific_force
 (3,T) m/s^2 in the IMU frame: sample k is the mean specific force over (t_k-1, t_k] in the body
 frame at t_k, from the ground-truth poses at the frame stamps and the noiseless ground-truth
 velocity of the accurate twist, plus white noise of SIGMA m/s^2 per sample and axis and a constant
@@ -48,6 +51,8 @@ def main(argv):
     parser.add_argument('--twist-noise', nargs=2, type=float, default=(0.05, 0.005),
                         metavar=('V', 'W'), help='per-sample std, m/s and rad/s')
     parser.add_argument('--gyro-offset', type=float, default=0.001, metavar='B')
+    parser.add_argument('--speed-scale', type=float, default=1.0, metavar='S',
+                        help='multiply the twist\'s linear velocity by S (a wrong wheel radius)')
     parser.add_argument('--accel-noise', type=float, metavar='SIGMA',
                         help='add specific_force (accelerometer, m/s^2, IMU frame, gravity '
                         'included) from the ground truth with white noise of this std per '
@@ -78,7 +83,8 @@ def main(argv):
                                            args.keep_fraction, args.seed, args.accel_noise,
                                            0.0 if args.accel_bias is None else args.accel_bias,
                                            cam_T_imu=checked.cam_T_imu,
-                                           split_repeated=args.split_repeated)
+                                           split_repeated=args.split_repeated,
+                                           speed_scale=args.speed_scale)
         tmp = args.out + '.tmp.npz'
         np.savez(tmp, **out)
         os.replace(tmp, args.out)

@@ -260,6 +260,8 @@ RunSummary EstimatorRunner::summary() const {
   s.extra["disparity_offset_px"] = estimator_.disparityOffset();
   s.extra["disparity_offset_sigma_px"] = estimator_.disparityOffsetSigma();
   s.extra["baseline_scale"] = estimator_.baselineScale();
+  s.extra["twist_speed_scale"] = estimator_.twistSpeedScale();
+  s.extra["twist_speed_scale_sigma"] = estimator_.twistSpeedScaleSigma();
   s.extra["track_correlation"] = estimator_.trackCorrelation();
   s.extra["track_variance_factor"] = estimator_.trackVarianceFactor();
   // Where the twist travels in its own frame (the vehicle prior assumes along x), degrees.

@@ -15,6 +15,7 @@ void FilterState::reset(const StatePrior& prior) {
   imu_T_world.setIdentity();
   imu_T_world_clone.setIdentity();
   bias = Eigen::VectorXd::Zero(layout_.biasDim());
+  speed_scale_error = 0.0;
   imu_R_twist.setIdentity();
   disparity_offset = 0.0;
   baseline_scale_error = 0.0;
@@ -49,6 +50,10 @@ void FilterState::setPrior(const StatePrior& prior) {
         layout_.bias_components[i] < 3 ? prior.velocity_bias_sigma : prior.gyro_bias_sigma;
     const int row = layout_.biasRow() + i;
     sigma_(row, row) = s * s;
+  }
+  if (layout_.speed_scale_dim > 0) {
+    const int row = layout_.speedScaleRow();
+    sigma_(row, row) = prior.speed_scale_sigma * prior.speed_scale_sigma;
   }
   for (int i = 0; i < layout_.rotation_dim; ++i) {
     const int row = layout_.rotationRow() + i;
@@ -252,6 +257,7 @@ void FilterState::applyCorrection(const Eigen::VectorXd& dx, bool correct_pose) 
     se3::normalizeRotation(&imu_T_world_clone);
   }
   if (L.biasDim() > 0) bias += dx.segment(L.biasRow(), L.biasDim());
+  if (L.speed_scale_dim > 0) speed_scale_error += dx(L.speedScaleRow());
   if (L.rotation_dim > 0) imu_R_twist = se3::expSO3(dx.segment<3>(L.rotationRow())) * imu_R_twist;
   if (L.disparity_dim > 0) disparity_offset += dx(L.disparityRow());
   if (L.scale_dim > 0) baseline_scale_error += dx(L.scaleRow());

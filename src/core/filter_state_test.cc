@@ -94,9 +94,10 @@ TEST(FilterState, LayoutRowsOfEveryVariable) {
 TEST(FilterState, LayoutBlocksTileTheRowsInOrderForEveryCombination) {
   const std::vector<std::vector<int>> bias_sets = {{}, {5}, {0, 1, 2, 3, 4, 5}};
   for (const std::vector<int>& bias : bias_sets) {
-    for (int flags = 0; flags < 16; ++flags) {
+    for (int flags = 0; flags < 32; ++flags) {
       StateLayout layout;
       layout.bias_components = bias;
+      layout.speed_scale_dim = (flags & 16) ? 1 : 0;
       layout.rotation_dim = (flags & 1) ? 3 : 0;
       layout.disparity_dim = (flags & 2) ? 1 : 0;
       layout.scale_dim = (flags & 4) ? 1 : 0;
@@ -105,6 +106,7 @@ TEST(FilterState, LayoutBlocksTileTheRowsInOrderForEveryCombination) {
       const std::vector<std::pair<int, int>> blocks = {
           {StateLayout::kPoseRow, StateLayout::kPoseDim},
           {layout.biasRow(), layout.biasDim()},
+          {layout.speedScaleRow(), layout.speed_scale_dim},
           {layout.rotationRow(), layout.rotation_dim},
           {layout.disparityRow(), layout.disparity_dim},
           {layout.scaleRow(), layout.scale_dim},
@@ -140,6 +142,28 @@ TEST(FilterState, ResetGivesThePriorDiagonalWithTheCloneEqualToThePose) {
   expected.block(14, 0, 6, 6) = Eigen::MatrixXd(pose.asDiagonal());
   expected.block(0, 14, 6, 6) = Eigen::MatrixXd(pose.asDiagonal());
   EXPECT_LT((state.covariance() - expected).norm(), 1e-15);
+}
+
+TEST(FilterState, SpeedScaleFollowsTheBiasWithItsPriorAndTakesItsCorrection) {
+  StateLayout layout;
+  layout.bias_components = {0, 4};
+  layout.speed_scale_dim = 1;
+  layout.rotation_dim = 3;
+  FilterState state(layout);
+  StatePrior prior = testPrior();
+  prior.speed_scale_sigma = 0.05;
+  state.reset(prior);
+  ASSERT_EQ(layout.speedScaleRow(), 8);
+  EXPECT_DOUBLE_EQ(state.covariance()(8, 8), 0.0025);
+  EXPECT_DOUBLE_EQ(state.covariance()(9, 9), 0.0025);  // the twist rotation's 0.05^2 after it
+  Eigen::VectorXd dx = Eigen::VectorXd::Zero(state.dim());
+  dx(8) = -0.03;
+  state.applyCorrection(dx, true);
+  EXPECT_DOUBLE_EQ(state.speed_scale_error, -0.03);
+  EXPECT_TRUE(state.bias.isZero(0.0));
+  EXPECT_TRUE(state.imu_R_twist == Eigen::Matrix3d::Identity());
+  state.reset(prior);
+  EXPECT_EQ(state.speed_scale_error, 0.0);
 }
 
 TEST(FilterState, SetPriorPicksVelocityOrGyroSigmaPerBiasComponent) {

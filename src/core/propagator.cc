@@ -9,7 +9,7 @@ namespace ekf_vislam {
 
 Vector6d Propagator::correctedTwist(const FilterState& state, const TwistData& twist) const {
   const Vector6d b = state.biasVector();
-  const Eigen::Vector3d v_twist = twist.v_imu - b.head<3>();
+  const Eigen::Vector3d v_twist = (1.0 + state.speed_scale_error) * (twist.v_imu - b.head<3>());
   const Eigen::Vector3d w_twist = twist.w_imu - b.tail<3>();
   Vector6d u;
   u.head<3>() = velocityPriorGain(state, twist).head<3>().cwiseProduct(state.imu_R_twist * v_twist);
@@ -90,13 +90,22 @@ Matrix6d Propagator::sampleCovariance(const FilterState& state, const TwistData&
       cov(layout.bias_components[i], layout.bias_components[j]) += S(bias + i, bias + j);
     }
   }
+  if (layout.speed_scale_dim > 0) {
+    const int k = layout.speedScaleRow() - StateLayout::kPoseDim;
+    const Eigen::Vector3d du_dk =
+        velocityPriorGain(state, twist)
+            .head<3>()
+            .cwiseProduct(state.imu_R_twist * (twist.v_imu - state.biasVector().head<3>()));
+    cov.topLeftCorner<3, 3>() += S(k, k) * du_dk * du_dk.transpose();
+  }
   return cov;
 }
 
 Eigen::MatrixXd Propagator::twistJacobian(const FilterState& state, const TwistData& twist,
                                           const Vector6d& u) const {
-  // u = [Gv R_m (v - b_v); R_m (w - b_w)] (Gv: vehicle prior gains): du/db = -[Gv R_m; R_m]
-  // (bias components) and du/dtheta = -[Gv (R_m (v - b_v))^; (R_m (w - b_w))^].
+  // u = [Gv R_m (1 + k) (v - b_v); R_m (w - b_w)] (Gv: vehicle prior gains, k: speed scale
+  // error): du/db = -[(1 + k) Gv R_m; R_m] (bias components), du/dk = [Gv R_m (v - b_v); 0] and
+  // du/dtheta = -[Gv (R_m (1 + k) (v - b_v))^; (R_m (w - b_w))^].
   const StateLayout& layout = state.layout();
   const int bias_dim = layout.biasDim();
   Eigen::MatrixXd du_daux = Eigen::MatrixXd::Zero(StateLayout::kPoseDim, layout.auxDim());
@@ -104,15 +113,22 @@ Eigen::MatrixXd Propagator::twistJacobian(const FilterState& state, const TwistD
   for (int i = 0; i < bias_dim; ++i) {
     const int c = layout.bias_components[i];
     if (c < 3) {
-      du_daux.block<3, 1>(0, i) = -Gv * state.imu_R_twist.col(c);
+      du_daux.block<3, 1>(0, i) = -(1.0 + state.speed_scale_error) * Gv * state.imu_R_twist.col(c);
     } else {
       du_daux.block<3, 1>(3, i) = -state.imu_R_twist.col(c - 3);
     }
   }
+  const Eigen::Vector3d v_unscaled = twist.v_imu - state.biasVector().head<3>();
+  if (layout.speed_scale_dim > 0) {
+    du_daux.block<3, 1>(0, layout.speedScaleRow() - StateLayout::kPoseDim) =
+        Gv * state.imu_R_twist * v_unscaled;
+  }
   if (layout.rotation_dim > 0) {
-    const Eigen::Vector3d v_imu = state.imu_R_twist * (twist.v_imu - state.biasVector().head<3>());
-    du_daux.block<3, 3>(0, bias_dim) = -Gv * se3::hat(v_imu);
-    du_daux.block<3, 3>(3, bias_dim) = -se3::hat(Eigen::Vector3d(u.tail<3>()));
+    const int col = layout.rotationRow() - StateLayout::kPoseDim;
+    const Eigen::Vector3d v_imu =
+        state.imu_R_twist * ((1.0 + state.speed_scale_error) * v_unscaled);
+    du_daux.block<3, 3>(0, col) = -Gv * se3::hat(v_imu);
+    du_daux.block<3, 3>(3, col) = -se3::hat(Eigen::Vector3d(u.tail<3>()));
   }
   return du_daux;
 }
@@ -167,6 +183,7 @@ Eigen::VectorXd Propagator::randomWalkVariances(double dt, const StateLayout& la
         layout.bias_components[i] < 3 ? options_->bias.velocity_random_walk
                                       : options_->bias.gyro_random_walk);
   }
+  set(layout.speedScaleRow(), layout.speed_scale_dim, options_->bias.speed_scale_random_walk);
   set(layout.rotationRow(), layout.rotation_dim, options_->extrinsic.twist_rotation_random_walk);
   set(layout.disparityRow(), layout.disparity_dim,
       options_->intrinsic.disparity_offset_random_walk);

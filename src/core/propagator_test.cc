@@ -28,14 +28,16 @@ VislamOptions noiselessOptions(EstimatorMode mode) {
   options.extrinsic.twist_rotation_random_walk = 0.0;
   options.intrinsic.disparity_offset_random_walk = 0.0;
   options.intrinsic.baseline_scale_random_walk = 0.0;
+  options.bias.speed_scale_random_walk = 0.0;
   return options;
 }
 
-// Biases of v_y, w_x, w_z, twist rotation, disparity offset, clone, two landmarks (26 rows),
-// random means and covariance.
+// Biases of v_y, w_x, w_z, speed scale, twist rotation, disparity offset, clone, two landmarks
+// (27 rows), random means and covariance.
 FilterState randomState(std::mt19937* rng) {
   StateLayout layout;
   layout.bias_components = {1, 3, 5};
+  layout.speed_scale_dim = 1;
   layout.rotation_dim = 3;
   layout.disparity_dim = 1;
   layout.clone_dim = 6;
@@ -50,6 +52,7 @@ FilterState randomState(std::mt19937* rng) {
   state.imu_T_world = se3::exp(Vector6d(3.0 * randomMatrix(6, 1, rng)));
   state.imu_T_world_clone = se3::exp(Vector6d(randomMatrix(6, 1, rng)));
   state.bias = 0.1 * randomMatrix(3, 1, rng);
+  state.speed_scale_error = 0.05 * randomMatrix(1, 1, rng)(0);
   state.imu_R_twist = se3::expSO3(0.05 * randomMatrix(3, 1, rng));
   return state;
 }
@@ -62,13 +65,14 @@ TwistData drivingTwist() {
 }
 
 // The mean `mean` perturbed by the error e (filter_state.h): world_T_imu = exp(eps^) world_T_imu,
-// b + db, R_m = exp(theta^) R_m, additive calibration, the clone like the pose, landmarks
+// b + db, k + dk, R_m = exp(theta^) R_m, additive calibration, the clone like the pose, landmarks
 // p = exp(phi^) p + xi (invariant) or p + xi.
 FilterState perturbed(const FilterState& mean, const Eigen::VectorXd& e, bool invariant) {
   const StateLayout& L = mean.layout();
   FilterState x = mean;
   x.imu_T_world = se3::inverse(se3::exp(Vector6d(e.head<6>())) * se3::inverse(mean.imu_T_world));
   x.bias += e.segment(L.biasRow(), L.biasDim());
+  x.speed_scale_error += e(L.speedScaleRow());
   x.imu_R_twist = se3::expSO3(e.segment<3>(L.rotationRow())) * mean.imu_R_twist;
   x.disparity_offset += e(L.disparityRow());
   x.imu_T_world_clone = se3::inverse(se3::exp(Vector6d(e.segment<6>(L.cloneRow()))) *
@@ -87,6 +91,7 @@ Eigen::VectorXd errorOf(const FilterState& x, const FilterState& mean, bool inva
   Eigen::VectorXd e(mean.dim());
   e.head<6>() = se3::log(se3::inverse(x.imu_T_world) * mean.imu_T_world);
   e.segment(L.biasRow(), L.biasDim()) = x.bias - mean.bias;
+  e(L.speedScaleRow()) = x.speed_scale_error - mean.speed_scale_error;
   e.segment<3>(L.rotationRow()) = se3::logSO3(x.imu_R_twist * mean.imu_R_twist.transpose());
   e(L.disparityRow()) = x.disparity_offset - mean.disparity_offset;
   e.segment<6>(L.cloneRow()) = se3::log(se3::inverse(x.imu_T_world_clone) * mean.imu_T_world_clone);
@@ -162,6 +167,7 @@ TEST(Propagator, ProcessNoiseEntersInWorldAxesAndMovesInvariantLandmarks) {
   options.bias.gyro_random_walk = 0.03;
   options.extrinsic.twist_rotation_random_walk = 0.02;
   options.intrinsic.disparity_offset_random_walk = 0.5;
+  options.bias.speed_scale_random_walk = 0.004;
   const Propagator propagator(options);
   std::mt19937 rng(2);
   FilterState state = randomState(&rng);
@@ -182,10 +188,11 @@ TEST(Propagator, ProcessNoiseEntersInWorldAxesAndMovesInvariantLandmarks) {
     expected(L.rotationRow() + i, L.rotationRow() + i) += kDt * 0.02 * 0.02;
   }
   expected(L.disparityRow(), L.disparityRow()) += kDt * 0.25;
+  expected(L.speedScaleRow(), L.speedScaleRow()) += kDt * 0.004 * 0.004;
   EXPECT_LT((state.covariance() - expected).norm(), 1e-12 * expected.norm());
 }
 
-TEST(Propagator, CorrectedTwistRemovesTheBiasRotatesAndAppliesTheVehiclePrior) {
+TEST(Propagator, CorrectedTwistRemovesTheBiasScalesRotatesAndAppliesTheVehiclePrior) {
   VislamOptions options;
   options.noise.use_message_covariance = false;
   options.noise.linear_velocity_noise = 0.2;      // r = 0.2^2 / 0.1 = 0.4 per sample
@@ -195,18 +202,21 @@ TEST(Propagator, CorrectedTwistRemovesTheBiasRotatesAndAppliesTheVehiclePrior) {
   propagator.setSamplePeriod(0.1);
   StateLayout layout;
   layout.bias_components = {0, 4};
+  layout.speed_scale_dim = 1;
   layout.rotation_dim = 3;
   FilterState state(layout);
   state.reset(StatePrior());
   state.bias << 0.5, 0.01;
+  state.speed_scale_error = 0.02;
   state.imu_R_twist = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   TwistData twist;
-  twist.v_imu = Eigen::Vector3d(10.0, 1.0, 0.2);  // minus bias (9.5, 1, 0.2), Rz: (-1, 9.5, 0.2)
+  // Minus bias (9.5, 1, 0.2), times 1.02, Rz: 1.02 (-1, 9.5, 0.2).
+  twist.v_imu = Eigen::Vector3d(10.0, 1.0, 0.2);
   twist.w_imu =
       Eigen::Vector3d(0.1, 0.03, 0.3);  // minus bias (0.1, 0.02, 0.3), Rz: (-0.02, 0.1, 0.3)
 
   Vector6d expected;
-  expected << -1.0, 9.5 * 5.0 / 13.0, 0.2, -0.02, 0.1, 0.3;
+  expected << -1.02, 1.02 * 9.5 * 5.0 / 13.0, 1.02 * 0.2, -0.02, 0.1, 0.3;
   EXPECT_LT((propagator.correctedTwist(state, twist) - expected).norm(), 1e-12);
 }
 

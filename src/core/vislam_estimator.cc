@@ -25,6 +25,8 @@ StateLayout layoutFor(const VislamOptions& options) {
   if (options.bias.estimate_gyro_bias) {
     layout.bias_components.insert(layout.bias_components.end(), {3, 4, 5});
   }
+  layout.speed_scale_dim =
+      options.bias.estimate_speed_scale && options.mode == EstimatorMode::kSlam ? 1 : 0;
   layout.rotation_dim = options.extrinsic.estimate_twist_rotation ? 3 : 0;
   layout.disparity_dim = options.intrinsic.estimate_disparity_offset ? 1 : 0;
   layout.scale_dim = options.intrinsic.estimate_baseline_scale ? 1 : 0;
@@ -77,6 +79,7 @@ StatePrior VislamEstimator::prior() const {
   prior.rotation_sigma = o.prior.rotation_sigma;
   prior.velocity_bias_sigma = o.bias.velocity_prior_sigma;
   prior.gyro_bias_sigma = o.bias.gyro_prior_sigma;
+  prior.speed_scale_sigma = o.bias.speed_scale_prior_sigma;
   prior.twist_rotation_sigma = o.extrinsic.twist_rotation_prior_sigma;
   prior.disparity_offset_sigma = o.intrinsic.disparity_offset_prior_sigma;
   prior.baseline_scale_sigma = o.intrinsic.baseline_scale_prior_sigma;
@@ -458,6 +461,14 @@ TwistData VislamEstimator::correctedTwist() const {
 
 Matrix6d VislamEstimator::correctedTwistCovariance() const {
   return propagator_.sampleCovariance(state_, held_twist_);
+}
+
+double VislamEstimator::twistSpeedScaleSigma() const {
+  const StateLayout& layout = state_.layout();
+  if (layout.speed_scale_dim == 0) return 0.0;
+  const Eigen::MatrixXd aux = state_.auxCovariance(state_.covarianceCount() - 1);
+  const int row = layout.speedScaleRow() - StateLayout::kPoseDim;
+  return std::sqrt(aux(row, row));
 }
 
 double VislamEstimator::baselineScaleSigma() const {

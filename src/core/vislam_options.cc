@@ -50,6 +50,9 @@ void visitVislamOptions(Options& o, Visitor& v) {
   v.flag("bias/estimate_velocity_bias", bias.estimate_velocity_bias);
   v.number("bias/velocity_prior_sigma", bias.velocity_prior_sigma, Bound::kPositive);
   v.number("bias/velocity_random_walk", bias.velocity_random_walk, Bound::kNonNegative);
+  v.flag("bias/estimate_speed_scale", bias.estimate_speed_scale);
+  v.number("bias/speed_scale_prior_sigma", bias.speed_scale_prior_sigma, Bound::kPositive);
+  v.number("bias/speed_scale_random_walk", bias.speed_scale_random_walk, Bound::kNonNegative);
 
   auto& extrinsic = o.extrinsic;
   v.flag("extrinsic/estimate_twist_rotation", extrinsic.estimate_twist_rotation);

@@ -137,7 +137,7 @@ def _accel_rng(seed):
 
 def make_variant(data, groundtruth_path, twist='course', twist_noise=(0.05, 0.005),
                  gyro_offset=0.001, keep_fraction=1.0, seed=0, accel_noise=None, accel_bias=0.0,
-                 up_world=None, cam_T_imu=None, split_repeated=False):
+                 up_world=None, cam_T_imu=None, split_repeated=False, speed_scale=1.0):
     """-> (dict of arrays, notes). `data` is a dict of the npz's arrays. Frames after the last
     ground-truth pose are cut off (every key indexed by frame). The ground truth is a TUM file of
     world_T_imu or, with the dataset's cam_T_imu (translation corrected), a KITTI poses file.
@@ -148,7 +148,8 @@ def make_variant(data, groundtruth_path, twist='course', twist_noise=(0.05, 0.00
     accel_bias (m/s^2, one value or three, body axes). Its noise has its own stream from the
     seed. up_world: gravity's "up" in the ground truth's world axes (default: the mean IMU z axis
     over the drive, a stand-in, since the ground truth's world is not level). split_repeated:
-    `split_at_repeated_frames`, before the id subset."""
+    `split_at_repeated_frames`, before the id subset. speed_scale multiplies the twist's linear
+    velocity (either twist, noise included): a wheel odometry with a wrong wheel radius."""
     out = {key: np.array(value) for key, value in data.items()}
     time_key = _key(out, TIME_KEYS)
     angular_key = _key(out, ANGULAR_KEYS)
@@ -179,6 +180,12 @@ def make_variant(data, groundtruth_path, twist='course', twist_noise=(0.05, 0.00
                      'gyro offset %g rad/s' % (twist_noise[0], twist_noise[1], gyro_offset))
     elif twist != 'course':
         raise VariantError('twist must be course or accurate, not %r' % twist)
+    if not 0.0 < speed_scale < np.inf:
+        raise VariantError('the speed scale must be positive and finite')
+    if speed_scale != 1.0:
+        out['linear_velocity'] = (speed_scale * out['linear_velocity']).astype(
+            out['linear_velocity'].dtype)
+        notes.append('linear velocity x %g' % speed_scale)
     if accel_noise is not None:
         if not 0.0 <= accel_noise < np.inf:
             raise VariantError('accelerometer noise must not be negative')

@@ -127,6 +127,7 @@ void VislamRos::addDiagnosticValues(double twist_rate, double feature_rate,
   status.add("state_dimension", estimator.stateDimension());
   status.add("disparity_offset_px", estimator.disparityOffset());
   status.add("baseline_scale", estimator.baselineScale());
+  status.add("twist_speed_scale", estimator.twistSpeedScale());
   status.add("track_drift_rate_rad_s", estimator.trackDriftRate().norm());
   status.add("track_correlation", estimator.trackCorrelation());
   status.add("twist_travel_yaw_deg", travel.yawDegrees());

@@ -58,6 +58,23 @@ class MakeVariantTest(unittest.TestCase):
         self.assertAlmostEqual(np.mean(dw), 0.001, delta=0.0006)
         self.assertAlmostEqual(np.std(dw), 0.005, delta=0.0006)
 
+    def test_speed_scale_multiplies_the_linear_velocity_only(self):
+        plain = self.variant('plain', '--twist', 'accurate', '--seed', 3)
+        scaled = self.variant('scaled', '--twist', 'accurate', '--seed', 3, '--speed-scale', 1.03)
+        np.testing.assert_allclose(scaled['linear_velocity'], 1.03 * plain['linear_velocity'],
+                                   rtol=1e-12)
+        np.testing.assert_array_equal(scaled['rotational_velocity'], plain['rotational_velocity'])
+        np.testing.assert_array_equal(scaled['features'], plain['features'])
+        course = self.variant('course', '--twist', 'course', '--speed-scale', 0.97)
+        with np.load(self.prefix + '.npz') as data:
+            np.testing.assert_allclose(course['linear_velocity'], 0.97 * data['linear_velocity'],
+                                       rtol=1e-12)
+        proc = ekf_test_paths.run_script('make_variant.py', self.prefix + '.npz', '--groundtruth',
+                                         self.gt, '--twist', 'course', '--speed-scale', 0,
+                                         '--out', os.path.join(self.tmp, 'bad.npz'))
+        self.assertEqual(proc.returncode, 2)
+        self.assertIn('speed scale', proc.stderr)
+
     def test_keep_fraction_keeps_a_seeded_subset_and_every_other_key(self):
         original = dict(np.load(self.prefix + '.npz'))
         v = self.variant('quarter', '--twist', 'course', '--keep-fraction', 0.25, '--seed', 3)

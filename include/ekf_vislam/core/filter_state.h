@@ -1,12 +1,12 @@
-// The EKF state: named variables (pose, twist bias, twist rotation, stereo calibration, track
-// drift rate, road tilt, gravity, pose clone, landmarks), their means and one joint covariance. No
-// ROS.
+// The EKF state: named variables (pose, twist bias, twist speed scale, twist rotation, stereo
+// calibration, track drift rate, road tilt, gravity, pose clone, landmarks), their means and one
+// joint covariance. No ROS.
 //
 // Error definitions (doc/estimator.md): pose world_T_imu = exp(eps^) world_T_imu_mean with
-// eps = [rho; phi] (world frame, translation first); bias b_true = b_mean + db; twist rotation
-// R_m = exp(theta^) R_m_mean; disparity offset, baseline-scale error and track drift rate
-// additive; road tilt additive; the clone like
-// the pose; landmark i: p_i = exp(phi^) p_i_mean + xi_i in SLAM mode (right-invariant error),
+// eps = [rho; phi] (world frame, translation first); bias b_true = b_mean + db; speed scale
+// k_true = k_mean + dk; twist rotation R_m = exp(theta^) R_m_mean; disparity offset,
+// baseline-scale error and track drift rate additive; road tilt additive; the clone like the pose;
+// landmark i: p_i = exp(phi^) p_i_mean + xi_i in SLAM mode (right-invariant error),
 // p_i = p_i_mean + xi_i otherwise.
 #pragma once
 
@@ -19,14 +19,16 @@
 
 namespace ekf_vislam {
 
-/// Which variables the state holds and where their rows are. Order: pose, bias, twist rotation,
-/// disparity offset, baseline scale, track drift rate, road tilt, gravity (level, accelerometer
-/// bias), clone, then the landmarks (3 rows each).
+/// Which variables the state holds and where their rows are. Order: pose, bias, speed scale, twist
+/// rotation, disparity offset, baseline scale, track drift rate, road tilt, gravity (level,
+/// accelerometer bias), clone, then the landmarks (3 rows each).
 struct StateLayout {
   static constexpr int kPoseRow = 0;
   static constexpr int kPoseDim = 6;
   /// Entries of u = [v; w] whose bias is estimated (one state row each, in this order).
   std::vector<int> bias_components;
+  /// 1 when the twist's speed scale is estimated (v_true = (1 + k) (v_measured - b_v))
+  int speed_scale_dim = 0;
   int rotation_dim = 0;   ///< 3 when the twist rotation R_m is estimated
   int disparity_dim = 0;  ///< 1 when the disparity offset is estimated
   int scale_dim = 0;      ///< 1 when the baseline scale is estimated
@@ -44,7 +46,8 @@ struct StateLayout {
 
   int biasDim() const { return static_cast<int>(bias_components.size()); }
   int biasRow() const { return kPoseDim; }
-  int rotationRow() const { return biasRow() + biasDim(); }
+  int speedScaleRow() const { return biasRow() + biasDim(); }
+  int rotationRow() const { return speedScaleRow() + speed_scale_dim; }
   int calibrationRow() const { return rotationRow() + rotation_dim; }
   int calibrationDim() const { return disparity_dim + scale_dim; }
   int disparityRow() const { return calibrationRow(); }
@@ -53,10 +56,11 @@ struct StateLayout {
   int tiltRow() const { return driftRow() + drift_dim; }
   int levelRow() const { return tiltRow() + tilt_dim; }
   int accelBiasRow() const { return levelRow() + 2; }
-  /// States between the pose and the clone: bias, twist rotation, calibration, track drift,
-  /// road tilt, gravity.
+  /// States between the pose and the clone: bias, speed scale, twist rotation, calibration, track
+  /// drift, road tilt, gravity.
   int auxDim() const {
-    return biasDim() + rotation_dim + calibrationDim() + drift_dim + tilt_dim + gravity_dim;
+    return biasDim() + speed_scale_dim + rotation_dim + calibrationDim() + drift_dim + tilt_dim +
+           gravity_dim;
   }
   int cloneRow() const { return kPoseDim + auxDim(); }
   /// Rows before the first landmark.
@@ -70,6 +74,7 @@ struct StatePrior {
   double rotation_sigma = 0.0;  ///< rad
   double velocity_bias_sigma = 0.0;
   double gyro_bias_sigma = 0.0;
+  double speed_scale_sigma = 0.0;  ///< relative
   double twist_rotation_sigma = 0.0;
   double disparity_offset_sigma = 0.0;
   double baseline_scale_sigma = 0.0;
@@ -129,7 +134,8 @@ class FilterState {
   Eigen::Matrix4d imu_T_world = Eigen::Matrix4d::Identity();
   /// Pose at the last repeated frame; its error has rows when layout().clone_dim is 6.
   Eigen::Matrix4d imu_T_world_clone = Eigen::Matrix4d::Identity();
-  Eigen::VectorXd bias;  ///< estimated bias components (layout().bias_components)
+  Eigen::VectorXd bias;            ///< estimated bias components (layout().bias_components)
+  double speed_scale_error = 0.0;  ///< k: true linear velocity = (1 + k) x measured (bias removed)
   Eigen::Matrix3d imu_R_twist = Eigen::Matrix3d::Identity();  ///< R_m
   double disparity_offset = 0.0;                              ///< px, measured minus true disparity
   double baseline_scale_error = 0.0;  ///< beta: baseline = calibrated baseline x (1 + beta)

@@ -57,7 +57,8 @@ class Propagator {
   /// from the message's covariance when it has one (noise/use_message_covariance), else from
   /// noise/linear_velocity_noise and angular_velocity_noise; reduced by the vehicle prior.
   Matrix6d noiseDensity(const FilterState& state, const TwistData& twist) const;
-  /// Covariance of one corrected twist sample [v; w] (density / period).
+  /// Covariance of one corrected twist sample [v; w] (density / period, plus the estimated bias
+  /// and speed scale's variances).
   Matrix6d sampleCovariance(const FilterState& state, const TwistData& twist) const;
   /// d u / d (bias, twist rotation), 6 x aux (calibration columns zero), u = correctedTwist.
   Eigen::MatrixXd twistJacobian(const FilterState& state, const TwistData& twist,

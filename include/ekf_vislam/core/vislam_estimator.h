@@ -89,6 +89,10 @@ class VislamEstimator {
   Matrix6d correctedTwistCovariance() const;
   /// Estimated bias [v; w] (zeros for components not estimated).
   Vector6d twistBias() const { return state_.biasVector(); }
+  /// Estimated scale of the twist's linear velocity (true / measured speed, bias removed; 1 when
+  /// not estimated) and its standard deviation in the reported covariance (0 when not estimated).
+  double twistSpeedScale() const { return 1.0 + state_.speed_scale_error; }
+  double twistSpeedScaleSigma() const;
   /// Estimated rotation from the twist's measurement frame to the IMU frame (identity when not
   /// estimated).
   const Eigen::Matrix3d& twistRotation() const { return state_.imu_R_twist; }

@@ -89,6 +89,9 @@ struct BiasOptions {
   bool estimate_velocity_bias = false;
   double velocity_prior_sigma = 0.1;   ///< m/s
   double velocity_random_walk = 1e-3;  ///< m/s/sqrt(s)
+  bool estimate_speed_scale = false;
+  double speed_scale_prior_sigma = 0.05;  ///< relative
+  double speed_scale_random_walk = 0.0;   ///< 1/sqrt(s)
 };
 
 /// extrinsic/: the rotation R_m between the frame the twist is measured in and the IMU frame

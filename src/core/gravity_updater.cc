@@ -117,10 +117,12 @@ std::pair<Eigen::Vector3d, Eigen::Matrix3d> GravityUpdater::accelVelocity(
   return {J * u, J * u_covariance * J.transpose()};
 }
 
-void GravityUpdater::openWindow(double stamp, const Vector6d& u, const Matrix6d& u_covariance) {
+void GravityUpdater::openWindow(double stamp, const Vector6d& u, const Matrix6d& u_covariance,
+                                const Eigen::Vector3d& d_v_d_scale) {
   open_ = true;
   start_ = stamp;
   std::tie(v_start_, v_start_covariance_) = accelVelocity(u, u_covariance);
+  v_start_d_scale_ = d_v_d_scale;
   start_R_now_.setIdentity();
   force_sum_.setZero();
   force_time_sum_.setZero();
@@ -133,6 +135,7 @@ void GravityUpdater::openWindow(double stamp, const Vector6d& u, const Matrix6d&
 std::optional<UpdateStatus> GravityUpdater::onTwist(double twist_stamp, const Vector6d& u,
                                                     const Matrix6d& u_covariance,
                                                     const Eigen::MatrixXd& d_w_d_bias,
+                                                    const Eigen::Vector3d& d_v_d_scale,
                                                     FilterState* state, EstimatorStats* stats) {
   // Without an accelerometer (yet) no window opens: nothing to count.
   if (twist_stamp <= last_twist_stamp_ || !hasSamples()) return std::nullopt;
@@ -152,7 +155,7 @@ std::optional<UpdateStatus> GravityUpdater::onTwist(double twist_stamp, const Ve
     if (twist_stamp > windows_open_after_) {
       windows_open_after_ = kNoStamp;
       state->addGravityRows(options_->gravity.level_sigma, options_->gravity.accel_bias_sigma);
-      openWindow(twist_stamp, u, u_covariance);
+      openWindow(twist_stamp, u, u_covariance, d_v_d_scale);
     }
     return std::nullopt;
   }
@@ -164,12 +167,13 @@ std::optional<UpdateStatus> GravityUpdater::onTwist(double twist_stamp, const Ve
     return std::nullopt;
   }
   const auto [v_end, v_end_covariance] = accelVelocity(u, u_covariance);
-  last_window_ = closeWindow(twist_stamp, v_end, v_end_covariance);
+  last_window_ = closeWindow(twist_stamp, v_end, v_end_covariance, d_v_d_scale);
   return apply(last_window_, d_w_d_bias, state, stats);
 }
 
 GravityWindow GravityUpdater::closeWindow(double end, const Eigen::Vector3d& v_end,
-                                          const Eigen::Matrix3d& v_end_covariance) const {
+                                          const Eigen::Matrix3d& v_end_covariance,
+                                          const Eigen::Vector3d& d_v_d_scale) const {
   GravityWindow window;
   window.end = end;
   window.duration = end - start_;
@@ -185,6 +189,7 @@ GravityWindow GravityUpdater::closeWindow(double end, const Eigen::Vector3d& v_e
   window.dz_dw =
       se3::hat(turned) + se3::hat(v_start_end) + (r_hat - end_R_start * r_hat) / duration;
   window.dz_dbias = end_R_start * rotation_sum_ / covered_;
+  window.dz_dscale = -(d_v_d_scale - end_R_start * v_start_d_scale_) / duration;
   const Eigen::Vector3d rotated = mean_force + v_start_end / duration;
   window.noise = Eigen::Matrix3d::Identity() * force_variance_ / (covered_ * covered_) +
                  (v_end_covariance + end_R_start * v_start_covariance_ * end_R_start.transpose()) /
@@ -216,6 +221,9 @@ UpdateStatus GravityUpdater::apply(const GravityWindow& window, const Eigen::Mat
   if (d_w_d_bias.cols() > 0) {
     // The rates were corrected with the current bias: z moves by -dz/dw dw/db db.
     jacobian.push_back({layout.biasRow(), whiten(-window.dz_dw * d_w_d_bias)});
+  }
+  if (layout.speed_scale_dim > 0) {
+    jacobian.push_back({layout.speedScaleRow(), whiten(window.dz_dscale)});
   }
   if (state_helper::mahalanobis2(*state, jacobian, residual, 1.0) >
       chiSquareQuantile(kGateProbability, 3)) {

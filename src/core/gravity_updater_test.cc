@@ -75,7 +75,7 @@ FilterState gravityState(const Eigen::Matrix3d& world_R_imu) {
 void feed(const Drive& d, int first, int last, GravityUpdater* updater, FilterState* state,
           EstimatorStats* stats, const Matrix6d& u_covariance,
           const Eigen::Vector3d& dw = {0, 0, 0},
-          const Eigen::Vector3d& lever_arm = Eigen::Vector3d::Zero()) {
+          const Eigen::Vector3d& lever_arm = Eigen::Vector3d::Zero(), double speed_scale = 1.0) {
   for (int k = first; k <= last; ++k) {
     AccelerometerData sample;
     sample.stamp = d.t[k];
@@ -84,7 +84,9 @@ void feed(const Drive& d, int first, int last, GravityUpdater* updater, FilterSt
     updater->addSample(sample, stats);
     Vector6d u = d.u[k];
     u.tail<3>() += dw;
-    updater->onTwist(d.t[k], u, u_covariance, Eigen::MatrixXd(3, 0), state, stats);
+    const Eigen::Vector3d dv_d_scale = u.head<3>();  // d (s v) / d s
+    u.head<3>() *= speed_scale;
+    updater->onTwist(d.t[k], u, u_covariance, Eigen::MatrixXd(3, 0), dv_d_scale, state, stats);
   }
 }
 
@@ -140,30 +142,47 @@ TEST(GravityUpdater, WindowMeasuresGravityExactly) {
   EXPECT_GT(windowError(lever_arm, Eigen::Vector3d::Zero()), 0.01);
 }
 
-TEST(GravityUpdater, RateJacobianMatchesFiniteDifferences) {
-  // With a lever arm: its velocities w^ r at the window's ends move with the rate too.
+// The last window (0.2 s) of a drive whose accelerometer sits on a lever arm, its twist
+// perturbed: the rates by dw, the velocities scaled by speed_scale.
+GravityWindow perturbedWindow(const Eigen::Vector3d& dw, double speed_scale) {
   const Eigen::Vector3d up(0.0, 0.0, 1.0);
   const Eigen::Vector3d lever_arm(1.2, -0.4, 0.6);
   const Drive d =
       makeDrive(50, 100.0, up, Eigen::Vector3d::Zero(), Eigen::Matrix3d::Identity(), lever_arm);
   VislamOptions options = gravityOptions();
   options.gravity.window = 0.2;
-  auto windowWith = [&](const Eigen::Vector3d& dw) {
-    GravityUpdater updater(options);
-    FilterState state = gravityState(Eigen::Matrix3d::Identity());
-    EstimatorStats stats;
-    feed(d, 0, 45, &updater, &state, &stats, Matrix6d::Identity() * 1e-4, dw, lever_arm);
-    return updater.lastWindow();
-  };
-  const GravityWindow base = windowWith(Eigen::Vector3d::Zero());
+  GravityUpdater updater(options);
+  FilterState state = gravityState(Eigen::Matrix3d::Identity());
+  EstimatorStats stats;
+  feed(d, 0, 45, &updater, &state, &stats, Matrix6d::Identity() * 1e-4, dw, lever_arm, speed_scale);
+  return updater.lastWindow();
+}
+
+TEST(GravityUpdater, RateJacobianMatchesFiniteDifferences) {
+  // With a lever arm: its velocities w^ r at the window's ends move with the rate too.
+  const GravityWindow base = perturbedWindow(Eigen::Vector3d::Zero(), 1.0);
   const double h = 1e-6;
   for (int i = 0; i < 3; ++i) {
     Eigen::Vector3d dw = Eigen::Vector3d::Zero();
     dw(i) = h;
-    const Eigen::Vector3d numeric = (windowWith(dw).z - windowWith(-dw).z) / (2 * h);
+    const Eigen::Vector3d numeric =
+        (perturbedWindow(dw, 1.0).z - perturbedWindow(-dw, 1.0).z) / (2 * h);
     // First order in the window's own rotation (0.05 rad here).
     EXPECT_LT((numeric - base.dz_dw.col(i)).norm(), 0.1 * numeric.norm() + 1e-6) << i;
   }
+}
+
+TEST(GravityUpdater, SpeedScaleJacobianMatchesFiniteDifferences) {
+  // The twist's velocities at the window's ends scale with the speed scale; the specific force
+  // does not. z is linear in the scale, so the derivative is exact.
+  const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
+  const GravityWindow base = perturbedWindow(zero, 1.0);
+  const double h = 1e-4;
+  const Eigen::Vector3d numeric =
+      (perturbedWindow(zero, 1.0 + h).z - perturbedWindow(zero, 1.0 - h).z) / (2 * h);
+  // The drive accelerates: a speed error shows as an acceleration error.
+  EXPECT_GT(numeric.norm(), 0.1);
+  EXPECT_LT((numeric - base.dz_dscale).norm(), 1e-6 * numeric.norm());
 }
 
 TEST(GravityUpdater, HoldsRollAndPitchAndStaysConsistent) {
@@ -220,8 +239,8 @@ TEST(GravityUpdater, LateSamplesAndGapsAreCounted) {
   // Twists without accelerometer samples: their windows are not used.
   const uint64_t updates = stats.get(Counter::kGravityUpdate);
   for (int k = 11; k < 200; ++k) {
-    updater.onTwist(d.t[k], d.u[k], Matrix6d::Identity() * 1e-4, Eigen::MatrixXd(3, 0), &state,
-                    &stats);
+    updater.onTwist(d.t[k], d.u[k], Matrix6d::Identity() * 1e-4, Eigen::MatrixXd(3, 0),
+                    Eigen::Vector3d::Zero(), &state, &stats);
   }
   // 1.89 s of twists without samples close at least two whole 0.5 s windows, none used.
   EXPECT_GE(stats.get(Counter::kGravityIncomplete), 2u);

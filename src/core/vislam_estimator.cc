@@ -189,11 +189,18 @@ void VislamEstimator::updateGravity(const TwistData& twist) {
   // Without an accelerometer sample yet, nothing to integrate: no work at twist rate.
   if (!usesAccelerometer(*options_) || !gravity_updater_.hasSamples()) return;
   const Vector6d u = propagator_.correctedTwist(state_, twist);
-  // d w_corrected / d bias: the rate rows of the bias columns of the prediction's du/daux.
-  const Eigen::MatrixXd d_w_d_bias =
-      propagator_.twistJacobian(state_, twist, u).bottomLeftCorner(3, state_.layout().biasDim());
-  const std::optional<UpdateStatus> status = gravity_updater_.onTwist(
-      twist.stamp, u, propagator_.sampleCovariance(state_, twist), d_w_d_bias, &state_, &stats_);
+  // d w_corrected / d bias: the rate rows of the bias columns of the prediction's du/daux; d
+  // v_corrected / d speed scale: the velocity rows of its column.
+  const StateLayout& layout = state_.layout();
+  const Eigen::MatrixXd du_daux = propagator_.twistJacobian(state_, twist, u);
+  const Eigen::MatrixXd d_w_d_bias = du_daux.bottomLeftCorner(3, layout.biasDim());
+  const Eigen::Vector3d d_v_d_scale =
+      layout.speed_scale_dim > 0
+          ? Eigen::Vector3d(du_daux.block<3, 1>(0, layout.speedScaleRow() - StateLayout::kPoseDim))
+          : Eigen::Vector3d::Zero();
+  const std::optional<UpdateStatus> status =
+      gravity_updater_.onTwist(twist.stamp, u, propagator_.sampleCovariance(state_, twist),
+                               d_w_d_bias, d_v_d_scale, &state_, &stats_);
   if (status && *status != UpdateStatus::kApplied) stats_.increment(Counter::kUpdateNonFinite);
 }
 

@@ -57,6 +57,8 @@ struct GravityWindow {
   /// dz / d(accelerometer bias): the mean of the rotations from each sample to s_b (the bias
   /// is constant in the IMU frame, which turns during the window).
   Eigen::Matrix3d dz_dbias = Eigen::Matrix3d::Identity();
+  /// dz / d(twist speed scale): the velocities at both ends scale with it.
+  Eigen::Vector3d dz_dscale = Eigen::Vector3d::Zero();
 };
 
 class GravityUpdater {
@@ -77,11 +79,13 @@ class GravityUpdater {
   /// After the filter was predicted to twist_stamp with the corrected twist u = [v; w] (IMU
   /// frame) of covariance u_covariance (one sample) that drove (previous twist, twist_stamp]:
   /// integrates the samples up to twist_stamp and, when a window closes, updates the state.
-  /// d_w_d_gyro_bias (3 x biasDim, may be empty): how the corrected rate moves with the bias
-  /// state. The outcome, or nothing when no update was due.
+  /// d_w_d_bias (3 x biasDim, may be empty): how the corrected rate moves with the bias state;
+  /// d_v_d_scale: how the corrected velocity moves with the speed scale state (zero without
+  /// it). The outcome, or nothing when no update was due.
   std::optional<UpdateStatus> onTwist(double twist_stamp, const Vector6d& u,
                                       const Matrix6d& u_covariance,
-                                      const Eigen::MatrixXd& d_w_d_bias, FilterState* state,
+                                      const Eigen::MatrixXd& d_w_d_bias,
+                                      const Eigen::Vector3d& d_v_d_scale, FilterState* state,
                                       EstimatorStats* stats);
 
   /// An accelerometer sample came since the reset (before, onTwist does nothing).
@@ -97,11 +101,13 @@ class GravityUpdater {
   /// The accelerometer's velocity v + w^ r (IMU axes) and its covariance, from the twist u.
   std::pair<Eigen::Vector3d, Eigen::Matrix3d> accelVelocity(const Vector6d& u,
                                                             const Matrix6d& u_covariance) const;
-  void openWindow(double stamp, const Vector6d& u, const Matrix6d& u_covariance);
+  void openWindow(double stamp, const Vector6d& u, const Matrix6d& u_covariance,
+                  const Eigen::Vector3d& d_v_d_scale);
   /// The open window's measurement, closed at the twist `end` of velocity v_end (the
-  /// accelerometer's, covariance v_end_covariance).
+  /// accelerometer's, covariance v_end_covariance, derivative by the speed scale d_v_d_scale).
   GravityWindow closeWindow(double end, const Eigen::Vector3d& v_end,
-                            const Eigen::Matrix3d& v_end_covariance) const;
+                            const Eigen::Matrix3d& v_end_covariance,
+                            const Eigen::Vector3d& d_v_d_scale) const;
   UpdateStatus apply(const GravityWindow& window, const Eigen::MatrixXd& d_w_d_bias,
                      FilterState* state, EstimatorStats* stats);
 
@@ -128,6 +134,7 @@ class GravityUpdater {
   double start_ = 0.0;
   Eigen::Vector3d v_start_ = Eigen::Vector3d::Zero();
   Eigen::Matrix3d v_start_covariance_ = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d v_start_d_scale_ = Eigen::Vector3d::Zero();  ///< d v_start / d speed scale
   Eigen::Matrix3d start_R_now_ = Eigen::Matrix3d::Identity();  ///< R_{a<-last twist}
   Eigen::Vector3d force_sum_ = Eigen::Vector3d::Zero();        ///< sum R_{a<-i} f_i dt_i
   Eigen::Vector3d force_time_sum_ = Eigen::Vector3d::Zero();  ///< sum R_{a<-i} f_i dt_i (s_i - s_a)

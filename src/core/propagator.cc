@@ -7,13 +7,22 @@
 
 namespace ekf_vislam {
 
+Eigen::Vector3d Propagator::scaleReference(const FilterState& state, const TwistData& twist) const {
+  return velocity_reference_.value(twist.v_imu) - state.biasVector().head<3>();
+}
+
+Eigen::Vector3d Propagator::scaledVelocity(const FilterState& state, const TwistData& twist) const {
+  const Eigen::Vector3d v = twist.v_imu - state.biasVector().head<3>();
+  if (state.layout().speed_scale_dim == 0) return v;
+  return v + state.speed_scale_error * scaleReference(state, twist);
+}
+
 Vector6d Propagator::correctedTwist(const FilterState& state, const TwistData& twist) const {
-  const Vector6d b = state.biasVector();
-  const Eigen::Vector3d v_twist = (1.0 + state.speed_scale_error) * (twist.v_imu - b.head<3>());
-  const Eigen::Vector3d w_twist = twist.w_imu - b.tail<3>();
   Vector6d u;
-  u.head<3>() = velocityPriorGain(state, twist).head<3>().cwiseProduct(state.imu_R_twist * v_twist);
-  u.tail<3>() = state.imu_R_twist * w_twist;
+  u.head<3>() = velocityPriorGain(state, twist)
+                    .head<3>()
+                    .cwiseProduct(state.imu_R_twist * scaledVelocity(state, twist));
+  u.tail<3>() = state.imu_R_twist * (twist.w_imu - state.biasVector().tail<3>());
   return u;
 }
 
@@ -95,7 +104,7 @@ Matrix6d Propagator::sampleCovariance(const FilterState& state, const TwistData&
     const Eigen::Vector3d du_dk =
         velocityPriorGain(state, twist)
             .head<3>()
-            .cwiseProduct(state.imu_R_twist * (twist.v_imu - state.biasVector().head<3>()));
+            .cwiseProduct(state.imu_R_twist * scaleReference(state, twist));
     cov.topLeftCorner<3, 3>() += S(k, k) * du_dk * du_dk.transpose();
   }
   return cov;
@@ -103,9 +112,10 @@ Matrix6d Propagator::sampleCovariance(const FilterState& state, const TwistData&
 
 Eigen::MatrixXd Propagator::twistJacobian(const FilterState& state, const TwistData& twist,
                                           const Vector6d& u) const {
-  // u = [Gv R_m (1 + k) (v - b_v); R_m (w - b_w)] (Gv: vehicle prior gains, k: speed scale
-  // error): du/db = -[(1 + k) Gv R_m; R_m] (bias components), du/dk = [Gv R_m (v - b_v); 0] and
-  // du/dtheta = -[Gv (R_m (1 + k) (v - b_v))^; (R_m (w - b_w))^].
+  // u = [Gv R_m ((v - b_v) + k (v_ref - b_v)); R_m (w - b_w)] (Gv: vehicle prior gains, k:
+  // speed scale error, v_ref: the velocity reference): du/db = -[(1 + k) Gv R_m; R_m] (bias
+  // components), du/dk = [Gv R_m (v_ref - b_v); 0] and du/dtheta = -[Gv (R_m v_s)^; (R_m (w -
+  // b_w))^], v_s the scaled velocity.
   const StateLayout& layout = state.layout();
   const int bias_dim = layout.biasDim();
   Eigen::MatrixXd du_daux = Eigen::MatrixXd::Zero(StateLayout::kPoseDim, layout.auxDim());
@@ -118,15 +128,13 @@ Eigen::MatrixXd Propagator::twistJacobian(const FilterState& state, const TwistD
       du_daux.block<3, 1>(3, i) = -state.imu_R_twist.col(c - 3);
     }
   }
-  const Eigen::Vector3d v_unscaled = twist.v_imu - state.biasVector().head<3>();
   if (layout.speed_scale_dim > 0) {
     du_daux.block<3, 1>(0, layout.speedScaleRow() - StateLayout::kPoseDim) =
-        Gv * state.imu_R_twist * v_unscaled;
+        Gv * state.imu_R_twist * scaleReference(state, twist);
   }
   if (layout.rotation_dim > 0) {
     const int col = layout.rotationRow() - StateLayout::kPoseDim;
-    const Eigen::Vector3d v_imu =
-        state.imu_R_twist * ((1.0 + state.speed_scale_error) * v_unscaled);
+    const Eigen::Vector3d v_imu = state.imu_R_twist * scaledVelocity(state, twist);
     du_daux.block<3, 3>(0, col) = -Gv * se3::hat(v_imu);
     du_daux.block<3, 3>(3, col) = -se3::hat(Eigen::Vector3d(u.tail<3>()));
   }

@@ -125,7 +125,15 @@ Eigen::MatrixXd numericalTransition(const Propagator& propagator, const FilterSt
 
 void expectCovarianceIsFPFt(const VislamOptions& options, bool invariant) {
   std::mt19937 rng(1);
-  const Propagator propagator(options);
+  Propagator propagator(options);
+  // Two earlier twists: the speed scale's reference (velocity_reference.h) is then not the
+  // twist's own velocity.
+  propagator.setSamplePeriod(kDt);
+  for (const double vx : {6.0, 7.0}) {
+    TwistData earlier = drivingTwist();
+    earlier.v_imu.x() = vx;
+    propagator.observeTwist(earlier);
+  }
   FilterState state = randomState(&rng);
   const Eigen::MatrixXd F = numericalTransition(propagator, state, drivingTwist(), invariant);
   const Eigen::MatrixXd P = state.covariance();

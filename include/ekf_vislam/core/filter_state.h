@@ -27,7 +27,8 @@ struct StateLayout {
   static constexpr int kPoseDim = 6;
   /// Entries of u = [v; w] whose bias is estimated (one state row each, in this order).
   std::vector<int> bias_components;
-  /// 1 when the twist's speed scale is estimated (v_true = (1 + k) (v_measured - b_v))
+  /// 1 when the twist's speed scale is estimated (v_true = (v_m - b_v) + k (v_ref - b_v),
+  /// Propagator)
   int speed_scale_dim = 0;
   int rotation_dim = 0;   ///< 3 when the twist rotation R_m is estimated
   int disparity_dim = 0;  ///< 1 when the disparity offset is estimated
@@ -135,7 +136,7 @@ class FilterState {
   /// Pose at the last repeated frame; its error has rows when layout().clone_dim is 6.
   Eigen::Matrix4d imu_T_world_clone = Eigen::Matrix4d::Identity();
   Eigen::VectorXd bias;            ///< estimated bias components (layout().bias_components)
-  double speed_scale_error = 0.0;  ///< k: true linear velocity = (1 + k) x measured (bias removed)
+  double speed_scale_error = 0.0;  ///< k: the true speed is 1 + k times the measured one
   Eigen::Matrix3d imu_R_twist = Eigen::Matrix3d::Identity();  ///< R_m
   double disparity_offset = 0.0;                              ///< px, measured minus true disparity
   double baseline_scale_error = 0.0;  ///< beta: baseline = calibrated baseline x (1 + beta)

@@ -7,6 +7,7 @@
 #include "ekf_vislam/core/travel_direction_estimator.h"
 #include "ekf_vislam/core/twist_noise_estimator.h"
 #include "ekf_vislam/core/types.h"
+#include "ekf_vislam/core/velocity_reference.h"
 #include "ekf_vislam/core/vislam_options.h"
 
 namespace ekf_vislam {
@@ -26,13 +27,15 @@ class Propagator {
   void observeTwist(const TwistData& twist) {
     noise_estimator_.add(twist);
     travel_direction_.add(twist.v_imu);
+    velocity_reference_.add(twist.v_imu, sample_period_);
   }
-  /// Forgets the noise estimate and the direction of travel (a full filter reset starts both
-  /// again).
+  /// Forgets the noise estimate, the direction of travel and the velocity reference (a full
+  /// filter reset starts them again).
   void resetTwistEstimates() {
     noise_estimator_ = TwistNoiseEstimator(options_->noise.twist_noise_window,
                                            options_->noise.twist_noise_min_samples);
     travel_direction_ = TravelDirectionEstimator(kTravelMinSpeed);
+    velocity_reference_.reset();
   }
   /// Where the twist travels in its own frame (the vehicle prior assumes along x).
   const TravelDirectionEstimator& travelDirection() const { return travel_direction_; }
@@ -67,6 +70,11 @@ class Propagator {
  private:
   /// Per-component factor of the vehicle prior on u = [v; w] (1 where there is none).
   Vector6d velocityPriorGain(const FilterState& state, const TwistData& twist) const;
+  /// v_ref - b_v: what the speed scale multiplies (velocity_reference.h).
+  Eigen::Vector3d scaleReference(const FilterState& state, const TwistData& twist) const;
+  /// (v - b_v) + k (v_ref - b_v), the twist's velocity with bias and speed scale applied
+  /// (twist frame).
+  Eigen::Vector3d scaledVelocity(const FilterState& state, const TwistData& twist) const;
   bool usesMessageCovariance(const TwistData& twist) const;
   /// The message's per-sample covariance in the IMU frame times the sample period.
   Matrix6d messageDensity(const FilterState& state, const TwistData& twist) const;
@@ -78,6 +86,8 @@ class Propagator {
 
   const VislamOptions* options_;  ///< not owned (the estimator keeps it alive)
   TwistNoiseEstimator noise_estimator_;
+  /// Where the speed scale's Jacobian is taken (velocity_reference.h).
+  VelocityReference velocity_reference_;
   TravelDirectionEstimator travel_direction_;
   double sample_period_ = 0.1;
 };

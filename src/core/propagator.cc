@@ -11,6 +11,13 @@ Eigen::Vector3d Propagator::scaleReference(const FilterState& state, const Twist
   return velocity_reference_.value(twist.v_imu) - state.biasVector().head<3>();
 }
 
+Eigen::Vector3d Propagator::speedScaleJacobian(const FilterState& state,
+                                               const TwistData& twist) const {
+  return velocityPriorGain(state, twist)
+      .head<3>()
+      .cwiseProduct(state.imu_R_twist * scaleReference(state, twist));
+}
+
 Eigen::Vector3d Propagator::scaledVelocity(const FilterState& state, const TwistData& twist) const {
   const Eigen::Vector3d v = twist.v_imu - state.biasVector().head<3>();
   if (state.layout().speed_scale_dim == 0) return v;
@@ -101,10 +108,7 @@ Matrix6d Propagator::sampleCovariance(const FilterState& state, const TwistData&
   }
   if (layout.speed_scale_dim > 0) {
     const int k = layout.speedScaleRow() - StateLayout::kPoseDim;
-    const Eigen::Vector3d du_dk =
-        velocityPriorGain(state, twist)
-            .head<3>()
-            .cwiseProduct(state.imu_R_twist * scaleReference(state, twist));
+    const Eigen::Vector3d du_dk = speedScaleJacobian(state, twist);
     cov.topLeftCorner<3, 3>() += S(k, k) * du_dk * du_dk.transpose();
   }
   return cov;
@@ -130,7 +134,7 @@ Eigen::MatrixXd Propagator::twistJacobian(const FilterState& state, const TwistD
   }
   if (layout.speed_scale_dim > 0) {
     du_daux.block<3, 1>(0, layout.speedScaleRow() - StateLayout::kPoseDim) =
-        Gv * state.imu_R_twist * scaleReference(state, twist);
+        speedScaleJacobian(state, twist);
   }
   if (layout.rotation_dim > 0) {
     const int col = layout.rotationRow() - StateLayout::kPoseDim;

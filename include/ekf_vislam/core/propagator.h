@@ -72,6 +72,8 @@ class Propagator {
   Vector6d velocityPriorGain(const FilterState& state, const TwistData& twist) const;
   /// v_ref - b_v: what the speed scale multiplies (velocity_reference.h).
   Eigen::Vector3d scaleReference(const FilterState& state, const TwistData& twist) const;
+  /// d (corrected velocity) / d k = Gv R_m (v_ref - b_v).
+  Eigen::Vector3d speedScaleJacobian(const FilterState& state, const TwistData& twist) const;
   /// (v - b_v) + k (v_ref - b_v), the twist's velocity with bias and speed scale applied
   /// (twist frame).
   Eigen::Vector3d scaledVelocity(const FilterState& state, const TwistData& twist) const;

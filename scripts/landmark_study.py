@@ -41,18 +41,18 @@ def run_folder(out, job):
                                                           seed))
 
 
-def one_run(job, data, out, binary, config, accel_noise=None):
-    """job = (sequence, twist, fraction, seed, mode) -> result dict."""
-    sequence, twist, fraction, seed, mode = job
-    folder = run_folder(out, job)
+def run_variant(folder, data, sequence, mode, binary, config, **variant_args):
+    """One variant of a sequence (`variants.make_variant` with variant_args), its bag in folder
+    (made once, shared by the modes), vislam_offline in that mode and the evaluation against the
+    ground truth -> dict of ATE, RPE, observations per frame, path length and NEES (position,
+    pose)."""
     os.makedirs(folder, exist_ok=True)
     gt = os.path.join(data, 'groundtruth', sequence + '_imu_gt.tum')
     npz, bag = os.path.join(folder, 'data.npz'), os.path.join(folder, 'data.bag')
     if not os.path.exists(bag):
         with np.load(os.path.join(data, sequence + '.npz')) as archive:
             arrays = {key: archive[key] for key in archive.files}
-        variant, _ = variants.make_variant(arrays, gt, twist, keep_fraction=fraction, seed=seed,
-                                           accel_noise=accel_noise)
+        variant, _ = variants.make_variant(arrays, gt, **variant_args)
         np.savez(npz, **variant)
         run([PY, os.path.join(HERE, 'dataset_to_bag.py'), npz, bag])
         os.remove(npz)  # the bag has everything (about 70 MB each)
@@ -64,10 +64,20 @@ def one_run(job, data, out, binary, config, accel_noise=None):
     m = metrics.evaluate_trajectory(t, T, t_gt, T_gt)
     with open(os.path.join(run_dir, 'stats.json')) as f:
         observations_per_frame = json.load(f).get('observations_per_frame')
-    result = dict(sequence=sequence, twist=twist, fraction=fraction, seed=seed, mode=mode,
-                  ate_m=m['ate_rmse_m'], rpe_percent=m['rpe_percent'],
-                  observations_per_frame=observations_per_frame)
+    result = dict(ate_m=m['ate_rmse_m'], rpe_percent=m['rpe_percent'],
+                  path_length_m=m['path_length_m'], observations_per_frame=observations_per_frame,
+                  run_dir=run_dir)
     result.update(consistency(run_dir, t, T, t_gt, T_gt))
+    return result
+
+
+def one_run(job, data, out, binary, config, accel_noise=None):
+    """job = (sequence, twist, fraction, seed, mode) -> result dict."""
+    sequence, twist, fraction, seed, mode = job
+    result = dict(sequence=sequence, twist=twist, fraction=fraction, seed=seed, mode=mode)
+    result.update(run_variant(run_folder(out, job), data, sequence, mode, binary, config,
+                              twist=twist, keep_fraction=fraction, seed=seed,
+                              accel_noise=accel_noise))
     return result
 
 

@@ -4,7 +4,7 @@
     make_variant.py DATA.npz --groundtruth GT --twist course|accurate [--twist-noise V W]
                     [--gyro-offset B] [--speed-scale S]
                     [--accel-noise SIGMA [--accel-bias B [B B]]] [--keep-fraction F]
-                    [--split-repeated] [--seed N] --out OUT.npz
+                    [--split-repeated] [--frames FIRST COUNT] [--seed N] --out OUT.npz
 
 course: the file's own twist. accurate: the IMU body twist computed from the ground truth
 (sample k+1 drives [t_k, t_k+1]) plus white noise of V m/s and W rad/s per sample and axis
@@ -26,6 +26,8 @@ each track through it a new id after it. The course files' tracks are one image 
 after such a frame, which the estimator's repeated-frame handling knows only from the repeat
 itself; without repeats a variant may drop frames (a camera slower than the twist:
 dataset_to_bag.py --features-every N) without keeping a stale copy of a dropped frame.
+--frames keeps COUNT frames from frame FIRST, first of all: a drive that starts elsewhere (at
+speed, on a slope, in a turn), with the same ground truth (the stamps are the file's).
 GT: a TUM file of world_T_imu, or a KITTI poses file of world_T_cam0 (a line per frame, turned
 into world_T_imu with the dataset's cam_T_imu, corrected as dataset_to_bag.py does). Frames after
 the last ground-truth pose are cut off. Every other key is kept as it is (the 2019
@@ -66,6 +68,8 @@ def main(argv):
     parser.add_argument('--split-repeated', action='store_true',
                         help='empty the repeated frames and give the tracks through each a new '
                         'id after it')
+    parser.add_argument('--frames', type=int, nargs=2, metavar=('FIRST', 'COUNT'),
+                        help='keep COUNT frames from frame FIRST (a section of the drive)')
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--out', required=True, metavar='OUT.npz')
     args = parser.parse_args(argv)
@@ -84,7 +88,8 @@ def main(argv):
                                            0.0 if args.accel_bias is None else args.accel_bias,
                                            cam_T_imu=checked.cam_T_imu,
                                            split_repeated=args.split_repeated,
-                                           speed_scale=args.speed_scale)
+                                           speed_scale=args.speed_scale,
+                                           frames=args.frames)
         tmp = args.out + '.tmp.npz'
         np.savez(tmp, **out)
         os.replace(tmp, args.out)

@@ -135,9 +135,20 @@ def _accel_rng(seed):
     return np.random.default_rng(np.random.SeedSequence(seed).spawn(1)[0])
 
 
+def _slice_frames(out, t, start, stop):
+    """Keeps frames [start, stop) of every key indexed by frame (the last axis as long as the
+    time stamps; not the calibration) in `out`, in place -> the kept time stamps."""
+    for key, value in out.items():
+        if value.ndim >= 1 and value.shape[-1] == t.size and key not in ('K', 'cam_T_imu',
+                                                                          'imu_T_cam'):
+            out[key] = value[..., start:stop]
+    return t[start:stop]
+
+
 def make_variant(data, groundtruth_path, twist='course', twist_noise=(0.05, 0.005),
                  gyro_offset=0.001, keep_fraction=1.0, seed=0, accel_noise=None, accel_bias=0.0,
-                 up_world=None, cam_T_imu=None, split_repeated=False, speed_scale=1.0):
+                 up_world=None, cam_T_imu=None, split_repeated=False, speed_scale=1.0,
+                 frames=None):
     """-> (dict of arrays, notes). `data` is a dict of the npz's arrays. Frames after the last
     ground-truth pose are cut off (every key indexed by frame). The ground truth is a TUM file of
     world_T_imu or, with the dataset's cam_T_imu (translation corrected), a KITTI poses file.
@@ -149,7 +160,11 @@ def make_variant(data, groundtruth_path, twist='course', twist_noise=(0.05, 0.00
     seed. up_world: gravity's "up" in the ground truth's world axes (default: the mean IMU z axis
     over the drive, a stand-in, since the ground truth's world is not level). split_repeated:
     `split_at_repeated_frames`, before the id subset. speed_scale multiplies the twist's linear
-    velocity (either twist, noise included): a wheel odometry with a wrong wheel radius."""
+    velocity (either twist, noise included): a wheel odometry with a wrong wheel radius.
+    frames = (first, count) keeps that section of the frames (a drive started elsewhere: at
+    speed, on a slope, in a turn) before anything else is made; its stamps stay those of the
+    file, so the ground truth needs no change (evaluate.py and the NEES take the section's
+    first pose as the estimator's world)."""
     out = {key: np.array(value) for key, value in data.items()}
     time_key = _key(out, TIME_KEYS)
     angular_key = _key(out, ANGULAR_KEYS)
@@ -163,12 +178,17 @@ def make_variant(data, groundtruth_path, twist='course', twist_noise=(0.05, 0.00
         raise VariantError('the ground truth covers fewer than 2 frames')
     if last < t.size:
         notes.append('cut to the %d frames with ground truth (of %d)' % (last, t.size))
-        num = t.size
-        for key, value in out.items():
-            if value.ndim >= 1 and value.shape[-1] == num and key not in ('K', 'cam_T_imu',
-                                                                            'imu_T_cam'):
-                out[key] = value[..., :last]
-        t = t[:last]
+        t = _slice_frames(out, t, 0, last)
+    if frames is not None:
+        first, count = (int(x) for x in frames)
+        if not (0 <= first and count >= 2 and first + count <= t.size):
+            raise VariantError('frames %d-%d: the dataset (with ground truth) has frames 0-%d, '
+                               'and a section needs 2 or more' % (first, first + count - 1,
+                                                                  t.size - 1))
+        notes.append('frames %d-%d of %d (%.1f s from %.1f s)'
+                     % (first, first + count - 1, t.size, t[first + count - 1] - t[first],
+                        t[first] - t[0]))
+        t = _slice_frames(out, t, first, first + count)
     rng = np.random.default_rng(seed)
     if twist == 'accurate':
         v, w = groundtruth_twist(t, t_gt, world_T_imu_gt)

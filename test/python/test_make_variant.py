@@ -142,6 +142,31 @@ class MakeVariantTest(unittest.TestCase):
         plain = self.variant('plain', '--twist', 'course', '--split-repeated')
         np.testing.assert_array_equal(plain['features'], np.load(self.prefix + '.npz')['features'])
 
+    def test_frames_keep_a_section_of_every_per_frame_key(self):
+        original = dict(np.load(self.prefix + '.npz'))
+        v = self.variant('section', '--twist', 'course', '--frames', 30, 50)
+        np.testing.assert_array_equal(v['time_stamps'], original['time_stamps'][:, 30:80])
+        np.testing.assert_array_equal(v['features'], original['features'][:, :, 30:80])
+        np.testing.assert_array_equal(v['linear_velocity'], original['linear_velocity'][:, 30:80])
+        np.testing.assert_array_equal(v['K'], original['K'])
+        # The accurate twist of a section is the ground truth's over the section's frames.
+        exact = self.variant('section_exact', '--twist', 'accurate', '--twist-noise', 0, 0,
+                             '--gyro-offset', 0, '--frames', 30, 50)
+        t_gt, T_gt = trajectory.read_tum(self.gt)
+        T = T_gt[30].copy()
+        t = exact['time_stamps'].ravel()
+        for k in range(1, t.size):
+            T = T @ se3.twist_exp(exact['linear_velocity'][:, k],
+                                  exact['rotational_velocity'][:, k], t[k] - t[k - 1])
+        self.assertLess(np.linalg.norm(T[:3, 3] - T_gt[79, :3, 3]), 1e-6)
+        for bad in (('110', '20'), ('0', '1'), ('-1', '10')):
+            proc = ekf_test_paths.run_script('make_variant.py', self.prefix + '.npz',
+                                             '--groundtruth', self.gt, '--twist', 'course',
+                                             '--frames', *bad,
+                                             '--out', os.path.join(self.tmp, 'bad.npz'))
+            self.assertEqual(proc.returncode, 2, bad)
+            self.assertIn('frames', proc.stderr)
+
     def test_bad_input_is_one_line(self):
         proc = ekf_test_paths.run_script('make_variant.py', self.prefix + '.npz', '--groundtruth',
                                          self.gt, '--twist', 'course', '--keep-fraction', 0,

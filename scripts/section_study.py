@@ -1,0 +1,159 @@
+#!/usr/bin/python3
+"""The section study: SLAM and dead reckoning over sections of each drive, each run on its own.
+
+    section_study.py [--data DIR] [--sequences NAME ...] [--out DIR] [--sections N]
+                     [--seeds N ...] [--config YAML] [--jobs 2] [--keep-bags]
+
+A drive that starts elsewhere is another regime of the same real tracks: at speed, in a turn, on
+a slope, with the filter's online estimates (twist noise, track correlation) starting from
+nothing, and its covariance measured against the ground truth over tens of seconds instead of
+minutes. For every dataset of the data folder with ground truth (NAME.npz and
+groundtruth/NAME_imu_gt.tum), the frames with ground truth are cut into N equal sections
+(make_variant.py --frames), each run with both twists (the file's own, "course", once; the
+accurate one, ground truth + 0.05 m/s / 0.005 rad/s white noise and a 0.001 rad/s gyro offset,
+per seed) in SLAM and dead reckoning. Writes OUT/section_study.md (per section: path, SLAM ATE
+mean and max over the seeds, dead reckoning's, their ratio, SLAM's mean position and pose NEES
+and the worst seed's) and OUT/section_study.json, and prints the table and the wall time.
+"""
+import argparse
+import concurrent.futures
+import json
+import os
+import sys
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, '..', 'src'))
+sys.path.insert(0, HERE)
+from benchmark import find_datasets, offline_binary  # noqa: E402
+from ekf_vislam_tools import dataset, trajectory  # noqa: E402
+from ekf_vislam_tools.report import fmt, markdown_table  # noqa: E402
+from landmark_study import TWISTS, run_variant  # noqa: E402
+
+
+def frames_with_groundtruth(npz, groundtruth, max_dt=0.02):
+    """How many of the dataset's frames the ground truth covers (as make_variant.py cuts)."""
+    with np.load(npz) as archive:
+        key = 'time_stamps' if 'time_stamps' in archive.files else 't'
+        t = np.asarray(archive[key], dtype=float).ravel()
+    t_gt, _ = trajectory.read_tum(groundtruth)
+    return int(np.searchsorted(t, np.max(t_gt) + max_dt, side='right'))
+
+
+def sections(num_frames, count):
+    """(first, frames) of `count` equal sections of num_frames (the last takes the remainder)."""
+    size = num_frames // count
+    if size < 2:
+        raise ValueError('%d frames cannot make %d sections' % (num_frames, count))
+    return [(k * size, size if k < count - 1 else num_frames - k * size) for k in range(count)]
+
+
+def one_run(job, data, out, binary, config):
+    """job = (sequence, twist, (first, frames), seed, mode) -> result dict."""
+    sequence, twist, (first, frames), seed, mode = job
+    folder = os.path.join(out, 'runs', '%s_%s_%05d_s%d' % (sequence, twist, first, seed))
+    result = dict(sequence=sequence, twist=twist, first=first, frames=frames, seed=seed, mode=mode)
+    result.update(run_variant(folder, data, sequence, mode, binary, config, twist=twist,
+                              seed=seed, frames=(first, frames)))
+    return result
+
+
+def summarize(results):
+    """-> (rows, markdown table): one row per sequence, twist and section, over the seeds."""
+    rows, cells = [], []
+    keys = sorted({(r['sequence'], r['twist'], r['first'], r['frames']) for r in results},
+                  key=lambda k: (k[0], TWISTS.index(k[1]), k[2]))
+    for sequence, twist, first, frames in keys:
+        runs = [r for r in results if (r['sequence'], r['twist'], r['first']) ==
+                (sequence, twist, first)]
+        slam = sorted((r for r in runs if r['mode'] == 'slam'), key=lambda r: r['seed'])
+        dr = sorted((r for r in runs if r['mode'] == 'deadreckoning'), key=lambda r: r['seed'])
+        if not slam or len(slam) != len(dr):
+            continue
+        ratio = [s['ate_m'] / d['ate_m'] for s, d in zip(slam, dr)]
+        row = dict(sequence=sequence, twist=twist, first=first, frames=frames, seeds=len(slam),
+                   path_m=slam[0]['path_length_m'],
+                   slam_ate_mean=float(np.mean([r['ate_m'] for r in slam])),
+                   slam_ate_max=float(np.max([r['ate_m'] for r in slam])),
+                   dr_ate_mean=float(np.mean([r['ate_m'] for r in dr])),
+                   ratio_mean=float(np.mean(ratio)), ratio_max=float(np.max(ratio)))
+        for name in ('nees_position', 'nees_pose'):
+            values = [r[name] for r in slam if r.get(name) is not None]
+            row[name] = float(np.mean(values)) if values else None
+            row[name + '_max'] = float(np.max(values)) if values else None
+        dr_nees = [r['nees_position'] for r in dr if r.get('nees_position') is not None]
+        row['dr_nees_position'] = float(np.mean(dr_nees)) if dr_nees else None
+        rows.append(row)
+        cells.append([sequence, twist, '%d-%d' % (first, first + frames - 1),
+                      fmt(row['path_m'], '.0f'), '%d' % row['seeds'],
+                      fmt(row['slam_ate_mean'], '.3f'), fmt(row['slam_ate_max'], '.3f'),
+                      fmt(row['dr_ate_mean'], '.3f'), fmt(row['ratio_mean'], '.2f'),
+                      fmt(row['ratio_max'], '.2f'), fmt(row['nees_position'], '.2f'),
+                      fmt(row['nees_position_max'], '.2f'), fmt(row['nees_pose'], '.2f'),
+                      fmt(row['nees_pose_max'], '.2f'), fmt(row['dr_nees_position'], '.2f')])
+    header = ['sequence', 'twist', 'frames', 'path m', 'seeds', 'SLAM ATE mean m', 'max m',
+              'DR ATE m', 'SLAM/DR mean', 'max', 'NEES pos mean', 'max', 'NEES pose mean', 'max',
+              'DR NEES pos']
+    return rows, markdown_table(header, cells)
+
+
+def main(argv):
+    parser = argparse.ArgumentParser(prog='section_study.py', description=__doc__.split('\n')[0])
+    parser.add_argument('--data', default=os.environ.get(
+        'EKF_VISLAM_DATA', os.path.join(HERE, '..', '..', 'shared', 'data')))
+    parser.add_argument('--sequences', nargs='+', metavar='NAME',
+                        help='datasets of the data folder (default: every one with ground truth)')
+    parser.add_argument('--out', default=os.path.join(HERE, '..', 'results', 'section_study'))
+    parser.add_argument('--sections', type=int, default=4, metavar='N')
+    parser.add_argument('--seeds', type=int, nargs='+', default=[1, 2, 3],
+                        help='seeds of the accurate twist (the course twist runs once)')
+    parser.add_argument('--config', default=None, help='options YAML (default: the shipped one)')
+    parser.add_argument('--jobs', type=int, default=2)
+    parser.add_argument('--keep-bags', action='store_true',
+                        help='keep each variant\'s bag under OUT/runs')
+    args = parser.parse_args(argv)
+    found = {name: (npz, gt) for name, npz, gt in find_datasets(args.data) if gt}
+    names = args.sequences or sorted(found)
+    missing = [name for name in names if name not in found]
+    if not names or missing:
+        sys.exit('section_study.py: no NAME.npz with groundtruth/NAME_imu_gt.tum in %s for %s'
+                 % (args.data, ', '.join(missing) or 'any dataset'))
+    out = os.path.abspath(args.out)
+    binary = offline_binary()
+    jobs = []
+    for name in names:
+        npz, gt = found[name]
+        dataset.load_dataset(npz, fix_twist_axes=False)  # validated: a clear error, not a run's
+        for section in sections(frames_with_groundtruth(npz, gt), args.sections):
+            for twist in TWISTS:
+                for seed in (args.seeds if twist == 'accurate' else args.seeds[:1]):
+                    jobs += [(name, twist, section, seed, mode)
+                             for mode in ('slam', 'deadreckoning')]
+    start = time.monotonic()
+    with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
+        # Each variant's bag is made by its SLAM run, then shared by its dead reckoning.
+        results = list(pool.map(lambda j: one_run(j, args.data, out, binary, args.config),
+                                [j for j in jobs if j[4] == 'slam']))
+        results += list(pool.map(lambda j: one_run(j, args.data, out, binary, args.config),
+                                 [j for j in jobs if j[4] != 'slam']))
+    if not args.keep_bags:
+        for folder in {os.path.dirname(r['run_dir']) for r in results}:
+            if os.path.exists(os.path.join(folder, 'data.bag')):
+                os.remove(os.path.join(folder, 'data.bag'))
+    rows, text = summarize(results)
+    wall = time.monotonic() - start
+    os.makedirs(out, exist_ok=True)
+    with open(os.path.join(out, 'section_study.md'), 'w') as f:
+        f.write(text + '\n')
+    with open(os.path.join(out, 'section_study.json'), 'w') as f:
+        json.dump(dict(rows=rows, runs=results, wall_s=wall), f, indent=1)
+    print(text)
+    print('section study: %d runs in %.0f s; wrote %s/section_study.{md,json}'
+          % (len(results), wall, out))
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main(sys.argv[1:]))

@@ -81,6 +81,37 @@ def one_run(job, data, out, binary, config, accel_noise=None):
     return result
 
 
+def run_jobs(run_one, jobs, workers):
+    """run_one over jobs (tuples whose last item is the mode) on `workers` threads: the SLAM runs
+    first, since each makes its variant's bag, then the others, which share it."""
+    with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
+        results = list(pool.map(run_one, [j for j in jobs if j[-1] == 'slam']))
+        results += list(pool.map(run_one, [j for j in jobs if j[-1] != 'slam']))
+    return results
+
+
+def remove_bags(results):
+    """Deletes the variants' bags (about 70 MB each for a whole drive) once every mode ran."""
+    for folder in {os.path.dirname(r['run_dir']) for r in results}:
+        bag = os.path.join(folder, 'data.bag')
+        if os.path.exists(bag):
+            os.remove(bag)
+
+
+def write_study(out, name, text, rows, results, wall, extra=()):
+    """OUT/NAME.md (the table) and OUT/NAME.json (rows, runs, wall time); prints the table and
+    what was written (extra: other suffixes written beside them, e.g. png)."""
+    os.makedirs(out, exist_ok=True)
+    with open(os.path.join(out, name + '.md'), 'w') as f:
+        f.write(text + '\n')
+    with open(os.path.join(out, name + '.json'), 'w') as f:
+        json.dump(dict(rows=rows, runs=results, wall_s=wall), f, indent=1)
+    print(text)
+    print('%s: %d runs in %.0f s; wrote %s/%s.{%s}' % (name.replace('_', ' '), len(results), wall,
+                                                      out, name, ','.join(('md',) + tuple(extra)
+                                                                          + ('json',))))
+
+
 def summarize(results, sequences, fractions):
     rows, cells = [], []
     for sequence in sequences:
@@ -176,30 +207,14 @@ def main(argv):
              for seed in args.seeds]
     # Dead reckoning shares the 100 % variant's bag: run it after the SLAM runs made it.
     start = time.monotonic()
-    results = []
-    with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-        slam_jobs = [j for j in jobs if j[4] == 'slam']
-        results += list(pool.map(lambda j: one_run(j, args.data, out, binary, args.config,
-                                                   args.accel_noise),
-                                 slam_jobs))
-        results += list(pool.map(lambda j: one_run(j, args.data, out, binary, args.config,
-                                                   args.accel_noise),
-                                 [j for j in jobs if j[4] != 'slam']))
+    results = run_jobs(lambda j: one_run(j, args.data, out, binary, args.config,
+                                         args.accel_noise), jobs, args.jobs)
     if not args.keep_bags:
-        for job in slam_jobs:
-            bag = os.path.join(run_folder(out, job), 'data.bag')
-            if os.path.exists(bag):
-                os.remove(bag)
+        remove_bags(results)
     rows, text = summarize(results, sequences, args.fractions)
     wall = time.monotonic() - start
     plot(rows, sequences, os.path.join(out, 'landmark_study.png'))
-    with open(os.path.join(out, 'landmark_study.md'), 'w') as f:
-        f.write(text + '\n')
-    with open(os.path.join(out, 'landmark_study.json'), 'w') as f:
-        json.dump(dict(rows=rows, runs=results, wall_s=wall), f, indent=1)
-    print(text)
-    print('landmark study: %d runs in %.0f s; wrote %s/landmark_study.{md,png,json}'
-          % (len(results), wall, out))
+    write_study(out, 'landmark_study', text, rows, results, wall, extra=('png',))
     return 0
 
 

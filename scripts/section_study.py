@@ -16,8 +16,6 @@ mean and max over the seeds, dead reckoning's, their ratio, SLAM's mean position
 and the worst seed's) and OUT/section_study.json, and prints the table and the wall time.
 """
 import argparse
-import concurrent.futures
-import json
 import os
 import sys
 import time
@@ -30,7 +28,8 @@ sys.path.insert(0, HERE)
 from benchmark import find_datasets, offline_binary  # noqa: E402
 from ekf_vislam_tools import dataset, trajectory  # noqa: E402
 from ekf_vislam_tools.report import fmt, markdown_table  # noqa: E402
-from landmark_study import TWISTS, run_variant  # noqa: E402
+from landmark_study import (TWISTS, remove_bags, run_jobs, run_variant,  # noqa: E402
+                            write_study)
 
 
 def frames_with_groundtruth(npz, groundtruth, max_dt=0.02):
@@ -132,26 +131,11 @@ def main(argv):
                     jobs += [(name, twist, section, seed, mode)
                              for mode in ('slam', 'deadreckoning')]
     start = time.monotonic()
-    with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-        # Each variant's bag is made by its SLAM run, then shared by its dead reckoning.
-        results = list(pool.map(lambda j: one_run(j, args.data, out, binary, args.config),
-                                [j for j in jobs if j[4] == 'slam']))
-        results += list(pool.map(lambda j: one_run(j, args.data, out, binary, args.config),
-                                 [j for j in jobs if j[4] != 'slam']))
+    results = run_jobs(lambda j: one_run(j, args.data, out, binary, args.config), jobs, args.jobs)
     if not args.keep_bags:
-        for folder in {os.path.dirname(r['run_dir']) for r in results}:
-            if os.path.exists(os.path.join(folder, 'data.bag')):
-                os.remove(os.path.join(folder, 'data.bag'))
+        remove_bags(results)
     rows, text = summarize(results)
-    wall = time.monotonic() - start
-    os.makedirs(out, exist_ok=True)
-    with open(os.path.join(out, 'section_study.md'), 'w') as f:
-        f.write(text + '\n')
-    with open(os.path.join(out, 'section_study.json'), 'w') as f:
-        json.dump(dict(rows=rows, runs=results, wall_s=wall), f, indent=1)
-    print(text)
-    print('section study: %d runs in %.0f s; wrote %s/section_study.{md,json}'
-          % (len(results), wall, out))
+    write_study(out, 'section_study', text, rows, results, time.monotonic() - start)
     return 0
 
 

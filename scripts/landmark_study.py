@@ -172,33 +172,44 @@ def plot(rows, sequences, path):
     fig.savefig(path, dpi=110)
 
 
-def main(argv):
-    parser = argparse.ArgumentParser(prog='landmark_study.py', description=__doc__.split('\n')[0])
+def study_arguments(prog, name, doc):
+    """The parser of a study's common options (data folder, sequences, output folder, seeds,
+    options file, jobs, bags kept); the caller adds its own before parsing."""
+    parser = argparse.ArgumentParser(prog=prog, description=doc.split('\n')[0])
     parser.add_argument('--data', default=os.environ.get(
         'EKF_VISLAM_DATA', os.path.join(HERE, '..', '..', 'shared', 'data')))
     parser.add_argument('--sequences', nargs='+', metavar='NAME',
                         help='datasets of the data folder (default: every one with ground truth)')
-    parser.add_argument('--out', default=os.path.join(HERE, '..', 'results', 'landmark_study'))
-    parser.add_argument('--fractions', type=float, nargs='+',
-                        default=[0.05, 0.1, 0.2, 0.4, 0.6, 0.8, 1.0])
+    parser.add_argument('--out', default=os.path.join(HERE, '..', 'results', name))
     parser.add_argument('--seeds', type=int, nargs='+', default=[1, 2, 3])
     parser.add_argument('--config', default=None, help='options YAML (default: the shipped one)')
-    parser.add_argument('--accel-noise', type=float, default=None, metavar='SIGMA',
-                        help='give every variant an accelerometer from the ground truth with '
-                             'this white noise (m/s^2 per sample; default: none)')
     parser.add_argument('--jobs', type=int, default=2)
     parser.add_argument('--keep-bags', action='store_true',
                         help='keep each variant\'s bag under OUT/runs (about 70 MB each)')
+    return parser
+
+
+def study_sequences(prog, data, asked):
+    """-> {name: (npz, ground truth)} of the asked sequences (default: every NAME.npz of the data
+    folder with groundtruth/NAME_imu_gt.tum); exits naming what is missing."""
+    found = {name: (npz, gt) for name, npz, gt in find_datasets(data) if gt}
+    names = asked or sorted(found)
+    missing = [name for name in names if name not in found]
+    if not names or missing:
+        sys.exit('%s: no NAME.npz with groundtruth/NAME_imu_gt.tum in %s for %s'
+                 % (prog, data, ', '.join(missing) or 'any dataset'))
+    return {name: found[name] for name in names}
+
+
+def main(argv):
+    parser = study_arguments('landmark_study.py', 'landmark_study', __doc__)
+    parser.add_argument('--fractions', type=float, nargs='+',
+                        default=[0.05, 0.1, 0.2, 0.4, 0.6, 0.8, 1.0])
+    parser.add_argument('--accel-noise', type=float, default=None, metavar='SIGMA',
+                        help='give every variant an accelerometer from the ground truth with '
+                             'this white noise (m/s^2 per sample; default: none)')
     args = parser.parse_args(argv)
-    with_groundtruth = [name for name, _, gt in find_datasets(args.data) if gt]
-    sequences = args.sequences or with_groundtruth
-    if not sequences:
-        sys.exit('landmark_study.py: no NAME.npz with groundtruth/NAME_imu_gt.tum in %s'
-                 % args.data)
-    for sequence in sequences:
-        if sequence not in with_groundtruth:
-            sys.exit('landmark_study.py: %s.npz with groundtruth/%s_imu_gt.tum not found in %s'
-                     % (sequence, sequence, args.data))
+    sequences = list(study_sequences('landmark_study.py', args.data, args.sequences))
     out = os.path.abspath(args.out)
     binary = offline_binary()
     jobs = [(s, t, f, seed, 'slam') for s in sequences for t in TWISTS for f in args.fractions

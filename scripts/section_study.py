@@ -15,7 +15,6 @@ per seed) in SLAM and dead reckoning. Writes OUT/section_study.md (per section: 
 mean and max over the seeds, dead reckoning's, their ratio, SLAM's mean position and pose NEES
 and the worst seed's) and OUT/section_study.json, and prints the table and the wall time.
 """
-import argparse
 import os
 import sys
 import time
@@ -25,11 +24,11 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, '..', 'src'))
 sys.path.insert(0, HERE)
-from benchmark import find_datasets, offline_binary  # noqa: E402
+from benchmark import offline_binary  # noqa: E402
 from ekf_vislam_tools import dataset, trajectory  # noqa: E402
 from ekf_vislam_tools.report import fmt, markdown_table  # noqa: E402
 from landmark_study import (TWISTS, remove_bags, run_jobs, run_variant,  # noqa: E402
-                            write_study)
+                            study_arguments, study_sequences, write_study)
 
 
 def frames_with_groundtruth(npz, groundtruth, max_dt=0.02):
@@ -99,31 +98,14 @@ def summarize(results):
 
 
 def main(argv):
-    parser = argparse.ArgumentParser(prog='section_study.py', description=__doc__.split('\n')[0])
-    parser.add_argument('--data', default=os.environ.get(
-        'EKF_VISLAM_DATA', os.path.join(HERE, '..', '..', 'shared', 'data')))
-    parser.add_argument('--sequences', nargs='+', metavar='NAME',
-                        help='datasets of the data folder (default: every one with ground truth)')
-    parser.add_argument('--out', default=os.path.join(HERE, '..', 'results', 'section_study'))
+    parser = study_arguments('section_study.py', 'section_study', __doc__)
     parser.add_argument('--sections', type=int, default=4, metavar='N')
-    parser.add_argument('--seeds', type=int, nargs='+', default=[1, 2, 3],
-                        help='seeds of the accurate twist (the course twist runs once)')
-    parser.add_argument('--config', default=None, help='options YAML (default: the shipped one)')
-    parser.add_argument('--jobs', type=int, default=2)
-    parser.add_argument('--keep-bags', action='store_true',
-                        help='keep each variant\'s bag under OUT/runs')
     args = parser.parse_args(argv)
-    found = {name: (npz, gt) for name, npz, gt in find_datasets(args.data) if gt}
-    names = args.sequences or sorted(found)
-    missing = [name for name in names if name not in found]
-    if not names or missing:
-        sys.exit('section_study.py: no NAME.npz with groundtruth/NAME_imu_gt.tum in %s for %s'
-                 % (args.data, ', '.join(missing) or 'any dataset'))
+    found = study_sequences('section_study.py', args.data, args.sequences)
     out = os.path.abspath(args.out)
     binary = offline_binary()
     jobs = []
-    for name in names:
-        npz, gt = found[name]
+    for name, (npz, gt) in found.items():
         dataset.load_dataset(npz, fix_twist_axes=False)  # validated: a clear error, not a run's
         for section in sections(frames_with_groundtruth(npz, gt), args.sections):
             for twist in TWISTS:

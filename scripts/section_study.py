@@ -25,19 +25,10 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, '..', 'src'))
 sys.path.insert(0, HERE)
 from benchmark import offline_binary  # noqa: E402
-from ekf_vislam_tools import dataset, trajectory  # noqa: E402
+from ekf_vislam_tools import dataset, trajectory, variants  # noqa: E402
 from ekf_vislam_tools.report import fmt, markdown_table  # noqa: E402
 from landmark_study import (TWISTS, remove_bags, run_jobs, run_variant,  # noqa: E402
                             study_arguments, study_sequences, write_study)
-
-
-def frames_with_groundtruth(npz, groundtruth, max_dt=0.02):
-    """How many of the dataset's frames the ground truth covers (as make_variant.py cuts)."""
-    with np.load(npz) as archive:
-        key = 'time_stamps' if 'time_stamps' in archive.files else 't'
-        t = np.asarray(archive[key], dtype=float).ravel()
-    t_gt, _ = trajectory.read_tum(groundtruth)
-    return int(np.searchsorted(t, np.max(t_gt) + max_dt, side='right'))
 
 
 def sections(num_frames, count):
@@ -106,8 +97,9 @@ def main(argv):
     binary = offline_binary()
     jobs = []
     for name, (npz, gt) in found.items():
-        dataset.load_dataset(npz, fix_twist_axes=False)  # validated: a clear error, not a run's
-        for section in sections(frames_with_groundtruth(npz, gt), args.sections):
+        data = dataset.load_dataset(npz, fix_twist_axes=False)  # a clear error, not a run's
+        covered = variants.frames_with_groundtruth(data.t, trajectory.read_tum(gt)[0])
+        for section in sections(covered, args.sections):
             for twist in TWISTS:
                 for seed in (args.seeds if twist == 'accurate' else args.seeds[:1]):
                     jobs += [(name, twist, section, seed, mode)

@@ -135,6 +135,12 @@ def _accel_rng(seed):
     return np.random.default_rng(np.random.SeedSequence(seed).spawn(1)[0])
 
 
+def frames_with_groundtruth(t_frames, t_gt, max_dt=0.02):
+    """How many of the frames (stamps t_frames, increasing) come before the ground truth ends (its
+    last stamp plus max_dt): the frames a variant keeps."""
+    return int(np.searchsorted(t_frames, np.max(t_gt) + max_dt, side='right'))
+
+
 def _slice_frames(out, t, start, stop):
     """Keeps frames [start, stop) of every key indexed by frame (the last axis as long as the
     time stamps; not the calibration) in `out`, in place -> the kept time stamps."""
@@ -173,7 +179,7 @@ def make_variant(data, groundtruth_path, twist='course', twist_noise=(0.05, 0.00
     order = np.argsort(t_gt)
     t_gt, world_T_imu_gt = t_gt[order], world_T_imu_gt[order]
     notes = []
-    last = int(np.searchsorted(t, t_gt[-1] + 0.02, side='right'))
+    last = frames_with_groundtruth(t, t_gt)
     if last < 2:
         raise VariantError('the ground truth covers fewer than 2 frames')
     if last < t.size:

@@ -470,12 +470,14 @@ Matrix6d VislamEstimator::correctedTwistCovariance() const {
   return propagator_.sampleCovariance(state_, held_twist_);
 }
 
+Eigen::VectorXd VislamEstimator::reportedAuxSigmas(int row, int dim) const {
+  const Eigen::MatrixXd aux = state_.auxCovariance(state_.covarianceCount() - 1);
+  return aux.diagonal().segment(row - StateLayout::kPoseDim, dim).cwiseSqrt();
+}
+
 double VislamEstimator::twistSpeedScaleSigma() const {
   const StateLayout& layout = state_.layout();
-  if (layout.speed_scale_dim == 0) return 0.0;
-  const Eigen::MatrixXd aux = state_.auxCovariance(state_.covarianceCount() - 1);
-  const int row = layout.speedScaleRow() - StateLayout::kPoseDim;
-  return std::sqrt(aux(row, row));
+  return layout.speed_scale_dim == 0 ? 0.0 : reportedAuxSigmas(layout.speedScaleRow(), 1)(0);
 }
 
 double VislamEstimator::baselineScaleSigma() const {
@@ -491,9 +493,7 @@ double VislamEstimator::levelTiltDegrees() const {
 Eigen::Vector3d VislamEstimator::accelBiasSigma() const {
   const StateLayout& layout = state_.layout();
   if (layout.gravity_dim == 0) return Eigen::Vector3d::Zero();
-  const Eigen::MatrixXd aux = state_.auxCovariance(state_.covarianceCount() - 1);
-  const int row = layout.accelBiasRow() - StateLayout::kPoseDim;
-  return aux.block<3, 3>(row, row).diagonal().cwiseSqrt();
+  return reportedAuxSigmas(layout.accelBiasRow(), 3);
 }
 
 double VislamEstimator::roadTiltDegrees() const {

@@ -158,6 +158,9 @@ class VislamEstimator {
   StatePrior prior() const;
   // The largest position sigma of the linear world-axes covariance (the health check's).
   double positionSigma() const;
+  /// Standard deviations in the reported covariance of the `dim` auxiliary-state rows from state
+  /// row `row` (between the pose and the clone).
+  Eigen::VectorXd reportedAuxSigmas(int row, int dim) const;
   void initializeState();
 
   std::shared_ptr<const VislamOptions> options_;  ///< shared by the components (copies too)

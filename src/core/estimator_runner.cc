@@ -264,6 +264,10 @@ RunSummary EstimatorRunner::summary() const {
   s.extra["twist_speed_scale_sigma"] = estimator_.twistSpeedScaleSigma();
   s.extra["track_correlation"] = estimator_.trackCorrelation();
   s.extra["track_variance_factor"] = estimator_.trackVarianceFactor();
+  // The twist's noise densities in use (m/s/sqrt(Hz), rad/s/sqrt(Hz)) and its mean forward speed.
+  s.extra["twist_linear_noise_density"] = estimator_.linearNoiseDensity();
+  s.extra["twist_angular_noise_density"] = estimator_.angularNoiseDensity();
+  s.extra["twist_mean_speed_m_s"] = estimator_.meanTwistSpeed();
   // Where the twist travels in its own frame (the vehicle prior assumes along x), degrees.
   s.extra["twist_travel_yaw_deg"] = estimator_.travelDirection().yawDegrees();
   s.extra["twist_travel_pitch_deg"] = estimator_.travelDirection().pitchDegrees();

@@ -81,6 +81,24 @@ TEST(RoadTiltHint, SpeaksBeyondThreePriorSigmas) {
   EXPECT_EQ(roadTiltHint(28.26, vehicle), "");
 }
 
+TEST(SlowDriveHint, SpeaksForANoisyAngularVelocityBelowThreeMetresPerSecond) {
+  // The simulated drives of doc/experiments.md (estimated densities, mean speeds): walking pace
+  // with the course files' gyro noise speaks; a better gyro, a faster drive (the KITTI course
+  // files: 6.07 and 7.27 m/s) or a short run does not.
+  const std::string hint = slowDriveHint(EstimatorMode::kSlam, 1.07, 0.0161, 1000);
+  EXPECT_NE(hint.find("0.0161 rad/s/sqrt(Hz)"), std::string::npos) << hint;
+  EXPECT_NE(hint.find("1.07 m/s"), std::string::npos) << hint;
+  EXPECT_NE(hint.find("gyro"), std::string::npos) << hint;
+  EXPECT_NE(slowDriveHint(EstimatorMode::kSlam, 2.33, 0.0161, 1000), "");
+  EXPECT_EQ(slowDriveHint(EstimatorMode::kSlam, 1.05, 0.0064, 1000), "");
+  EXPECT_EQ(slowDriveHint(EstimatorMode::kSlam, 4.66, 0.0161, 1000), "");
+  EXPECT_EQ(slowDriveHint(EstimatorMode::kSlam, 6.07, 0.0164, 1100), "");
+  EXPECT_EQ(slowDriveHint(EstimatorMode::kSlam, 1.07, 0.0161, 299), "");
+  // Outside SLAM the pose is the twist's and its covariance says so.
+  EXPECT_EQ(slowDriveHint(EstimatorMode::kMapping, 1.07, 0.0161, 1000), "");
+  EXPECT_EQ(slowDriveHint(EstimatorMode::kDeadReckoning, 1.07, 0.0161, 1000), "");
+}
+
 // A twist frame mounted `pitch` rad off the travel: 400 moving samples.
 TravelDirectionEstimator pitchedTravel(double pitch) {
   TravelDirectionEstimator travel(1.0);

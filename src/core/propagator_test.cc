@@ -267,7 +267,7 @@ TEST(Propagator, NoiseDensityUsesTheMessageCovarianceOnlyWhenEnabledAndNonZero) 
             1e-15);
 }
 
-TEST(Propagator, OnlineTwistNoiseReplacesTheConfiguredDensitiesOnceReady) {
+TEST(Propagator, OnlineTwistNoiseReplacesTheConfiguredDensitiesOnceReadyAndTheSpeedIsAveraged) {
   VislamOptions options;
   options.vehicle.lateral_velocity_sigma = options.vehicle.vertical_velocity_sigma = 0.0;
   options.noise.twist_noise_min_samples = 20;
@@ -287,6 +287,12 @@ TEST(Propagator, OnlineTwistNoiseReplacesTheConfiguredDensitiesOnceReady) {
   // Per-sample std 0.3 m/s and 0.02 rad/s at 10 Hz: densities 0.3 sqrt(0.1), 0.02 sqrt(0.1).
   EXPECT_NEAR(propagator.linearNoiseDensity(), 0.3 * std::sqrt(0.1), 0.1 * 0.3 * std::sqrt(0.1));
   EXPECT_NEAR(propagator.angularNoiseDensity(), 0.02 * std::sqrt(0.1), 0.1 * 0.02 * std::sqrt(0.1));
+  // The mean forward speed of the same samples (8 m/s, noise 0.3 m/s).
+  EXPECT_EQ(propagator.speedSamples(), 400u);
+  EXPECT_NEAR(propagator.meanSpeed(), 8.0, 0.05);
+  propagator.resetTwistEstimates();
+  EXPECT_EQ(propagator.speedSamples(), 0u);
+  EXPECT_EQ(propagator.meanSpeed(), 0.0);
   FilterState state(StateLayout{});
   state.reset(StatePrior());
   const Matrix6d density = propagator.noiseDensity(state, TwistData());

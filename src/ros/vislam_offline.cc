@@ -380,6 +380,8 @@ void printSummary(const EstimatorRunner& runner, const std::string& out_dir) {
       sparseObservationsHint(options.mode, stats.get(Counter::kObservationUpdate),
                              stats.get(Counter::kFrameUsed)),
       roadTiltHint(estimator.roadTiltDegrees(), options.vehicle),
+      slowDriveHint(options.mode, estimator.meanTwistSpeed(), estimator.angularNoiseDensity(),
+                    estimator.twistSpeedSamples()),
       accelerometerHint(stats.get(Counter::kAccelImplausible) + stats.get(Counter::kAccelNonFinite),
                         stats.get(Counter::kAccelUsed)),
       featureGeometryHint(stats.get(Counter::kObsRowMismatch), stats.get(Counter::kObsDisparity),

@@ -45,6 +45,9 @@ VislamRos::DiagnosticHints VislamRos::collectHints(const EstimatorStats& stats, 
   }
   hints.tilt = roadTiltHint(estimator.roadTiltDegrees(), options_.vehicle);
   if (!hints.tilt.empty()) ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), hints.tilt.c_str());
+  hints.slow = slowDriveHint(options_.mode, estimator.meanTwistSpeed(),
+                             estimator.angularNoiseDensity(), estimator.twistSpeedSamples());
+  if (!hints.slow.empty()) ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), hints.slow.c_str());
   updateObservationRate(stats);
   updateFeatureGeometry(stats);
   return hints;
@@ -83,6 +86,10 @@ void VislamRos::setSummary(const DiagnosticHints& hints, const ros::WallTime& no
   } else if (!hints.tilt.empty()) {
     status.summary(DiagnosticStatus::WARN,
                    "the road tilt left its prior: the height is not to be trusted (see the log)");
+  } else if (!hints.slow.empty()) {
+    status.summary(DiagnosticStatus::WARN,
+                   "noisy angular velocity on a slow drive: the covariance is likely too small "
+                   "(see the log)");
   } else if (!sparse_hint_.empty()) {
     status.summary(DiagnosticStatus::WARN,
                    "few observations per frame: the covariance is likely too small (see the log)");
@@ -130,6 +137,9 @@ void VislamRos::addDiagnosticValues(double twist_rate, double feature_rate,
   status.add("twist_speed_scale", estimator.twistSpeedScale());
   status.add("track_drift_rate_rad_s", estimator.trackDriftRate().norm());
   status.add("track_correlation", estimator.trackCorrelation());
+  status.add("twist_linear_noise_density", estimator.linearNoiseDensity());
+  status.add("twist_angular_noise_density", estimator.angularNoiseDensity());
+  status.add("twist_mean_speed_m_s", estimator.meanTwistSpeed());
   status.add("twist_travel_yaw_deg", travel.yawDegrees());
   status.add("twist_travel_pitch_deg", travel.pitchDegrees());
   status.add("road_tilt_deg", estimator.roadTiltDegrees());

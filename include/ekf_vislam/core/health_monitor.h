@@ -44,6 +44,22 @@ constexpr uint64_t kSparseHintMinFrames = 100;
 std::string sparseObservationsHint(EstimatorMode mode, uint64_t observations_updated,
                                    uint64_t frames);
 
+/// A hint when the twist's angular noise is large for how slowly the vehicle moves (SLAM mode):
+/// a mean forward speed below kSlowDriveSpeed with an angular noise density (estimated, or
+/// configured) above kSlowDriveAngularDensity, over at least kSlowDriveMinSamples twist
+/// samples. Each frame's correction of that rotation noise then moves the many landmarks seen
+/// again and again along their inverse-depth lines, which pushes them out a little each time,
+/// and the reported covariance does not know it. Measured on simulated 1000-frame drives at 10
+/// Hz (doc/experiments.md, 2 seeds each, position NEES where 3 is consistent): 0.05 rad/s per
+/// sample (0.016 rad/sqrt(s), the course files' gyro noise) gave 9.18-17.64 at 0.5-1.5 m/s,
+/// 5.74-7.75 at 1.5-3 m/s and 1.50-3.70 at 3-6 m/s; 0.02 rad/s per sample (0.0063 rad/sqrt(s))
+/// or less gave 0.53-1.54 at 0.5-3 m/s, whatever the linear noise (0.05-0.5 m/s). Empty otherwise.
+constexpr double kSlowDriveSpeed = 3.0;            ///< m/s
+constexpr double kSlowDriveAngularDensity = 0.01;  ///< rad/s/sqrt(Hz)
+constexpr size_t kSlowDriveMinSamples = 300;
+std::string slowDriveHint(EstimatorMode mode, double mean_speed, double angular_density,
+                          size_t samples);
+
 /// A hint when the road tilt state (vehicle/tilt_sigma, SLAM mode) lies more than
 /// kTiltHintSigmas prior standard deviations from the start's level: either the road is steeper
 /// than the prior allows, or drifting tracks are turning the vehicle's roll and pitch (the

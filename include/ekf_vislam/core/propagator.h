@@ -10,6 +10,8 @@
 #include "ekf_vislam/core/velocity_reference.h"
 #include "ekf_vislam/core/vislam_options.h"
 
+#include <cmath>
+
 namespace ekf_vislam {
 
 class Propagator {
@@ -27,6 +29,8 @@ class Propagator {
   void observeTwist(const TwistData& twist) {
     noise_estimator_.add(twist);
     travel_direction_.add(twist.v_imu);
+    speed_sum_ += std::abs(twist.v_imu.x());
+    ++speed_samples_;
     velocity_reference_.add(twist.v_imu, sample_period_);
   }
   /// Forgets the noise estimate, the direction of travel and the velocity reference (a full
@@ -36,9 +40,16 @@ class Propagator {
                                            options_->noise.twist_noise_min_samples);
     travel_direction_ = TravelDirectionEstimator(kTravelMinSpeed);
     velocity_reference_.reset();
+    speed_sum_ = 0.0;
+    speed_samples_ = 0;
   }
   /// Where the twist travels in its own frame (the vehicle prior assumes along x).
   const TravelDirectionEstimator& travelDirection() const { return travel_direction_; }
+  /// Mean forward speed |v_x| (m/s) of the twist samples observed, and their number.
+  double meanSpeed() const {
+    return speed_samples_ > 0 ? speed_sum_ / static_cast<double>(speed_samples_) : 0.0;
+  }
+  size_t speedSamples() const { return speed_samples_; }
   /// Noise densities of a twist without its own covariance (m/s/sqrt(Hz), rad/s/sqrt(Hz)): the
   /// online estimate once it is ready (noise/estimate_twist_noise), else the configured ones.
   double linearNoiseDensity() const;
@@ -91,6 +102,8 @@ class Propagator {
   /// Where the speed scale's Jacobian is taken (velocity_reference.h).
   VelocityReference velocity_reference_;
   TravelDirectionEstimator travel_direction_;
+  double speed_sum_ = 0.0;  ///< sum of |v_x| over the samples observed (m/s)
+  size_t speed_samples_ = 0;
   double sample_period_ = 0.1;
 };
 

@@ -122,6 +122,12 @@ class VislamEstimator {
   double trackVarianceFactor() const { return updater_.trackCorrelation().varianceFactor(); }
   /// Where the twist travels in its own frame (yaw, pitch from x; TravelDirectionEstimator).
   const TravelDirectionEstimator& travelDirection() const { return propagator_.travelDirection(); }
+  /// The twist's noise densities in use (m/s/sqrt(Hz), rad/s/sqrt(Hz): estimated online once
+  /// ready, else configured), its mean forward speed (m/s) and the samples that speed covers.
+  double linearNoiseDensity() const { return propagator_.linearNoiseDensity(); }
+  double angularNoiseDensity() const { return propagator_.angularNoiseDensity(); }
+  double meanTwistSpeed() const { return propagator_.meanSpeed(); }
+  size_t twistSpeedSamples() const { return propagator_.speedSamples(); }
 
   /// Every landmark ever initialized (active ones carry their current estimate).
   const std::vector<LandmarkEstimate>& landmarks() const { return landmarks_.map(); }

@@ -112,6 +112,7 @@ class VislamRos {
     std::string disagreement;  ///< many observations gated in the last period
     std::string travel;        ///< the twist travels off its x axis
     std::string tilt;          ///< the road tilt left its prior
+    std::string slow;          ///< a noisy angular velocity on a slow drive
   };
   /// The hints of this period, each warned (throttled) in the log.
   DiagnosticHints collectHints(const EstimatorStats& stats, double dt);

@@ -25,7 +25,7 @@ import rosgraph
 import rospkg
 import rospy
 import rostest
-from diagnostic_msgs.msg import DiagnosticArray
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import TwistStamped
 from nav_msgs.msg import Odometry, Path
 from std_srvs.srv import Trigger
@@ -249,6 +249,26 @@ class EstimatorStatusCollector:
     @classmethod
     def values(cls, index):
         return {kv.key: kv.value for kv in cls.statuses[index].values}
+
+    @classmethod
+    def collect_simulated(cls, name, seed, frames, *options):
+        """As node `name`_rostest, plays a simulated drive (simulated_bag with `options`, in
+        cls.tmp, removed by tearDownClass) and collects its statuses."""
+        rospy.init_node(name + '_rostest', anonymous=True)
+        cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_' + name + '_')
+        bag = simulated_bag(os.path.join(cls.tmp, 'drive'), seed, frames, *options)
+        cls.play_and_collect(bag, '/' + name + '_player', frames)
+
+    @classmethod
+    def tearDownClass(cls):
+        if getattr(cls, 'tmp', None):
+            shutil.rmtree(cls.tmp, ignore_errors=True)
+
+    def assert_warned(self, text):
+        """Some status said `text`, and every one that did was a WARN."""
+        warned = [s for s in self.statuses if text in s.message]
+        self.assertTrue(warned, [s.message for s in self.statuses])
+        self.assertTrue(all(s.level == DiagnosticStatus.WARN for s in warned))
 
 
 def read_tum(path):

@@ -4,7 +4,6 @@ the node names the swap in /diagnostics (see vislam_feature_geometry.test)."""
 import os
 import subprocess
 import sys
-import tempfile
 import unittest
 
 import numpy as np
@@ -41,10 +40,7 @@ def swapped_bag(prefix):
 class VislamFeatureGeometryTest(EstimatorStatusCollector, unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        rospy.init_node('vislam_feature_geometry_rostest', anonymous=True)
-        cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_geometry_')
-        bag = swapped_bag(os.path.join(cls.tmp, 'drive'))
-        cls.play_and_collect(bag, '/vislam_geometry_player', FRAMES)
+        cls.collect_from('vislam_feature_geometry', FRAMES, swapped_bag)
 
     def test_swapped_features_are_rejected_and_named(self):
         values = self.values(-1)

@@ -251,13 +251,19 @@ class EstimatorStatusCollector:
         return {kv.key: kv.value for kv in cls.statuses[index].values}
 
     @classmethod
-    def collect_simulated(cls, name, seed, frames, *options):
-        """As node `name`_rostest, plays a simulated drive (simulated_bag with `options`, in
-        cls.tmp, removed by tearDownClass) and collects its statuses."""
+    def collect_from(cls, name, frames, make_bag):
+        """As node `name`_rostest, plays the bag make_bag(prefix) writes (prefix in cls.tmp,
+        removed by tearDownClass) and collects its statuses."""
         rospy.init_node(name + '_rostest', anonymous=True)
         cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_' + name + '_')
-        bag = simulated_bag(os.path.join(cls.tmp, 'drive'), seed, frames, *options)
+        bag = make_bag(os.path.join(cls.tmp, 'drive'))
         cls.play_and_collect(bag, '/' + name + '_player', frames)
+
+    @classmethod
+    def collect_simulated(cls, name, seed, frames, *options):
+        """collect_from with a simulated drive (simulated_bag with `options`)."""
+        cls.collect_from(name, frames,
+                         lambda prefix: simulated_bag(prefix, seed, frames, *options))
 
     @classmethod
     def tearDownClass(cls):

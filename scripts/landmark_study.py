@@ -172,7 +172,7 @@ def plot(rows, sequences, path):
     fig.savefig(path, dpi=110)
 
 
-def study_arguments(prog, name, doc):
+def study_arguments(prog, name, doc, seeds_help=None):
     """The parser of a study's common options (data folder, sequences, output folder, seeds,
     options file, jobs, bags kept); the caller adds its own before parsing."""
     parser = argparse.ArgumentParser(prog=prog, description=doc.split('\n')[0])
@@ -181,7 +181,7 @@ def study_arguments(prog, name, doc):
     parser.add_argument('--sequences', nargs='+', metavar='NAME',
                         help='datasets of the data folder (default: every one with ground truth)')
     parser.add_argument('--out', default=os.path.join(HERE, '..', 'results', name))
-    parser.add_argument('--seeds', type=int, nargs='+', default=[1, 2, 3])
+    parser.add_argument('--seeds', type=int, nargs='+', default=[1, 2, 3], help=seeds_help)
     parser.add_argument('--config', default=None, help='options YAML (default: the shipped one)')
     parser.add_argument('--jobs', type=int, default=2)
     parser.add_argument('--keep-bags', action='store_true',

@@ -89,7 +89,8 @@ def summarize(results):
 
 
 def main(argv):
-    parser = study_arguments('section_study.py', 'section_study', __doc__)
+    parser = study_arguments('section_study.py', 'section_study', __doc__,
+                             seeds_help='seeds of the accurate twist (the course twist runs once)')
     parser.add_argument('--sections', type=int, default=4, metavar='N')
     args = parser.parse_args(argv)
     found = study_sequences('section_study.py', args.data, args.sequences)

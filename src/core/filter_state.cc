@@ -51,7 +51,8 @@ void FilterState::setPrior(const StatePrior& prior) {
     const int row = layout_.biasRow() + i;
     sigma_(row, row) = s * s;
   }
-  if (layout_.speed_scale_dim > 0) {
+  const bool scale_in_gains = !(prior.speed_scale_reported_only && layout_.reported_covariance);
+  if (layout_.speed_scale_dim > 0 && scale_in_gains) {
     const int row = layout_.speedScaleRow();
     sigma_(row, row) = prior.speed_scale_sigma * prior.speed_scale_sigma;
   }
@@ -89,7 +90,13 @@ void FilterState::setPrior(const StatePrior& prior) {
       sigma_(row, row) = prior.accel_bias_sigma * prior.accel_bias_sigma;
     }
   }
-  if (layout_.reported_covariance) covariance(1) = sigma_.topLeftCorner(dim_, dim_);
+  if (layout_.reported_covariance) {
+    covariance(1) = sigma_.topLeftCorner(dim_, dim_);
+    if (layout_.speed_scale_dim > 0 && !scale_in_gains) {
+      const int row = layout_.speedScaleRow();
+      sigma_reported_(row, row) = prior.speed_scale_sigma * prior.speed_scale_sigma;
+    }
+  }
   clonePose();
 }
 

@@ -166,6 +166,25 @@ TEST(FilterState, SpeedScaleFollowsTheBiasWithItsPriorAndTakesItsCorrection) {
   EXPECT_EQ(state.speed_scale_error, 0.0);
 }
 
+TEST(FilterState, ACountedSpeedScaleStartsInTheReportedCovarianceAlone) {
+  StateLayout layout;
+  layout.speed_scale_dim = 1;
+  layout.reported_covariance = true;
+  FilterState state(layout);
+  StatePrior prior = testPrior();
+  prior.speed_scale_sigma = 0.01;
+  prior.speed_scale_reported_only = true;
+  state.reset(prior);
+  const int row = layout.speedScaleRow();
+  EXPECT_TRUE(state.covariance(0).row(row).isZero(0.0));  // the gains never see it
+  EXPECT_DOUBLE_EQ(state.covariance(1)(row, row), 1e-4);
+  // Without a reported covariance (dead reckoning) the one covariance carries it.
+  layout.reported_covariance = false;
+  FilterState single(layout);
+  single.reset(prior);
+  EXPECT_DOUBLE_EQ(single.covariance()(row, row), 1e-4);
+}
+
 TEST(FilterState, SetPriorPicksVelocityOrGyroSigmaPerBiasComponent) {
   StateLayout layout;
   layout.bias_components = {0, 4};

@@ -195,7 +195,10 @@ Eigen::VectorXd Propagator::randomWalkVariances(double dt, const StateLayout& la
         layout.bias_components[i] < 3 ? options_->bias.velocity_random_walk
                                       : options_->bias.gyro_random_walk);
   }
-  set(layout.speedScaleRow(), layout.speed_scale_dim, options_->bias.speed_scale_random_walk);
+  // A counted (not estimated) scale is a constant: a random walk would reach the gains too.
+  if (estimatesSpeedScale(*options_)) {
+    set(layout.speedScaleRow(), layout.speed_scale_dim, options_->bias.speed_scale_random_walk);
+  }
   set(layout.rotationRow(), layout.rotation_dim, options_->extrinsic.twist_rotation_random_walk);
   set(layout.disparityRow(), layout.disparity_dim,
       options_->intrinsic.disparity_offset_random_walk);

@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 
+#include <algorithm>
 #include <map>
 #include <utility>
 #include <vector>
@@ -173,12 +174,14 @@ UpdateOutcome update(FilterState* state, const std::vector<SparseJacobian>& jaco
   S.selfadjointView<Eigen::Lower>().rankUpdate(B.transpose(), -1.0);
   mirrorLowerTriangle(S);
   state->applyCorrection(dx, correct_pose);
-  // Guard: the diagonal must stay positive.
+  // Guard: the diagonal must stay positive. A row that is exactly zero is a variable no update
+  // may move (a counted speed scale in the gains' covariance): nothing to repair there.
   for (int which = 0; which < state->covarianceCount(); ++which) {
     auto C = state->covariance(which);
-    if (!(C.diagonal().array() > 0.0).all()) {
+    for (Eigen::Index i = 0; i < C.rows(); ++i) {
+      if (C(i, i) > 0.0 || C.row(i).isZero(0.0)) continue;
       outcome.covariance_repaired = true;
-      C.diagonal() = C.diagonal().cwiseMax(1e-12);
+      C(i, i) = std::max(C(i, i), 1e-12);
     }
   }
   return outcome;

@@ -25,8 +25,7 @@ StateLayout layoutFor(const VislamOptions& options) {
   if (options.bias.estimate_gyro_bias) {
     layout.bias_components.insert(layout.bias_components.end(), {3, 4, 5});
   }
-  layout.speed_scale_dim =
-      options.bias.estimate_speed_scale && options.mode == EstimatorMode::kSlam ? 1 : 0;
+  layout.speed_scale_dim = estimatesSpeedScale(options) || countsSpeedScale(options) ? 1 : 0;
   layout.rotation_dim = options.extrinsic.estimate_twist_rotation ? 3 : 0;
   layout.disparity_dim = options.intrinsic.estimate_disparity_offset ? 1 : 0;
   layout.scale_dim = options.intrinsic.estimate_baseline_scale ? 1 : 0;
@@ -79,7 +78,9 @@ StatePrior VislamEstimator::prior() const {
   prior.rotation_sigma = o.prior.rotation_sigma;
   prior.velocity_bias_sigma = o.bias.velocity_prior_sigma;
   prior.gyro_bias_sigma = o.bias.gyro_prior_sigma;
-  prior.speed_scale_sigma = o.bias.speed_scale_prior_sigma;
+  prior.speed_scale_reported_only = !estimatesSpeedScale(o);
+  prior.speed_scale_sigma = prior.speed_scale_reported_only ? o.noise.twist_speed_scale_sigma
+                                                            : o.bias.speed_scale_prior_sigma;
   prior.twist_rotation_sigma = o.extrinsic.twist_rotation_prior_sigma;
   prior.disparity_offset_sigma = o.intrinsic.disparity_offset_prior_sigma;
   prior.baseline_scale_sigma = o.intrinsic.baseline_scale_prior_sigma;

@@ -76,6 +76,9 @@ struct StatePrior {
   double velocity_bias_sigma = 0.0;
   double gyro_bias_sigma = 0.0;
   double speed_scale_sigma = 0.0;  ///< relative
+  /// The speed scale is not estimated, only counted: with a reported covariance its prior goes
+  /// there alone (the gains' covariance, and so the estimate, never see it).
+  bool speed_scale_reported_only = false;
   double twist_rotation_sigma = 0.0;
   double disparity_offset_sigma = 0.0;
   double baseline_scale_sigma = 0.0;

@@ -51,9 +51,11 @@ std::string sparseObservationsHint(EstimatorMode mode, uint64_t observations_upd
 /// again and again along their inverse-depth lines, which pushes them out a little each time,
 /// and the reported covariance does not know it. Measured on simulated 1000-frame drives at 10
 /// Hz (doc/experiments.md, 2-3 seeds each, position NEES where 3 is consistent): 0.05 rad/s per
-/// sample (0.016 rad/s/sqrt(Hz), the course files' gyro noise) gave 9.18-17.64 at 0.5-1.5 m/s
-/// whatever the linear noise (0.05-0.5 m/s), 5.74-7.75 at 1.5-3 m/s and 1.50-3.70 at 3-6 m/s;
-/// 0.02 rad/s per sample (0.0063 rad/s/sqrt(Hz)) or less gave 0.49-1.54 at 0.5-3 m/s. The mean
+/// sample (0.016 rad/s/sqrt(Hz), the course files' gyro noise) gave 5.68-17.62 at 0.5-1.5 m/s
+/// with 0.1-0.5 m/s of linear noise (2.34-2.35 with 0.05: the counted speed error,
+/// noise/twist_speed_scale_sigma, covers that one, so the hint errs on the side of caution
+/// there), 5.63-7.61 at 1.5-3 m/s and 1.32-3.08 at 3-6 m/s; 0.02 rad/s per sample (0.0063
+/// rad/s/sqrt(Hz)) or less gave 0.46-1.24 at 0.5-3 m/s. The mean
 /// speed is the run's so far (long stops lower it). Empty otherwise.
 constexpr double kSlowDriveSpeed = 3.0;            ///< m/s
 constexpr double kSlowDriveAngularDensity = 0.01;  ///< rad/s/sqrt(Hz)

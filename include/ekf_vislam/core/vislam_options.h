@@ -71,6 +71,10 @@ struct NoiseOptions {
   /// (track_correlation_estimator.h), and the reported covariance (not the gains) takes the
   /// observation noise pixel_sigma^2 (1 + rho) / (1 - rho) (state_helper::update).
   bool report_track_correlation = true;
+  /// Relative sigma of a constant error of the twist's speed (a wheel radius), counted where the
+  /// speed scale is not estimated (countsSpeedScale): the reported covariance takes in the pose
+  /// error it would cause, the estimate does not change. 0: not counted.
+  double twist_speed_scale_sigma = 0.01;
   int track_correlation_window = 2000;  ///< residual pairs the estimate covers
   double track_correlation_max = 0.98;  ///< cap of the estimate (variance factor <= 99)
 };
@@ -250,6 +254,22 @@ struct VislamOptions {
 /// twist alone, mapping keeps the dead-reckoned poses).
 inline bool usesAccelerometer(const VislamOptions& options) {
   return options.gravity.enabled && options.mode == EstimatorMode::kSlam;
+}
+
+/// Whether the twist's speed scale is a state the updates estimate (bias/estimate_speed_scale, SLAM
+/// mode: seen through the stereo depths).
+inline bool estimatesSpeedScale(const VislamOptions& options) {
+  return options.bias.estimate_speed_scale && options.mode == EstimatorMode::kSlam;
+}
+
+/// Whether it is only counted (noise/twist_speed_scale_sigma > 0, not estimated): a row no update
+/// moves, carried in the reported covariance (in dead reckoning's only one, which no update
+/// touches), so that the reported pose takes in the speed error the filter does not correct (a
+/// consider parameter); the estimate does not change. Without a reported covariance the gains
+/// would estimate it: not counted there.
+inline bool countsSpeedScale(const VislamOptions& options) {
+  return !estimatesSpeedScale(options) && options.noise.twist_speed_scale_sigma > 0.0 &&
+         (options.noise.report_track_correlation || options.mode == EstimatorMode::kDeadReckoning);
 }
 
 /// Fills `options` from `source`: absent keys keep their current values; unknown enum names or

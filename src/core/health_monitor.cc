@@ -93,8 +93,7 @@ std::string slowDriveHint(EstimatorMode mode, double mean_speed, double angular_
        << " m/s): on such drives the reported covariance has been several times "
           "too small (simulated at 0.5-3 m/s with 0.016 rad/s/sqrt(Hz) and 0.1-0.5 m/s of linear "
           "noise: position NEES 5.6-17.6, where 3 is consistent; at 0.006 or less it was not). "
-          "Take the angular velocity from a "
-          "gyro (an IMU: the twist combiner) where you can";
+          "Take the angular velocity from a gyro (an IMU: the twist combiner) where you can";
   return text.str();
 }
 

@@ -36,8 +36,7 @@ StateLayout layoutFor(const VislamOptions& options) {
   const bool clone = options.limits.repeated_frames == RepeatedFramePolicy::kShift ||
                      options.noise.pixel_correlation > 0.0;
   layout.clone_dim = clone && options.mode == EstimatorMode::kSlam ? StateLayout::kPoseDim : 0;
-  layout.reported_covariance =
-      options.noise.report_track_correlation && options.mode != EstimatorMode::kDeadReckoning;
+  layout.reported_covariance = carriesReportedCovariance(options);
   layout.tilt_dim =
       options.vehicle.tilt_sigma > 0.0 && options.mode == EstimatorMode::kSlam ? 2 : 0;
   return layout;

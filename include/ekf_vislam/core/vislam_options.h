@@ -256,6 +256,12 @@ inline bool usesAccelerometer(const VislamOptions& options) {
   return options.gravity.enabled && options.mode == EstimatorMode::kSlam;
 }
 
+/// Whether the filter carries a second covariance, the one it reports, beside the gains' one
+/// (noise/report_track_correlation; dead reckoning has no update and carries one).
+inline bool carriesReportedCovariance(const VislamOptions& options) {
+  return options.noise.report_track_correlation && options.mode != EstimatorMode::kDeadReckoning;
+}
+
 /// Whether the twist's speed scale is a state the updates estimate (bias/estimate_speed_scale, SLAM
 /// mode: seen through the stereo depths).
 inline bool estimatesSpeedScale(const VislamOptions& options) {
@@ -269,7 +275,7 @@ inline bool estimatesSpeedScale(const VislamOptions& options) {
 /// would estimate it: not counted there.
 inline bool countsSpeedScale(const VislamOptions& options) {
   return !estimatesSpeedScale(options) && options.noise.twist_speed_scale_sigma > 0.0 &&
-         (options.noise.report_track_correlation || options.mode == EstimatorMode::kDeadReckoning);
+         (carriesReportedCovariance(options) || options.mode == EstimatorMode::kDeadReckoning);
 }
 
 /// Fills `options` from `source`: absent keys keep their current values; unknown enum names or

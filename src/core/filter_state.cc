@@ -4,6 +4,7 @@
 #include "ekf_vislam/core/se3.h"
 
 #include <algorithm>
+#include <cmath>
 #include <optional>
 
 namespace ekf_vislam {
@@ -388,6 +389,16 @@ Eigen::MatrixXd FilterState::auxCovariance(int which) const {
   // The auxiliary rows of D are zero: only the random walks reach this block.
   if (deferred_.steps > 0 && aux > 0) block.diagonal() += deferred_.random_walk_sum;
   return block;
+}
+
+void FilterState::setConsiderSigma(int row, double sigma) {
+  auto P = covariance(covarianceCount() - 1);
+  const double variance = P(row, row);
+  if (!(variance > 0.0) || !(sigma > 0.0)) return;
+  // The row's part of P is variance [b; 1] [b; 1]^T = c c^T / variance with c its column: it
+  // scales by (sigma^2 / variance), the rest stays.
+  const Eigen::VectorXd column = P.col(row);
+  P.noalias() += ((sigma * sigma - variance) / (variance * variance)) * column * column.transpose();
 }
 
 void FilterState::propagateRoadTiltCovariance(double f, double variance) {

@@ -1,6 +1,7 @@
 #include "ekf_vislam/core/health_monitor.h"
 
 #include <cmath>
+#include <iomanip>
 #include <sstream>
 
 namespace ekf_vislam {
@@ -94,6 +95,22 @@ std::string slowDriveHint(EstimatorMode mode, double mean_speed, double angular_
           "too small (simulated at 0.5-3 m/s with 0.016 rad/s/sqrt(Hz) and 0.1-0.5 m/s of linear "
           "noise: position NEES 5.6-17.6, where 3 is consistent; at 0.006 or less it was not). "
           "Take the angular velocity from a gyro (an IMU: the twist combiner) where you can";
+  return text.str();
+}
+
+std::string speedErrorHint(double shown_scale, double counted_sigma, double configured_sigma) {
+  if (!(configured_sigma > 0.0) || !(counted_sigma > configured_sigma * 1.001)) return "";
+  std::ostringstream text;
+  text << std::fixed;
+  text.precision(2);
+  text << "the camera's observations read the twist's speed "
+       << std::abs(1.0 / shown_scale - 1.0) * 100.0 << " % too "
+       << (shown_scale < 1.0 ? "high" : "low") << " (true over measured " << std::setprecision(4)
+       << shown_scale << "), more than noise/twist_speed_scale_sigma (" << std::setprecision(2)
+       << configured_sigma * 100.0 << " %): the reported covariance counts "
+       << counted_sigma * 100.0
+       << " %, the estimate is not corrected. Calibrate the odometry's scale (a wheel radius), or "
+          "let the filter estimate it (bias/estimate_speed_scale: true)";
   return text.str();
 }
 

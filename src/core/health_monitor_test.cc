@@ -163,5 +163,14 @@ TEST(FeatureGeometryHint, NamesRowsApartOrSwappedImages) {
   EXPECT_EQ(featureGeometryHint(500, 0, 1000), "");
 }
 
+TEST(HealthMonitor, SpeedErrorHintWhenTheCountedErrorGrewBeyondTheConfiguredOne) {
+  EXPECT_EQ(speedErrorHint(0.9709, 0.01, 0.01), "");  // not grown
+  EXPECT_EQ(speedErrorHint(0.9709, 0.03, 0.0), "");   // not counted
+  const std::string hint = speedErrorHint(0.9709, 0.0275, 0.01);
+  EXPECT_NE(hint.find("3.00 % too high"), std::string::npos) << hint;
+  EXPECT_NE(hint.find("counts 2.75 %"), std::string::npos) << hint;
+  EXPECT_NE(speedErrorHint(1.0225, 0.0205, 0.01).find("too low"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace ekf_vislam

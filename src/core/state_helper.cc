@@ -108,9 +108,8 @@ void mirrorLowerTriangle(Eigen::Block<Eigen::MatrixXd> P) {
 /// The reported covariance after an update with the gain K of the other one (Joseph form):
 /// P <- (I - K H) P (I - K H)^T + K R K^T = P + K C^T + C K^T with C = K S / 2 - P H^T and
 /// S = H P H^T + R: the covariance of that gain's error when the noise is R = noise_var I.
-void updateReported(const ArrangedJacobian& jacobian, const Eigen::MatrixXd& K, double noise_var,
-                    Eigen::Block<Eigen::MatrixXd> P) {
-  const Eigen::MatrixXd PHt = covarianceTimesHt(jacobian, P);
+void updateReported(const ArrangedJacobian& jacobian, const Eigen::MatrixXd& K,
+                    const Eigen::MatrixXd& PHt, double noise_var, Eigen::Block<Eigen::MatrixXd> P) {
   const Eigen::MatrixXd C = 0.5 * K * innovationCovariance(jacobian, PHt, noise_var) - PHt;
   // K C^T + C K^T as one product and its transpose: exactly symmetric, and a general product
   // runs faster than the two symmetric rank-m updates of the same flop count.
@@ -147,7 +146,7 @@ double mahalanobis2(const FilterState& state, const SparseJacobian& jacobian,
 
 UpdateOutcome update(FilterState* state, const std::vector<SparseJacobian>& jacobians,
                      const Eigen::VectorXd& residual, double noise_var, bool correct_pose,
-                     double reported_noise_var) {
+                     double reported_noise_var, int consider_row) {
   UpdateOutcome outcome;
   auto S = state->covariance();
   const ArrangedJacobian arranged = arrange(jacobians);
@@ -168,8 +167,19 @@ UpdateOutcome update(FilterState* state, const std::vector<SparseJacobian>& jaco
   if (state->covarianceCount() > 1) {
     // K^T = S^-1 (P H^T)^T = L^-T B.
     const Eigen::MatrixXd K = llt.matrixU().solve(B).transpose();
-    updateReported(arranged, K, reported_noise_var < 0.0 ? noise_var : reported_noise_var,
-                   state->covariance(1));
+    auto reported = state->covariance(1);
+    const Eigen::MatrixXd reported_PHt = covarianceTimesHt(arranged, reported);
+    const double consider_var = consider_row >= 0 ? reported(consider_row, consider_row) : 0.0;
+    if (consider_var > 0.0) {
+      // g = H P[:, row] / P(row, row): the row of P H^T (P symmetric), scaled.
+      const Eigen::VectorXd u =
+          llt.matrixL().solve(Eigen::VectorXd(reported_PHt.row(consider_row).transpose())) /
+          consider_var;
+      outcome.consider_score = u.dot(w);
+      outcome.consider_information = u.squaredNorm();
+    }
+    updateReported(arranged, K, reported_PHt,
+                   reported_noise_var < 0.0 ? noise_var : reported_noise_var, reported);
   }
   S.selfadjointView<Eigen::Lower>().rankUpdate(B.transpose(), -1.0);
   mirrorLowerTriangle(S);

@@ -7,6 +7,7 @@
 
 #include <Eigen/Dense>
 
+#include <cmath>
 #include <limits>
 #include <random>
 #include <vector>
@@ -38,17 +39,23 @@ FilterState makeState(std::mt19937* rng) {
 }
 
 // makeState's layout with a reported covariance beside the gains' one (another random SPD).
-FilterState makeReportingState(std::mt19937* rng) {
-  StateLayout layout;
-  layout.bias_components = {5};
+// A state of this layout (with the disparity offset) and three landmarks at random places.
+FilterState withThreeLandmarks(StateLayout layout, std::mt19937* rng) {
   layout.disparity_dim = 1;
-  layout.reported_covariance = true;
   FilterState state(layout);
   state.reset(StatePrior());
   for (int k = 0; k < 3; ++k) {
     state.appendLandmark(10.0 * Eigen::Vector3d(randomMatrix(3, 1, rng)),
                          Eigen::MatrixXd::Zero(3, state.dim()), Eigen::Matrix3d::Identity());
   }
+  return state;
+}
+
+FilterState makeReportingState(std::mt19937* rng) {
+  StateLayout layout;
+  layout.bias_components = {5};
+  layout.reported_covariance = true;
+  FilterState state = withThreeLandmarks(layout, rng);
   state.covariance(0) = randomCovariance(state.dim(), rng);
   state.covariance(1) = randomCovariance(state.dim(), rng);
   return state;
@@ -257,6 +264,82 @@ TEST(StateHelper, UpdateRefusesANonPositiveDefiniteInnovationAndChangesNothing) 
   EXPECT_EQ(state_helper::update(&state, jacobians, residual, -1e3, true).status,
             UpdateStatus::kNotPositiveDefinite);
   expectStateUnchanged(state, before);
+}
+
+// Pose, a counted speed scale, the disparity offset and three landmarks (18 rows). The gains'
+// covariance is random with the scale's row zero; the reported one is A + sigma^2 [b; 1] [b; 1]^T
+// (A random with the scale's row zero): the state's error a + b c with c the scale's error.
+struct ConsiderStates {
+  FilterState state;
+  Eigen::VectorXd b;  ///< sensitivity, zero in the scale's row
+};
+ConsiderStates makeConsiderState(double sigma, std::mt19937* rng) {
+  StateLayout layout;
+  layout.speed_scale_dim = 1;
+  layout.reported_covariance = true;
+  FilterState state = withThreeLandmarks(layout, rng);
+  const int row = state.layout().speedScaleRow();
+  Eigen::MatrixXd gains = randomCovariance(state.dim(), rng);
+  gains.row(row).setZero();
+  gains.col(row).setZero();
+  Eigen::MatrixXd a = randomCovariance(state.dim(), rng);
+  a.row(row).setZero();
+  a.col(row).setZero();
+  Eigen::VectorXd b = 10.0 * randomMatrix(state.dim(), 1, rng);
+  b(row) = 0.0;
+  Eigen::VectorXd with_scale = b;
+  with_scale(row) = 1.0;
+  state.covariance(0) = gains;
+  state.covariance(1) = a + sigma * sigma * with_scale * with_scale.transpose();
+  return {state, b};
+}
+
+TEST(StateHelper, ConsiderEvidenceReadsAnInnovationAlongTheSensitivity) {
+  std::mt19937 rng(31);
+  ConsiderStates s = makeConsiderState(0.01, &rng);
+  const int row = s.state.layout().speedScaleRow();
+  const std::vector<SparseJacobian> jacobians = twoObservations(s.state.layout(), &rng);
+  const Eigen::MatrixXd H = denseJacobian(jacobians, s.state.dim());
+  // An innovation that is the scale's error of -0.029 alone: the evidence reads it exactly.
+  const double c = -0.029;
+  const UpdateOutcome outcome =
+      state_helper::update(&s.state, jacobians, H * s.b * c, 0.5, false, 2.0, row);
+  ASSERT_EQ(outcome.status, UpdateStatus::kApplied);
+  EXPECT_NEAR(outcome.consider_score / outcome.consider_information, c, 1e-12);
+  // information = g^T S^-1 g with g = H b, S of the gains' covariance.
+  ConsiderStates again = makeConsiderState(0.01, &(rng = std::mt19937(31)));
+  const Eigen::MatrixXd S = H * again.state.covariance(0) * H.transpose() +
+                            0.5 * Eigen::MatrixXd::Identity(H.rows(), H.rows());
+  const Eigen::VectorXd g = H * again.b;
+  EXPECT_NEAR(outcome.consider_information, g.dot(S.ldlt().solve(g)),
+              1e-9 * outcome.consider_information);
+  // Without a consider row: no evidence.
+  EXPECT_EQ(
+      state_helper::update(&s.state, jacobians, H * s.b * c, 0.5, false, 2.0).consider_information,
+      0.0);
+}
+
+TEST(StateHelper, SetConsiderSigmaEqualsThePriorOfThatSigma) {
+  // The same updates from a 1 % and a 3 % prior of the counted scale; the first then set to 3 %:
+  // the two reported covariances agree (and the gains' ones never differed).
+  std::mt19937 rng_a(41), rng_b(41);
+  ConsiderStates a = makeConsiderState(0.01, &rng_a);
+  ConsiderStates b = makeConsiderState(0.03, &rng_b);
+  std::mt19937 rng(42);
+  for (int k = 0; k < 3; ++k) {
+    const std::vector<SparseJacobian> jacobians = twoObservations(a.state.layout(), &rng);
+    const Eigen::VectorXd residual = randomMatrix(6, 1, &rng);
+    ASSERT_EQ(state_helper::update(&a.state, jacobians, residual, 0.5, true, 3.0).status,
+              UpdateStatus::kApplied);
+    ASSERT_EQ(state_helper::update(&b.state, jacobians, residual, 0.5, true, 3.0).status,
+              UpdateStatus::kApplied);
+  }
+  const int row = a.state.layout().speedScaleRow();
+  a.state.setConsiderSigma(row, 0.03);
+  const Eigen::MatrixXd expected = b.state.covariance(1);
+  EXPECT_LT((Eigen::MatrixXd(a.state.covariance(1)) - expected).norm(), 1e-9 * expected.norm());
+  EXPECT_TRUE(Eigen::MatrixXd(a.state.covariance(0)) == Eigen::MatrixXd(b.state.covariance(0)));
+  EXPECT_NEAR(std::sqrt(a.state.covariance(1)(row, row)), 0.03, 1e-15);
 }
 
 TEST(StateHelper, ReportedCovarianceFollowsTheGainsOfTheOtherInJosephForm) {

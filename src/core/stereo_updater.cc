@@ -185,7 +185,7 @@ StereoUpdateOutcome StereoUpdater::update(std::vector<StereoCandidate>* candidat
   for (StereoCandidate& c : *candidates) {
     if (c.predicted && decide(&c, landmarks, &outcome, stats, result)) accepted.push_back(&c);
   }
-  if (!accepted.empty() && stackedUpdate(accepted, state, landmarks, stats, result)) {
+  if (!accepted.empty() && stackedUpdate(accepted, state, &outcome, landmarks, stats, result)) {
     if (state->layout().scale_dim > 0) {
       *camera = scaledStereoCamera(nominal, state->baseline_scale_error);
     }
@@ -257,8 +257,8 @@ bool StereoUpdater::decide(StereoCandidate* c, LandmarkManager* landmarks,
 }
 
 bool StereoUpdater::stackedUpdate(const std::vector<StereoCandidate*>& accepted, FilterState* state,
-                                  LandmarkManager* landmarks, EstimatorStats* stats,
-                                  FeedResult* result) const {
+                                  StereoUpdateOutcome* outcome, LandmarkManager* landmarks,
+                                  EstimatorStats* stats, FeedResult* result) const {
   const int r = rows_per_observation_;
   const int n = static_cast<int>(accepted.size());
   std::vector<SparseJacobian> jacobians;
@@ -269,23 +269,26 @@ bool StereoUpdater::stackedUpdate(const std::vector<StereoCandidate*>& accepted,
     residual.segment(static_cast<Eigen::Index>(k) * r, r) = accepted[k]->residual;
   }
   const double pixel_var = options_->noise.pixel_sigma * options_->noise.pixel_sigma;
-  const UpdateOutcome outcome = state_helper::update(
+  const int consider_row = countsSpeedScale(*options_) ? state->layout().speedScaleRow() : -1;
+  const UpdateOutcome update = state_helper::update(
       state, jacobians, residual, pixel_var, options_->mode == EstimatorMode::kSlam,
-      pixel_var * track_correlation_.varianceFactor());
-  if (outcome.status == UpdateStatus::kNotPositiveDefinite) {
+      pixel_var * track_correlation_.varianceFactor(), consider_row);
+  if (update.status == UpdateStatus::kNotPositiveDefinite) {
     stats->increment(Counter::kUpdateNonFinite);
     result->message = "innovation covariance not positive definite: update skipped";
     return false;
   }
-  if (outcome.status == UpdateStatus::kNonFinite) {
+  if (update.status == UpdateStatus::kNonFinite) {
     stats->increment(Counter::kUpdateNonFinite);
     result->message = "update produced non-finite numbers: discarded";
     return false;
   }
+  outcome->speed_scale_score = update.consider_score;
+  outcome->speed_scale_information = update.consider_information;
   for (const StereoCandidate* c : accepted) ++landmarks->mapEntry(c->landmark).observations;
   stats->increment(Counter::kObservationUpdate, n);
   result->observations_updated += n;
-  if (outcome.covariance_repaired) stats->increment(Counter::kCovarianceRepaired);
+  if (update.covariance_repaired) stats->increment(Counter::kCovarianceRepaired);
   return true;
 }
 

@@ -16,6 +16,12 @@ namespace {
 
 // s: a longer time between processed frames drifts the landmarks as this long.
 constexpr double kMaxDriftInterval = 1.0;
+// The speed error the observations show (noise/count_observed_speed_error) is read once its white
+// sigma is this fraction of the configured one or less, counted less kShownSpeedErrorSigmas of
+// them, and raised when it exceeds the counted one by more than kSpeedSigmaTolerance.
+constexpr double kShownSpeedEvidence = 0.25;
+constexpr double kShownSpeedErrorSigmas = 2.0;
+constexpr double kSpeedSigmaTolerance = 0.01;
 
 StateLayout layoutFor(const VislamOptions& options) {
   StateLayout layout;
@@ -115,6 +121,7 @@ void VislamEstimator::initializeState() {
   if (has_calibration_) camera_ = scaledStereoCamera(nominal_calibration_, 0.0);
   landmarks_.clear();
   health_.reset();
+  speed_monitor_.clear();
 }
 
 void VislamEstimator::reset() { initializeState(); }
@@ -396,6 +403,8 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result
     outcome = updater_.update(&updates, consumeJumpTest(), nominal_calibration_, &camera_, &state_,
                               &landmarks_, &stats_, result);
     landmarks_.apply(outcome.leaving, &state_, &stats_, result);
+    speed_monitor_.add(outcome.speed_scale_score, outcome.speed_scale_information);
+    countObservedSpeedError();
   }
   // Tracks through the last repeated frame have been seen from the clone: from now on they
   // report their landmark moved by the clone-to-now motion.
@@ -412,6 +421,24 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result
   // The previous frame's pose for the next frame's differenced observations.
   if (options_->noise.pixel_correlation > 0.0) state_.clonePose();
   checkHealth(static_cast<int>(updates.size()), outcome.disagreeing, result);
+}
+
+void VislamEstimator::countObservedSpeedError() {
+  const VislamOptions& o = *options_;
+  if (!o.noise.count_observed_speed_error || o.mode != EstimatorMode::kSlam ||
+      !countsSpeedScale(o)) {
+    return;
+  }
+  // Only once the evidence is fine enough, and only ever up: real tracks, correlated from frame
+  // to frame, scatter the early estimate by several of its white sigmas.
+  const double configured = o.noise.twist_speed_scale_sigma;
+  if (!(speed_monitor_.whiteSigma() <= kShownSpeedEvidence * configured)) return;
+  const double shown =
+      std::abs(speed_monitor_.scaleError()) - kShownSpeedErrorSigmas * speed_monitor_.whiteSigma();
+  const double counted = twistSpeedScaleSigma();
+  if (shown > (1.0 + kSpeedSigmaTolerance) * counted) {
+    state_.setConsiderSigma(state_.layout().speedScaleRow(), shown);
+  }
 }
 
 // ---------------------------------------------------------------------------------------------

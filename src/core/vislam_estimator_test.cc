@@ -896,6 +896,7 @@ TEST(VislamEstimator, ACountedSpeedScaleWidensTheReportedCovarianceAlone) {
   // covariance take in the drift the filter does not correct.
   VislamOptions counted;
   const Scenario s = driveWithScaledSpeed(1.03, &counted);
+  counted.noise.count_observed_speed_error = false;  // the configured sigma alone
   VislamOptions uncounted = counted;
   counted.noise.twist_speed_scale_sigma = 0.03;
   uncounted.noise.twist_speed_scale_sigma = 0.0;
@@ -915,6 +916,32 @@ TEST(VislamEstimator, ACountedSpeedScaleWidensTheReportedCovarianceAlone) {
   EXPECT_GT(b.mean_nees, 4.0 * a.mean_nees);
   EXPECT_EQ(a.twist_speed_scale, 1.0);  // never updated
   EXPECT_NEAR(a.twist_speed_scale_sigma, 0.03, 1e-12);
+}
+
+TEST(VislamEstimator, TheCountedSpeedErrorGrowsToTheOneTheObservationsShow) {
+  // The speed 3 % high, 1 % counted: the observations' innovations, projected on the scale's
+  // sensitivity, read the error (SpeedErrorMonitor), and the counted sigma grows to it
+  // (noise/count_observed_speed_error); the estimate stays the same. At the right speed it
+  // stays at 1 %.
+  VislamOptions observed;
+  const Scenario fast = driveWithScaledSpeed(1.03, &observed);
+  VislamOptions configured = observed;
+  configured.noise.count_observed_speed_error = false;
+  ASSERT_TRUE(observed.noise.count_observed_speed_error);  // the default
+  const RunResult a = run(fast, observed), b = run(fast, configured);
+  const RunResult right = run(driveWithScaledSpeed(1.0, &observed), observed);
+  std::printf(
+      "twist speed 3 %% high, 1 %% counted: sigma %.5f, pose NEES %.2f (%.2f with the configured "
+      "sigma alone); right speed: sigma %.5f\n",
+      a.twist_speed_scale_sigma, a.mean_nees, b.mean_nees, right.twist_speed_scale_sigma);
+  EXPECT_GT(a.twist_speed_scale_sigma, 0.02);  // true scale 1 / 1.03 - 1 = -0.0291
+  EXPECT_LT(a.twist_speed_scale_sigma, 0.035);
+  EXPECT_LT(a.mean_nees, 0.8 * b.mean_nees);
+  EXPECT_DOUBLE_EQ(b.twist_speed_scale_sigma, 0.01);
+  EXPECT_DOUBLE_EQ(right.twist_speed_scale_sigma, 0.01);
+  for (size_t k = 0; k < a.world_T_imu.size(); ++k) {
+    EXPECT_LT((a.world_T_imu[k] - b.world_T_imu[k]).norm(), 1e-9) << "frame " << k;
+  }
 }
 
 // One scenario under two filter options a and b, and dead reckoning (b's options); prints a line.

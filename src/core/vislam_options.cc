@@ -38,6 +38,7 @@ void visitVislamOptions(Options& o, Visitor& v) {
   v.integer("noise/twist_noise_min_samples", noise.twist_noise_min_samples, Bound::kAtLeastOne);
   v.flag("noise/report_track_correlation", noise.report_track_correlation);
   v.number("noise/twist_speed_scale_sigma", noise.twist_speed_scale_sigma, Bound::kNonNegative);
+  v.flag("noise/count_observed_speed_error", noise.count_observed_speed_error);
   v.integer("noise/track_correlation_window", noise.track_correlation_window, Bound::kAtLeastOne);
   v.number("noise/track_correlation_max", noise.track_correlation_max, Bound::kOpenUnit);
 

@@ -382,6 +382,8 @@ void printSummary(const EstimatorRunner& runner, const std::string& out_dir) {
       roadTiltHint(estimator.roadTiltDegrees(), options.vehicle),
       slowDriveHint(options.mode, estimator.meanTwistSpeed(), estimator.angularNoiseDensity(),
                     estimator.twistSpeedSamples()),
+      speedErrorHint(1.0 + estimator.speedErrorMonitor().scaleError(),
+                     estimator.twistSpeedScaleSigma(), options.noise.twist_speed_scale_sigma),
       accelerometerHint(stats.get(Counter::kAccelImplausible) + stats.get(Counter::kAccelNonFinite),
                         stats.get(Counter::kAccelUsed)),
       featureGeometryHint(stats.get(Counter::kObsRowMismatch), stats.get(Counter::kObsDisparity),

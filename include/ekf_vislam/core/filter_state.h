@@ -129,6 +129,12 @@ class FilterState {
   /// covariance; commutes with the deferred predictions (D and G have no tilt entries), so none
   /// is applied.
   void propagateRoadTiltCovariance(double f, double variance);
+  /// Sets the standard deviation of a row the reported covariance alone carries (a consider
+  /// row: its gains' row is zero) to `sigma`, as if its prior had been that: the state's error is
+  /// e = a + [b; 1] c (c the row's variable, independent of a), so the covariance is
+  /// A + var(c) [b; 1] [b; 1]^T, and that part scales by sigma^2 / var(c). Exact while every
+  /// operation since the prior was linear in the covariance. Nothing without a positive variance.
+  void setConsiderSigma(int row, double sigma);
   /// The covariance the outputs report: the reported one when carried, else the gains' one.
   Eigen::Block<const Eigen::MatrixXd> reportedCovariance() const {
     return covariance(covarianceCount() - 1);

@@ -63,6 +63,13 @@ constexpr size_t kSlowDriveMinSamples = 300;
 std::string slowDriveHint(EstimatorMode mode, double mean_speed, double angular_density,
                           size_t samples);
 
+/// A hint when the counted speed error grew beyond the configured one
+/// (noise/count_observed_speed_error): the observations show the twist's speed off by more than
+/// noise/twist_speed_scale_sigma, the reported covariance counts it, the estimate is uncorrected.
+/// `shown_scale` is the true speed over the measured one the observations read, `counted_sigma`
+/// the sigma counted now. Empty otherwise.
+std::string speedErrorHint(double shown_scale, double counted_sigma, double configured_sigma);
+
 /// A hint when the road tilt state (vehicle/tilt_sigma, SLAM mode) lies more than
 /// kTiltHintSigmas prior standard deviations from the start's level: either the road is steeper
 /// than the prior allows, or drifting tracks are turning the vehicle's roll and pitch (the

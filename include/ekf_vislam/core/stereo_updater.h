@@ -55,6 +55,10 @@ struct StereoUpdateOutcome {
   std::vector<StereoCandidate> restart_from;
   /// Observations that disagreed with the filter (gated or jumped).
   int disagreeing = 0;
+  /// What the update's innovations say of the counted speed scale (UpdateOutcome's consider_*;
+  /// 0 when it is not counted).
+  double speed_scale_score = 0.0;
+  double speed_scale_information = 0.0;
 };
 
 class StereoUpdater {
@@ -118,7 +122,8 @@ class StereoUpdater {
                                 LandmarkManager* landmarks);
   /// True when the state was corrected.
   bool stackedUpdate(const std::vector<StereoCandidate*>& accepted, FilterState* state,
-                     LandmarkManager* landmarks, EstimatorStats* stats, FeedResult* result) const;
+                     StereoUpdateOutcome* outcome, LandmarkManager* landmarks,
+                     EstimatorStats* stats, FeedResult* result) const;
 
   const VislamOptions* options_;  ///< not owned (the estimator keeps it alive)
   int rows_per_observation_ = 3;

@@ -36,6 +36,7 @@
 #include "ekf_vislam/core/propagator.h"
 #include "ekf_vislam/core/repeated_frame_detector.h"
 #include "ekf_vislam/core/repeated_frame_handler.h"
+#include "ekf_vislam/core/speed_error_monitor.h"
 #include "ekf_vislam/core/stereo_camera.h"
 #include "ekf_vislam/core/stereo_updater.h"
 #include "ekf_vislam/core/types.h"
@@ -93,6 +94,9 @@ class VislamEstimator {
   /// not estimated) and its standard deviation in the reported covariance (0 when not estimated).
   double twistSpeedScale() const { return 1.0 + state_.speed_scale_error; }
   double twistSpeedScaleSigma() const;
+  /// The twist's speed error the camera's observations show where the scale is only counted
+  /// (SpeedErrorMonitor).
+  const SpeedErrorMonitor& speedErrorMonitor() const { return speed_monitor_; }
   /// Estimated rotation from the twist's measurement frame to the IMU frame (identity when not
   /// estimated).
   const Eigen::Matrix3d& twistRotation() const { return state_.imu_R_twist; }
@@ -160,6 +164,9 @@ class VislamEstimator {
   /// The jump test runs unless a twist gap paused it for this frame.
   bool consumeJumpTest();
   void checkHealth(int candidates, int disagreeing, FeedResult* result);
+  /// The counted speed error follows the one the observations show
+  /// (noise/count_observed_speed_error).
+  void countObservedSpeedError();
   void resetToPrior();
   StatePrior prior() const;
   // The largest position sigma of the linear world-axes covariance (the health check's).
@@ -179,6 +186,7 @@ class VislamEstimator {
   LandmarkManager landmarks_;
   RepeatedFrameHandler repeated_handler_;
   HealthMonitor health_;
+  SpeedErrorMonitor speed_monitor_;
   RepeatedFrameDetector repeated_frames_;
 
   StereoCalibration nominal_calibration_;

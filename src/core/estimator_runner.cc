@@ -262,9 +262,8 @@ RunSummary EstimatorRunner::summary() const {
   s.extra["baseline_scale"] = estimator_.baselineScale();
   s.extra["twist_speed_scale"] = estimator_.twistSpeedScale();
   s.extra["twist_speed_scale_sigma"] = estimator_.twistSpeedScaleSigma();
-  const SpeedErrorMonitor& speed_monitor = estimator_.speedErrorMonitor();
-  s.extra["twist_speed_scale_shown"] = 1.0 + speed_monitor.scaleError();
-  s.extra["twist_speed_scale_shown_white_sigma"] = speed_monitor.whiteSigma();
+  s.extra["twist_speed_scale_shown"] = estimator_.twistSpeedScaleShown();
+  s.extra["twist_speed_scale_shown_white_sigma"] = estimator_.speedErrorMonitor().whiteSigma();
   s.extra["track_correlation"] = estimator_.trackCorrelation();
   s.extra["track_variance_factor"] = estimator_.trackVarianceFactor();
   // The twist's noise densities in use (m/s/sqrt(Hz), rad/s/sqrt(Hz)) and its mean forward speed.

@@ -929,7 +929,9 @@ TEST(VislamEstimator, TheCountedSpeedErrorGrowsToTheOneTheObservationsShow) {
   configured.noise.count_observed_speed_error = false;
   ASSERT_TRUE(observed.noise.count_observed_speed_error);  // the default
   const RunResult a = run(fast, observed), b = run(fast, configured);
-  const RunResult right = run(driveWithScaledSpeed(1.0, &observed), observed);
+  VislamOptions right_options;
+  const Scenario right_speed = driveWithScaledSpeed(1.0, &right_options);
+  const RunResult right = run(right_speed, right_options);
   std::printf(
       "twist speed 3 %% high, 1 %% counted: sigma %.5f, pose NEES %.2f (%.2f with the configured "
       "sigma alone); right speed: sigma %.5f\n",

@@ -49,8 +49,8 @@ VislamRos::DiagnosticHints VislamRos::collectHints(const EstimatorStats& stats, 
                              estimator.angularNoiseDensity(), estimator.twistSpeedSamples());
   if (!hints.slow.empty()) ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), hints.slow.c_str());
   const std::string speed =
-      speedErrorHint(1.0 + estimator.speedErrorMonitor().scaleError(),
-                     estimator.twistSpeedScaleSigma(), options_.noise.twist_speed_scale_sigma);
+      speedErrorHint(estimator.twistSpeedScaleShown(), estimator.twistSpeedScaleSigma(),
+                     options_.noise.twist_speed_scale_sigma);
   if (!speed.empty()) ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), speed.c_str());
   updateObservationRate(stats);
   updateFeatureGeometry(stats);
@@ -140,7 +140,7 @@ void VislamRos::addDiagnosticValues(double twist_rate, double feature_rate,
   status.add("baseline_scale", estimator.baselineScale());
   status.add("twist_speed_scale", estimator.twistSpeedScale());
   status.add("twist_speed_scale_sigma", estimator.twistSpeedScaleSigma());
-  status.add("twist_speed_scale_shown", 1.0 + estimator.speedErrorMonitor().scaleError());
+  status.add("twist_speed_scale_shown", estimator.twistSpeedScaleShown());
   status.add("track_drift_rate_rad_s", estimator.trackDriftRate().norm());
   status.add("track_correlation", estimator.trackCorrelation());
   status.add("twist_linear_noise_density", estimator.linearNoiseDensity());

@@ -95,8 +95,9 @@ class VislamEstimator {
   double twistSpeedScale() const { return 1.0 + state_.speed_scale_error; }
   double twistSpeedScaleSigma() const;
   /// The twist's speed error the camera's observations show where the scale is only counted
-  /// (SpeedErrorMonitor).
+  /// (SpeedErrorMonitor), and the scale (true / measured speed) it reads: 1 without evidence.
   const SpeedErrorMonitor& speedErrorMonitor() const { return speed_monitor_; }
+  double twistSpeedScaleShown() const { return 1.0 + speed_monitor_.scaleError(); }
   /// Estimated rotation from the twist's measurement frame to the IMU frame (identity when not
   /// estimated).
   const Eigen::Matrix3d& twistRotation() const { return state_.imu_R_twist; }

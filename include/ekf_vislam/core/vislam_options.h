@@ -77,8 +77,8 @@ struct NoiseOptions {
   double twist_speed_scale_sigma = 0.01;
   /// In SLAM mode, the counted speed error grows to the one the observations show when that is
   /// larger (SpeedErrorMonitor: their innovations projected on the scale's sensitivity, less
-  /// two of its white-noise sigmas), and shrinks back with it, never below
-  /// twist_speed_scale_sigma. The estimate does not change.
+  /// two of its white-noise sigmas, read once that sigma is a quarter of
+  /// twist_speed_scale_sigma), and never shrinks. The estimate does not change.
   bool count_observed_speed_error = true;
   int track_correlation_window = 2000;  ///< residual pairs the estimate covers
   double track_correlation_max = 0.98;  ///< cap of the estimate (variance factor <= 99)

@@ -274,6 +274,8 @@ RunSummary EstimatorRunner::summary() const {
   s.extra["twist_travel_yaw_deg"] = estimator_.travelDirection().yawDegrees();
   s.extra["twist_travel_pitch_deg"] = estimator_.travelDirection().pitchDegrees();
   s.extra["road_tilt_deg"] = estimator_.roadTiltDegrees();
+  // The largest excess of the road tilt over twice its prior: counted as tilt error.
+  s.extra["road_tilt_error_shown_deg"] = estimator_.roadTiltErrorShownDegrees();
   // The accelerometer's states (gravity/): the first pose's tilt against gravity, the bias.
   s.extra["gravity_level_tilt_deg"] = estimator_.levelTiltDegrees();
   const Eigen::Vector3d accel_bias_sigma = estimator_.accelBiasSigma();

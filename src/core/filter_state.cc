@@ -391,14 +391,16 @@ Eigen::MatrixXd FilterState::auxCovariance(int which) const {
   return block;
 }
 
-void FilterState::setConsiderSigma(int row, double sigma) {
+void FilterState::setReportedVarianceAlong(int row, int dim, const Eigen::VectorXd& direction,
+                                           double variance) {
   auto P = covariance(covarianceCount() - 1);
-  const double variance = P(row, row);
-  if (!(variance > 0.0) || !(sigma > 0.0)) return;
-  // The row's part of P is variance [b; 1] [b; 1]^T = c c^T / variance with c its column: it
-  // scales by (sigma^2 / variance), the rest stays.
-  const Eigen::VectorXd column = P.col(row);
-  P.noalias() += ((sigma * sigma - variance) / (variance * variance)) * column * column.transpose();
+  const Eigen::MatrixXd block = P.block(row, row, dim, dim);
+  const Eigen::LLT<Eigen::MatrixXd> llt(block);
+  if (llt.info() != Eigen::Success || !std::isfinite(variance)) return;
+  const double current = direction.dot(block * direction);
+  // g = C S^-1 u; its own rows are u, so the block's variance along u becomes `variance`.
+  const Eigen::VectorXd g = P.middleCols(row, dim) * llt.solve(direction);
+  P.noalias() += (variance - current) * g * g.transpose();
 }
 
 void FilterState::propagateRoadTiltCovariance(double f, double variance) {

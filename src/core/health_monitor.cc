@@ -125,6 +125,10 @@ std::string roadTiltHint(double road_tilt_deg, const VehicleOptions& vehicle) {
        << " deg): the road is steeper than the prior allows (then raise tilt_sigma), or drifting "
           "tracks are turning the vehicle's roll and pitch; either way its height is not to be "
           "trusted";
+  if (vehicle.count_shown_tilt_error) {
+    text << " (without an accelerometer the reported covariance counts the excess over twice the "
+            "prior as tilt error: vehicle/count_shown_tilt_error)";
+  }
   return text.str();
 }
 

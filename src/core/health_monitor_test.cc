@@ -76,6 +76,9 @@ TEST(RoadTiltHint, SpeaksBeyondThreePriorSigmas) {
   EXPECT_NE(hint.find("28.3 deg"), std::string::npos) << hint;
   EXPECT_NE(hint.find("vehicle/tilt_sigma: 2.9 deg"), std::string::npos) << hint;
   EXPECT_NE(hint.find("height"), std::string::npos) << hint;
+  EXPECT_NE(hint.find("count_shown_tilt_error"), std::string::npos) << hint;
+  vehicle.count_shown_tilt_error = false;
+  EXPECT_EQ(roadTiltHint(28.26, vehicle).find("count_shown_tilt_error"), std::string::npos);
   // Without the prior there is nothing to leave.
   vehicle.tilt_sigma = 0.0;
   EXPECT_EQ(roadTiltHint(28.26, vehicle), "");

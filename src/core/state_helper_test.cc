@@ -342,6 +342,30 @@ TEST(StateHelper, SetConsiderSigmaEqualsThePriorOfThatSigma) {
   EXPECT_NEAR(std::sqrt(a.state.covariance(1)(row, row)), 0.03, 1e-15);
 }
 
+TEST(StateHelper, SetReportedVarianceAlongWidensTheBlockAndWhatItExplains) {
+  // A reported covariance A S A^T + N, with S the covariance of two rows and N independent of
+  // them: widening those rows along u by d must give A (S + d u u^T) A^T + N, the gains'
+  // covariance untouched.
+  std::mt19937 rng(43);
+  FilterState state = makeReportingState(&rng);
+  const int dim = state.dim(), row = 7;
+  const Eigen::MatrixXd S = randomCovariance(2, &rng);
+  Eigen::MatrixXd A = randomMatrix(dim, 2, &rng);
+  A.middleRows(row, 2).setIdentity();
+  Eigen::MatrixXd N = randomCovariance(dim, &rng);
+  N.middleRows(row, 2).setZero();
+  N.middleCols(row, 2).setZero();
+  state.covariance(1) = A * S * A.transpose() + N;
+  const Eigen::MatrixXd gains = state.covariance(0);
+  const Eigen::Vector2d u = Eigen::Vector2d(0.6, -0.8);
+  const double widened = u.dot(S * u) + 0.3;
+  state.setReportedVarianceAlong(row, 2, u, widened);
+  const Eigen::MatrixXd expected = A * (S + 0.3 * u * u.transpose()) * A.transpose() + N;
+  EXPECT_LT((Eigen::MatrixXd(state.covariance(1)) - expected).norm(), 1e-12 * expected.norm());
+  EXPECT_NEAR(u.dot(state.covariance(1).block<2, 2>(row, row) * u), widened, 1e-12);
+  EXPECT_TRUE(Eigen::MatrixXd(state.covariance(0)) == gains);
+}
+
 TEST(StateHelper, ReportedCovarianceFollowsTheGainsOfTheOtherInJosephForm) {
   std::mt19937 rng(11);
   FilterState state = makeReportingState(&rng);

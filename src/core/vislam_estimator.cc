@@ -22,6 +22,10 @@ constexpr double kMaxDriftInterval = 1.0;
 constexpr double kShownSpeedEvidence = 0.25;
 constexpr double kShownSpeedErrorSigmas = 2.0;
 constexpr double kSpeedSigmaTolerance = 0.01;
+// A road tilt estimated beyond this many vehicle/tilt_sigma shows the excess as tilt error
+// (vehicle/count_shown_tilt_error); the reported tilt is raised to it when short by more than
+// kSpeedSigmaTolerance (the same relative tolerance).
+constexpr double kShownTiltErrorSigmas = 2.0;
 
 StateLayout layoutFor(const VislamOptions& options) {
   StateLayout layout;
@@ -406,6 +410,7 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result
     speed_monitor_.add(outcome.speed_scale_score, outcome.speed_scale_information);
     countObservedSpeedError();
   }
+  countShownTiltError();
   // Tracks through the last repeated frame have been seen from the clone: from now on they
   // report their landmark moved by the clone-to-now motion.
   if (repeated_handler_.pending()) {
@@ -438,6 +443,29 @@ void VislamEstimator::countObservedSpeedError() {
   const double counted = twistSpeedScaleSigma();
   if (shown > (1.0 + kSpeedSigmaTolerance) * counted) {
     state_.setConsiderSigma(state_.layout().speedScaleRow(), shown);
+  }
+}
+
+void VislamEstimator::countShownTiltError() {
+  const VislamOptions& o = *options_;
+  const StateLayout& layout = state_.layout();
+  // Without gravity nothing but this prior knows the world's tilt; with it the tilt is measured.
+  if (!o.vehicle.count_shown_tilt_error || layout.tilt_dim == 0 || !carriesReportedCovariance(o) ||
+      stats_.get(Counter::kGravityUpdate) > 0) {
+    return;
+  }
+  // The road's true tilt lies within kShownTiltErrorSigmas of its prior (86 % of the draws of the
+  // two axes): an estimate beyond that errs by at least the excess, along its own direction.
+  const Eigen::Vector2d& road_tilt = state_.road_tilt_world;
+  const double excess = road_tilt.norm() - kShownTiltErrorSigmas * o.vehicle.tilt_sigma;
+  if (!(excess > 0.0)) return;
+  shown_tilt_error_ = std::max(shown_tilt_error_, excess);
+  const Eigen::VectorXd direction = road_tilt.normalized();
+  const double reported = direction.dot(
+      state_.reportedCovariance().block<2, 2>(layout.tiltRow(), layout.tiltRow()) * direction);
+  const double floor = excess * (1.0 - kSpeedSigmaTolerance);
+  if (reported < floor * floor) {
+    state_.setReportedVarianceAlong(layout.tiltRow(), 2, direction, excess * excess);
   }
 }
 
@@ -525,6 +553,10 @@ Eigen::Vector3d VislamEstimator::accelBiasSigma() const {
 
 double VislamEstimator::roadTiltDegrees() const {
   return std::asin(std::min(1.0, state_.road_tilt_world.norm())) * 180.0 / M_PI;
+}
+
+double VislamEstimator::roadTiltErrorShownDegrees() const {
+  return shown_tilt_error_ * 180.0 / M_PI;
 }
 
 double VislamEstimator::disparityOffsetSigma() const {

@@ -89,6 +89,7 @@ void visitVislamOptions(Options& o, Visitor& v) {
            Bound::kPositive);
   v.number("vehicle/body_tilt_sigma", o.vehicle.body_tilt_sigma, Bound::kPositive);
   v.number("vehicle/tilt_update_period", o.vehicle.tilt_update_period, Bound::kPositive);
+  v.flag("vehicle/count_shown_tilt_error", o.vehicle.count_shown_tilt_error);
 
   auto& gravity = o.gravity;
   v.flag("gravity/enabled", gravity.enabled);

@@ -149,6 +149,7 @@ void VislamRos::addDiagnosticValues(double twist_rate, double feature_rate,
   status.add("twist_travel_yaw_deg", travel.yawDegrees());
   status.add("twist_travel_pitch_deg", travel.pitchDegrees());
   status.add("road_tilt_deg", estimator.roadTiltDegrees());
+  status.add("road_tilt_error_shown_deg", estimator.roadTiltErrorShownDegrees());
   status.add("observations_per_frame", observations_per_frame_);
   status.add("observations_rejected", stats.observationsRejected());
   for (int i = 0; i < static_cast<int>(Counter::kCount); ++i) {

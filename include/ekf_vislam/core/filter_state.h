@@ -129,12 +129,21 @@ class FilterState {
   /// covariance; commutes with the deferred predictions (D and G have no tilt entries), so none
   /// is applied.
   void propagateRoadTiltCovariance(double f, double variance);
+  /// Sets the variance of the error of rows [row, row + dim) along the unit `direction` to
+  /// `variance` in the reported covariance, everything correlated with those rows in proportion:
+  /// the error is e = C S^-1 e_b + r (e_b the rows' error, C their columns, S their block, r
+  /// independent of e_b), and e_b takes (variance - u^T S u) along u = direction, so P changes
+  /// by that times g g^T, g = C S^-1 u. Nothing when S is not positive definite.
+  void setReportedVarianceAlong(int row, int dim, const Eigen::VectorXd& direction,
+                                double variance);
   /// Sets the standard deviation of a row the reported covariance alone carries (a consider
   /// row: its gains' row is zero) to `sigma`, as if its prior had been that: the state's error is
   /// e = a + [b; 1] c (c the row's variable, independent of a), so the covariance is
   /// A + var(c) [b; 1] [b; 1]^T, and that part scales by sigma^2 / var(c). Exact while every
   /// operation since the prior was linear in the covariance. Nothing without a positive variance.
-  void setConsiderSigma(int row, double sigma);
+  void setConsiderSigma(int row, double sigma) {
+    if (sigma > 0.0) setReportedVarianceAlong(row, 1, Eigen::VectorXd::Ones(1), sigma * sigma);
+  }
   /// The covariance the outputs report: the reported one when carried, else the gains' one.
   Eigen::Block<const Eigen::MatrixXd> reportedCovariance() const {
     return covariance(covarianceCount() - 1);

@@ -115,6 +115,9 @@ class VislamEstimator {
   /// Tilt of the road under the vehicle against the first pose's level, degrees (vehicle/
   /// tilt_sigma; 0 without the road tilt in the state).
   double roadTiltDegrees() const;
+  /// The largest tilt error the road tilt has shown so far, degrees: its estimate beyond twice
+  /// vehicle/tilt_sigma (vehicle/count_shown_tilt_error counts it in the reported covariance).
+  double roadTiltErrorShownDegrees() const;
   /// The first pose's tilt against gravity (degrees; gravity/, 0 without its states) and the
   /// estimated accelerometer bias (m/s^2, IMU axes) with its standard deviations.
   double levelTiltDegrees() const;
@@ -168,6 +171,9 @@ class VislamEstimator {
   /// The counted speed error follows the one the observations show
   /// (noise/count_observed_speed_error).
   void countObservedSpeedError();
+  /// The reported tilt takes the error the road tilt's estimate shows beyond its prior
+  /// (vehicle/count_shown_tilt_error).
+  void countShownTiltError();
   void resetToPrior();
   StatePrior prior() const;
   // The largest position sigma of the linear world-axes covariance (the health check's).
@@ -195,6 +201,7 @@ class VislamEstimator {
   bool has_calibration_ = false;
 
   bool initialized_ = false;
+  double shown_tilt_error_ = 0.0;  ///< rad, the largest so far (countShownTiltError)
   double time_ = 0.0;
   double last_twist_stamp_ = 0.0;
   bool in_twist_gap_ = false;

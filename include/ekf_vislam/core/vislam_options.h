@@ -149,7 +149,10 @@ struct TrackDriftOptions {
 /// prior on that axis). The vehicle's tilt (roll and pitch against the world's horizontal plane,
 /// the first pose being level) follows the road: a Gauss-Markov process over the distance
 /// travelled, with the body's own tilt on its suspension about it (doc/estimator.md, "Road
-/// tilt"). tilt_sigma 0 = no tilt prior.
+/// tilt"). tilt_sigma 0 = no tilt prior. With count_shown_tilt_error (SLAM, reported covariance,
+/// no accelerometer update yet), a road tilt estimated beyond 2 tilt_sigma shows the excess as a
+/// tilt error at least that large, and the reported covariance's tilt along it is raised to it
+/// when smaller, with what it correlates; the estimate is unchanged.
 struct VehicleOptions {
   double lateral_velocity_sigma = 0.1;       ///< m/s
   double vertical_velocity_sigma = 0.1;      ///< m/s
@@ -157,6 +160,7 @@ struct VehicleOptions {
   double tilt_correlation_distance = 200.0;  ///< m, over which the road's tilt decorrelates
   double body_tilt_sigma = 0.01;             ///< rad, the body's tilt about the road's
   double tilt_update_period = 1.0;           ///< s between two tilt pseudo-observations
+  bool count_shown_tilt_error = true;
 };
 
 /// gravity/: the accelerometer (sensor_msgs/Imu linear_acceleration) holds roll and pitch against

@@ -16,15 +16,16 @@ namespace {
 
 // s: a longer time between processed frames drifts the landmarks as this long.
 constexpr double kMaxDriftInterval = 1.0;
+// A reported sigma is raised to an error the data show only when short of it by more than this
+// fraction (each raise is an O(n^2) update of the reported covariance).
+constexpr double kShownErrorTolerance = 0.01;
 // The speed error the observations show (noise/count_observed_speed_error) is read once its white
-// sigma is this fraction of the configured one or less, counted less kShownSpeedErrorSigmas of
-// them, and raised when it exceeds the counted one by more than kSpeedSigmaTolerance.
+// sigma is this fraction of the configured one or less, and counted less kShownSpeedErrorSigmas
+// of them.
 constexpr double kShownSpeedEvidence = 0.25;
 constexpr double kShownSpeedErrorSigmas = 2.0;
-constexpr double kSpeedSigmaTolerance = 0.01;
 // A road tilt estimated beyond this many vehicle/tilt_sigma shows the excess as tilt error
-// (vehicle/count_shown_tilt_error); the reported tilt is raised to it when short by more than
-// kSpeedSigmaTolerance (the same relative tolerance).
+// (vehicle/count_shown_tilt_error).
 constexpr double kShownTiltErrorSigmas = 2.0;
 
 StateLayout layoutFor(const VislamOptions& options) {
@@ -441,7 +442,7 @@ void VislamEstimator::countObservedSpeedError() {
   const double shown =
       std::abs(speed_monitor_.scaleError()) - kShownSpeedErrorSigmas * speed_monitor_.whiteSigma();
   const double counted = twistSpeedScaleSigma();
-  if (shown > (1.0 + kSpeedSigmaTolerance) * counted) {
+  if (shown > (1.0 + kShownErrorTolerance) * counted) {
     state_.setConsiderSigma(state_.layout().speedScaleRow(), shown);
   }
 }
@@ -449,21 +450,22 @@ void VislamEstimator::countObservedSpeedError() {
 void VislamEstimator::countShownTiltError() {
   const VislamOptions& o = *options_;
   const StateLayout& layout = state_.layout();
-  // Without gravity nothing but this prior knows the world's tilt; with it the tilt is measured.
-  if (!o.vehicle.count_shown_tilt_error || layout.tilt_dim == 0 || !carriesReportedCovariance(o) ||
-      stats_.get(Counter::kGravityUpdate) > 0) {
-    return;
-  }
+  if (layout.tilt_dim == 0) return;
   // The road's true tilt lies within kShownTiltErrorSigmas of its prior (86 % of the draws of the
   // two axes): an estimate beyond that errs by at least the excess, along its own direction.
   const Eigen::Vector2d& road_tilt = state_.road_tilt_world;
   const double excess = road_tilt.norm() - kShownTiltErrorSigmas * o.vehicle.tilt_sigma;
   if (!(excess > 0.0)) return;
   shown_tilt_error_ = std::max(shown_tilt_error_, excess);
+  // Without gravity nothing but the prior knows the world's tilt; with it the tilt is measured.
+  if (!o.vehicle.count_shown_tilt_error || !carriesReportedCovariance(o) ||
+      stats_.get(Counter::kGravityUpdate) > 0) {
+    return;
+  }
   const Eigen::VectorXd direction = road_tilt.normalized();
   const double reported = direction.dot(
       state_.reportedCovariance().block<2, 2>(layout.tiltRow(), layout.tiltRow()) * direction);
-  const double floor = excess * (1.0 - kSpeedSigmaTolerance);
+  const double floor = excess * (1.0 - kShownErrorTolerance);
   if (reported < floor * floor) {
     state_.setReportedVarianceAlong(layout.tiltRow(), 2, direction, excess * excess);
   }

@@ -1223,9 +1223,11 @@ TEST(VislamEstimator, FewDriftingTracksDoNotTiltTheVehicleBeyondTheRoadTiltPrior
 }
 
 TEST(VislamEstimator, TheReportedTiltCountsTheErrorTheRoadTiltShows) {
-  // The drive above: the drifting tracks tilt the estimate, and its road tilt, beyond what the
-  // prior allows. The excess over twice vehicle/tilt_sigma is tilt error, and the reported
-  // covariance counts it (vehicle/count_shown_tilt_error); the estimate stays the same.
+  // The drive above with 70 tracks per frame that all turn the same way: they tilt the estimate,
+  // and its road tilt, beyond what the prior allows. The excess over twice vehicle/tilt_sigma is
+  // tilt error, and the reported covariance counts it (vehicle/count_shown_tilt_error); the
+  // estimate stays the same. Measured: pose NEES 193.26-207.21 -> 75.63-93.58, excess 5.63-6.01
+  // degrees against an RMS tilt error of 6.84-7.24.
   const int seeds = 3;
   double nees_off = 0.0, nees_on = 0.0;
   for (int seed = 1; seed <= seeds; ++seed) {
@@ -1244,7 +1246,8 @@ TEST(VislamEstimator, TheReportedTiltCountsTheErrorTheRoadTiltShows) {
         a.mean_nees, b.mean_nees, b.road_tilt_error_shown_deg, rmsTiltError(s, b) * 180.0 / M_PI,
         apart);
     EXPECT_LT(apart, 1e-9);
-    EXPECT_EQ(a.road_tilt_error_shown_deg, 0.0);
+    EXPECT_EQ(a.road_tilt_error_shown_deg, b.road_tilt_error_shown_deg);  // the same estimate
+    EXPECT_GT(b.road_tilt_error_shown_deg, 4.0);
     nees_off += a.mean_nees / seeds;
     nees_on += b.mean_nees / seeds;
   }
@@ -1258,9 +1261,10 @@ TEST(VislamEstimator, AnAccelerometerHoldsTheTiltAgainstDriftingTracks) {
   // (0.03, -0.02, 0.04) m/s^2 bias. With few tracks gravity holds roll and pitch where the road
   // tilt prior only bounds them, and the covariance stays honest. With 70 tracks that all turn
   // the same way the gains' covariance believes their tilt far better than gravity's (pose NEES
-  // near 190 either way: a drift common to every track is beyond the reported covariance too),
-  // and the first pose's tilt against gravity (a state) follows the tracks: gravity must not make
-  // it worse there, and cannot make it much better.
+  // near 200 with it: a drift common to every track is beyond the reported covariance too; 76-94
+  // without it, where the road tilt's excess is counted, the next test), and the first pose's
+  // tilt against gravity (a state) follows the tracks: gravity must not make it worse there, and
+  // cannot make it much better.
   const int seeds = 3;
   for (int observations : {4, 70}) {
     double tilt_without = 0.0, tilt_with = 0.0, ate_without = 0.0, ate_with = 0.0;

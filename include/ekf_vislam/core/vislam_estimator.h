@@ -116,7 +116,8 @@ class VislamEstimator {
   /// tilt_sigma; 0 without the road tilt in the state).
   double roadTiltDegrees() const;
   /// The largest tilt error the road tilt has shown so far, degrees: its estimate beyond twice
-  /// vehicle/tilt_sigma (vehicle/count_shown_tilt_error counts it in the reported covariance).
+  /// vehicle/tilt_sigma (vehicle/count_shown_tilt_error counts it in the reported covariance; 0
+  /// without the road tilt in the state).
   double roadTiltErrorShownDegrees() const;
   /// The first pose's tilt against gravity (degrees; gravity/, 0 without its states) and the
   /// estimated accelerometer bias (m/s^2, IMU axes) with its standard deviations.

@@ -28,6 +28,11 @@ constexpr double kShownSpeedErrorSigmas = 2.0;
 // (vehicle/count_shown_tilt_error).
 constexpr double kShownTiltErrorSigmas = 2.0;
 
+// Degrees between the vertical and an up axis whose horizontal part is `horizontal`.
+double tiltDegrees(const Eigen::Vector2d& horizontal) {
+  return std::asin(std::min(1.0, horizontal.norm())) * 180.0 / M_PI;
+}
+
 StateLayout layoutFor(const VislamOptions& options) {
   StateLayout layout;
   if (options.bias.estimate_velocity_bias) {
@@ -542,10 +547,7 @@ double VislamEstimator::baselineScaleSigma() const {
   return state_.layout().scale_dim > 0 ? std::sqrt(state_.covariance()(row, row)) : 0.0;
 }
 
-double VislamEstimator::levelTiltDegrees() const {
-  const Eigen::Vector2d& level = state_.gravity_level_world;
-  return std::asin(std::min(1.0, level.norm())) * 180.0 / M_PI;
-}
+double VislamEstimator::levelTiltDegrees() const { return tiltDegrees(state_.gravity_level_world); }
 
 Eigen::Vector3d VislamEstimator::accelBiasSigma() const {
   const StateLayout& layout = state_.layout();
@@ -553,9 +555,7 @@ Eigen::Vector3d VislamEstimator::accelBiasSigma() const {
   return reportedAuxSigmas(layout.accelBiasRow(), 3);
 }
 
-double VislamEstimator::roadTiltDegrees() const {
-  return std::asin(std::min(1.0, state_.road_tilt_world.norm())) * 180.0 / M_PI;
-}
+double VislamEstimator::roadTiltDegrees() const { return tiltDegrees(state_.road_tilt_world); }
 
 double VislamEstimator::roadTiltErrorShownDegrees() const {
   return shown_tilt_error_ * 180.0 / M_PI;

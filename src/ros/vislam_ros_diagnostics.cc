@@ -48,10 +48,9 @@ VislamRos::DiagnosticHints VislamRos::collectHints(const EstimatorStats& stats, 
   hints.slow = slowDriveHint(options_.mode, estimator.meanTwistSpeed(),
                              estimator.angularNoiseDensity(), estimator.twistSpeedSamples());
   if (!hints.slow.empty()) ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), hints.slow.c_str());
-  const std::string speed =
-      speedErrorHint(estimator.twistSpeedScaleShown(), estimator.twistSpeedScaleSigma(),
-                     options_.noise.twist_speed_scale_sigma);
-  if (!speed.empty()) ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), speed.c_str());
+  hints.speed = speedErrorHint(estimator.twistSpeedScaleShown(), estimator.twistSpeedScaleSigma(),
+                               options_.noise.twist_speed_scale_sigma);
+  if (!hints.speed.empty()) ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), hints.speed.c_str());
   updateObservationRate(stats);
   updateFeatureGeometry(stats);
   return hints;
@@ -94,6 +93,10 @@ void VislamRos::setSummary(const DiagnosticHints& hints, const ros::WallTime& no
     status.summary(DiagnosticStatus::WARN,
                    "noisy angular velocity on a slow drive: the covariance is likely too small "
                    "(see the log)");
+  } else if (!hints.speed.empty()) {
+    status.summary(DiagnosticStatus::WARN,
+                   "the twist's speed errs by more than noise/twist_speed_scale_sigma: the "
+                   "reported covariance counts it, the estimate is not corrected (see the log)");
   } else if (!sparse_hint_.empty()) {
     status.summary(DiagnosticStatus::WARN,
                    "few observations per frame: the covariance is likely too small (see the log)");

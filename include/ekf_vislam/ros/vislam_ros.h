@@ -113,6 +113,7 @@ class VislamRos {
     std::string travel;        ///< the twist travels off its x axis
     std::string tilt;          ///< the road tilt left its prior
     std::string slow;          ///< a noisy angular velocity on a slow drive
+    std::string speed;         ///< the observations read a twist speed error beyond the configured
   };
   /// The hints of this period, each warned (throttled) in the log.
   DiagnosticHints collectHints(const EstimatorStats& stats, double dt);

@@ -61,7 +61,9 @@ void FilterState::setPrior(const StatePrior& prior) {
     const int row = layout_.rotationRow() + i;
     sigma_(row, row) = prior.twist_rotation_sigma * prior.twist_rotation_sigma;
   }
-  if (layout_.disparity_dim > 0) {
+  const bool offset_in_gains =
+      !(prior.disparity_offset_reported_only && layout_.reported_covariance);
+  if (layout_.disparity_dim > 0 && offset_in_gains) {
     const int row = layout_.disparityRow();
     sigma_(row, row) = prior.disparity_offset_sigma * prior.disparity_offset_sigma;
   }
@@ -96,6 +98,10 @@ void FilterState::setPrior(const StatePrior& prior) {
     if (layout_.speed_scale_dim > 0 && !scale_in_gains) {
       const int row = layout_.speedScaleRow();
       sigma_reported_(row, row) = prior.speed_scale_sigma * prior.speed_scale_sigma;
+    }
+    if (layout_.disparity_dim > 0 && !offset_in_gains) {
+      const int row = layout_.disparityRow();
+      sigma_reported_(row, row) = prior.disparity_offset_sigma * prior.disparity_offset_sigma;
     }
   }
   clonePose();

@@ -200,8 +200,10 @@ Eigen::VectorXd Propagator::randomWalkVariances(double dt, const StateLayout& la
     set(layout.speedScaleRow(), layout.speed_scale_dim, options_->bias.speed_scale_random_walk);
   }
   set(layout.rotationRow(), layout.rotation_dim, options_->extrinsic.twist_rotation_random_walk);
-  set(layout.disparityRow(), layout.disparity_dim,
-      options_->intrinsic.disparity_offset_random_walk);
+  if (options_->intrinsic.estimate_disparity_offset) {
+    set(layout.disparityRow(), layout.disparity_dim,
+        options_->intrinsic.disparity_offset_random_walk);
+  }
   set(layout.scaleRow(), layout.scale_dim, options_->intrinsic.baseline_scale_random_walk);
   set(layout.driftRow(), layout.drift_dim, options_->track_drift.rate_random_walk);
   if (layout.gravity_dim > 0) {

@@ -175,7 +175,8 @@ TEST(Propagator, ProcessNoiseEntersInWorldAxesAndMovesInvariantLandmarks) {
   options.bias.gyro_random_walk = 0.03;
   options.extrinsic.twist_rotation_random_walk = 0.02;
   options.intrinsic.disparity_offset_random_walk = 0.5;
-  options.bias.estimate_speed_scale = true;  // a counted scale takes no random walk
+  options.intrinsic.estimate_disparity_offset = true;  // a counted offset takes none either
+  options.bias.estimate_speed_scale = true;            // a counted scale takes no random walk
   options.bias.speed_scale_random_walk = 0.004;
   const Propagator propagator(options);
   std::mt19937 rng(2);

@@ -43,7 +43,8 @@ StateLayout layoutFor(const VislamOptions& options) {
   }
   layout.speed_scale_dim = estimatesSpeedScale(options) || countsSpeedScale(options) ? 1 : 0;
   layout.rotation_dim = options.extrinsic.estimate_twist_rotation ? 3 : 0;
-  layout.disparity_dim = options.intrinsic.estimate_disparity_offset ? 1 : 0;
+  layout.disparity_dim =
+      options.intrinsic.estimate_disparity_offset || countsDisparityOffset(options) ? 1 : 0;
   layout.scale_dim = options.intrinsic.estimate_baseline_scale ? 1 : 0;
   layout.drift_dim =
       options.track_drift.estimate_rate && options.mode != EstimatorMode::kDeadReckoning ? 3 : 0;
@@ -97,7 +98,10 @@ StatePrior VislamEstimator::prior() const {
   prior.speed_scale_sigma = prior.speed_scale_reported_only ? o.noise.twist_speed_scale_sigma
                                                             : o.bias.speed_scale_prior_sigma;
   prior.twist_rotation_sigma = o.extrinsic.twist_rotation_prior_sigma;
-  prior.disparity_offset_sigma = o.intrinsic.disparity_offset_prior_sigma;
+  prior.disparity_offset_reported_only = countsDisparityOffset(o);
+  prior.disparity_offset_sigma = prior.disparity_offset_reported_only
+                                     ? o.intrinsic.disparity_offset_counted_sigma
+                                     : o.intrinsic.disparity_offset_prior_sigma;
   prior.baseline_scale_sigma = o.intrinsic.baseline_scale_prior_sigma;
   prior.track_drift_rate_sigma = o.track_drift.rate_prior_sigma;
   prior.road_tilt_sigma = o.vehicle.body_tilt_sigma;
@@ -562,8 +566,8 @@ double VislamEstimator::roadTiltErrorShownDegrees() const {
 }
 
 double VislamEstimator::disparityOffsetSigma() const {
-  const int row = state_.layout().disparityRow();
-  return state_.layout().disparity_dim > 0 ? std::sqrt(state_.covariance()(row, row)) : 0.0;
+  const StateLayout& layout = state_.layout();
+  return layout.disparity_dim == 0 ? 0.0 : reportedAuxSigmas(layout.disparityRow(), 1)(0);
 }
 
 }  // namespace ekf_vislam

@@ -924,6 +924,32 @@ TEST(VislamEstimator, ACountedSpeedScaleWidensTheReportedCovarianceAlone) {
   EXPECT_NEAR(a.twist_speed_scale_sigma, 0.03, 1e-12);
 }
 
+TEST(VislamEstimator, ACountedDisparityOffsetWidensTheReportedCovarianceAlone) {
+  // Tracks whose disparity is 0.8 px too large (a rig whose rectification disagrees with its
+  // images), the offset not estimated: counting an offset of 0.8 px
+  // (intrinsic/disparity_offset_counted_sigma) leaves the estimate as it is and makes the
+  // reported covariance take in the depth and scale error the offset causes.
+  ScenarioOptions so;
+  so.frames = 400;
+  so.disparity_offset_px = 0.8;
+  const Scenario s = makeScenario(so);
+  VislamOptions counted = defaultOptions();
+  const VislamOptions uncounted = counted;
+  ASSERT_EQ(uncounted.intrinsic.disparity_offset_counted_sigma, 0.0);  // the default
+  counted.intrinsic.disparity_offset_counted_sigma = 0.8;
+  const RunResult a = run(s, counted), b = run(s, uncounted);
+  VislamEstimator estimator(counted);
+  feedDrive(s, &estimator);
+  std::printf(
+      "disparity 0.8 px too large: pose NEES %.2f counting a 0.8 px offset, %.2f not; ATE %.3f "
+      "m; counted sigma %.3f px\n",
+      a.mean_nees, b.mean_nees, a.ate_m, estimator.disparityOffsetSigma());
+  EXPECT_LT(maxTrajectoryDifference(a, b), 1e-6);  // the same estimate (the rounding aside)
+  EXPECT_LT(a.mean_nees, 0.5 * b.mean_nees);
+  EXPECT_EQ(estimator.disparityOffset(), 0.0);  // never updated
+  EXPECT_NEAR(estimator.disparityOffsetSigma(), 0.8, 1e-12);
+}
+
 TEST(VislamEstimator, TheCountedSpeedErrorGrowsToTheOneTheObservationsShow) {
   // The speed 3 % high, 1 % counted: the observations' innovations, projected on the scale's
   // sensitivity, read the error (SpeedErrorMonitor), and the counted sigma grows to it

@@ -70,6 +70,8 @@ void visitVislamOptions(Options& o, Visitor& v) {
            Bound::kPositive);
   v.number("intrinsic/disparity_offset_random_walk", intrinsic.disparity_offset_random_walk,
            Bound::kNonNegative);
+  v.number("intrinsic/disparity_offset_counted_sigma", intrinsic.disparity_offset_counted_sigma,
+           Bound::kNonNegative);
   v.flag("intrinsic/estimate_baseline_scale", intrinsic.estimate_baseline_scale);
   v.number("intrinsic/baseline_scale_prior_sigma", intrinsic.baseline_scale_prior_sigma,
            Bound::kPositive);

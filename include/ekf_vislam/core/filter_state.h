@@ -80,6 +80,8 @@ struct StatePrior {
   /// there alone (the gains' covariance, and so the estimate, never see it).
   bool speed_scale_reported_only = false;
   double twist_rotation_sigma = 0.0;
+  /// The disparity offset is only counted: its prior goes to the reported covariance alone.
+  bool disparity_offset_reported_only = false;
   double disparity_offset_sigma = 0.0;
   double baseline_scale_sigma = 0.0;
   double track_drift_rate_sigma = 0.0;  ///< rad/s, each IMU axis

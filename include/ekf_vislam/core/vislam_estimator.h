@@ -102,7 +102,8 @@ class VislamEstimator {
   /// estimated).
   const Eigen::Matrix3d& twistRotation() const { return state_.imu_R_twist; }
   /// Estimated stereo disparity offset, px: measured uL - uR minus the true disparity (0 when not
-  /// estimated), and its standard deviation.
+  /// estimated), and its standard deviation in the reported covariance (the counted one,
+  /// intrinsic/disparity_offset_counted_sigma, where it is only counted; 0 without the row).
   double disparityOffset() const { return state_.disparity_offset; }
   double disparityOffsetSigma() const;
   /// Estimated stereo baseline scale (true baseline / calibrated baseline; 1 when not estimated)

@@ -125,6 +125,9 @@ struct IntrinsicOptions {
   bool estimate_disparity_offset = false;
   double disparity_offset_prior_sigma = 1.0;  ///< px
   double disparity_offset_random_walk = 0.0;  ///< px/sqrt(s)
+  /// Where the offset is not estimated: its standard deviation counted in the reported covariance
+  /// (a consider parameter), px; the estimate does not change. 0: not counted.
+  double disparity_offset_counted_sigma = 0.0;
   /// A scale factor of the stereo baseline (every triangulated depth scales with it), made
   /// observable by the twist's speed.
   bool estimate_baseline_scale = false;
@@ -285,6 +288,14 @@ inline bool estimatesSpeedScale(const VislamOptions& options) {
 inline bool countsSpeedScale(const VislamOptions& options) {
   return !estimatesSpeedScale(options) && options.noise.twist_speed_scale_sigma > 0.0 &&
          (carriesReportedCovariance(options) || options.mode == EstimatorMode::kDeadReckoning);
+}
+
+/// Whether the disparity offset is only counted in the reported covariance (SLAM and mapping with
+/// a reported covariance, the offset not estimated, a positive counted sigma).
+inline bool countsDisparityOffset(const VislamOptions& options) {
+  return !options.intrinsic.estimate_disparity_offset &&
+         options.intrinsic.disparity_offset_counted_sigma > 0.0 &&
+         carriesReportedCovariance(options);
 }
 
 /// Fills `options` from `source`: absent keys keep their current values; unknown enum names or

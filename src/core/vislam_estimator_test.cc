@@ -934,8 +934,8 @@ TEST(VislamEstimator, ACountedDisparityOffsetWidensTheReportedCovarianceAlone) {
   so.disparity_offset_px = 0.8;
   const Scenario s = makeScenario(so);
   VislamOptions counted = defaultOptions();
-  const VislamOptions uncounted = counted;
-  ASSERT_EQ(uncounted.intrinsic.disparity_offset_counted_sigma, 0.0);  // the default
+  VislamOptions uncounted = counted;
+  uncounted.intrinsic.disparity_offset_counted_sigma = 0.0;
   counted.intrinsic.disparity_offset_counted_sigma = 0.8;
   const RunResult a = run(s, counted), b = run(s, uncounted);
   VislamEstimator estimator(counted);

@@ -381,7 +381,7 @@ void printSummary(const EstimatorRunner& runner, const std::string& out_dir) {
                              stats.get(Counter::kFrameUsed)),
       roadTiltHint(estimator.roadTiltDegrees(), options.vehicle),
       slowDriveHint(options.mode, estimator.meanTwistSpeed(), estimator.angularNoiseDensity(),
-                    estimator.twistSpeedSamples()),
+                    estimator.twistSpeedSamples(), countsDisparityOffset(options)),
       speedErrorHint(estimator.twistSpeedScaleShown(), estimator.twistSpeedScaleSigma(),
                      options.noise.twist_speed_scale_sigma),
       accelerometerHint(stats.get(Counter::kAccelImplausible) + stats.get(Counter::kAccelNonFinite),

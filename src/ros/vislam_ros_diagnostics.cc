@@ -45,8 +45,9 @@ VislamRos::DiagnosticHints VislamRos::collectHints(const EstimatorStats& stats, 
   }
   hints.tilt = roadTiltHint(estimator.roadTiltDegrees(), options_.vehicle);
   if (!hints.tilt.empty()) ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), hints.tilt.c_str());
-  hints.slow = slowDriveHint(options_.mode, estimator.meanTwistSpeed(),
-                             estimator.angularNoiseDensity(), estimator.twistSpeedSamples());
+  hints.slow =
+      slowDriveHint(options_.mode, estimator.meanTwistSpeed(), estimator.angularNoiseDensity(),
+                    estimator.twistSpeedSamples(), countsDisparityOffset(options_));
   if (!hints.slow.empty()) ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), hints.slow.c_str());
   hints.speed = speedErrorHint(estimator.twistSpeedScaleShown(), estimator.twistSpeedScaleSigma(),
                                options_.noise.twist_speed_scale_sigma);
@@ -91,8 +92,8 @@ void VislamRos::setSummary(const DiagnosticHints& hints, const ros::WallTime& no
                    "the road tilt left its prior: the height is not to be trusted (see the log)");
   } else if (!hints.slow.empty()) {
     status.summary(DiagnosticStatus::WARN,
-                   "noisy angular velocity on a slow drive: the covariance is likely too small "
-                   "(see the log)");
+                   "noisy angular velocity on a slow drive: less accurate, and too confident "
+                   "unless a disparity offset is counted (see the log)");
   } else if (!hints.speed.empty()) {
     status.summary(DiagnosticStatus::WARN,
                    "the twist's speed errs by more than noise/twist_speed_scale_sigma: the "

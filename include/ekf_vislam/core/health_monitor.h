@@ -55,13 +55,15 @@ std::string sparseObservationsHint(EstimatorMode mode, uint64_t observations_upd
 /// with 0.1-0.5 m/s of linear noise (2.34-2.35 with 0.05: the counted speed error,
 /// noise/twist_speed_scale_sigma, covers that one, so the hint errs on the side of caution
 /// there), 5.63-7.61 at 1.5-3 m/s and 1.32-3.08 at 3-6 m/s; 0.02 rad/s per sample (0.0063
-/// rad/s/sqrt(Hz)) or less gave 0.46-1.24 at 0.5-3 m/s. The mean
-/// speed is the run's so far (long stops lower it). Empty otherwise.
+/// rad/s/sqrt(Hz)) or less gave 0.46-1.24 at 0.5-3 m/s. A counted disparity offset
+/// (`offset_counted`: intrinsic/disparity_offset_counted_sigma, 0.1 px) covers that push: 0.63-2.37
+/// at 0.5-3 m/s; the estimate still errs 2.88-5.33 times more than with 0.01-0.02 rad/s, and the
+/// hint says which. The mean speed is the run's so far (long stops lower it). Empty otherwise.
 constexpr double kSlowDriveSpeed = 3.0;            ///< m/s
 constexpr double kSlowDriveAngularDensity = 0.01;  ///< rad/s/sqrt(Hz)
 constexpr size_t kSlowDriveMinSamples = 300;
 std::string slowDriveHint(EstimatorMode mode, double mean_speed, double angular_density,
-                          size_t samples);
+                          size_t samples, bool offset_counted);
 
 /// A hint when the counted speed error grew beyond the configured one
 /// (noise/count_observed_speed_error): the observations show the twist's speed off by more than

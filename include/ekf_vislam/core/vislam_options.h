@@ -127,7 +127,7 @@ struct IntrinsicOptions {
   double disparity_offset_random_walk = 0.0;  ///< px/sqrt(s)
   /// Where the offset is not estimated: its standard deviation counted in the reported covariance
   /// (a consider parameter), px; the estimate does not change. 0: not counted.
-  double disparity_offset_counted_sigma = 0.0;
+  double disparity_offset_counted_sigma = 0.1;
   /// A scale factor of the stereo baseline (every triangulated depth scales with it), made
   /// observable by the twist's speed.
   bool estimate_baseline_scale = false;

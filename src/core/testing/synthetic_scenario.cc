@@ -17,6 +17,8 @@ VislamOptions matchedOptions(const ScenarioOptions& scenario) {
   o.noise.linear_velocity_noise = scenario.linear_velocity_noise * std::sqrt(scenario.dt);
   o.noise.angular_velocity_noise = scenario.angular_velocity_noise * std::sqrt(scenario.dt);
   o.landmarks.max_track_length = 0;
+  // The drive's disparities are off by exactly this (0: exact), so that is what is counted.
+  o.intrinsic.disparity_offset_counted_sigma = std::abs(scenario.disparity_offset_px);
   return o;
 }
 

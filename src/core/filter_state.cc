@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
+#include <utility>
+#include <vector>
 
 namespace ekf_vislam {
 
@@ -52,20 +54,27 @@ void FilterState::setPrior(const StatePrior& prior) {
     const int row = layout_.biasRow() + i;
     sigma_(row, row) = s * s;
   }
-  const bool scale_in_gains = !(prior.speed_scale_reported_only && layout_.reported_covariance);
-  if (layout_.speed_scale_dim > 0 && scale_in_gains) {
-    const int row = layout_.speedScaleRow();
-    sigma_(row, row) = prior.speed_scale_sigma * prior.speed_scale_sigma;
+  // A variable only counted, not estimated, has its prior in the reported covariance alone (set
+  // below, after the copy): the gains' covariance, and so the estimate, never see it.
+  std::vector<std::pair<int, double>> reported_only;
+  const auto setPriorVariance = [&](int row, double sigma, bool counted_only) {
+    if (counted_only && layout_.reported_covariance) {
+      reported_only.emplace_back(row, sigma * sigma);
+    } else {
+      sigma_(row, row) = sigma * sigma;
+    }
+  };
+  if (layout_.speed_scale_dim > 0) {
+    setPriorVariance(layout_.speedScaleRow(), prior.speed_scale_sigma,
+                     prior.speed_scale_reported_only);
   }
   for (int i = 0; i < layout_.rotation_dim; ++i) {
     const int row = layout_.rotationRow() + i;
     sigma_(row, row) = prior.twist_rotation_sigma * prior.twist_rotation_sigma;
   }
-  const bool offset_in_gains =
-      !(prior.disparity_offset_reported_only && layout_.reported_covariance);
-  if (layout_.disparity_dim > 0 && offset_in_gains) {
-    const int row = layout_.disparityRow();
-    sigma_(row, row) = prior.disparity_offset_sigma * prior.disparity_offset_sigma;
+  if (layout_.disparity_dim > 0) {
+    setPriorVariance(layout_.disparityRow(), prior.disparity_offset_sigma,
+                     prior.disparity_offset_reported_only);
   }
   if (layout_.scale_dim > 0) {
     const int row = layout_.scaleRow();
@@ -95,14 +104,7 @@ void FilterState::setPrior(const StatePrior& prior) {
   }
   if (layout_.reported_covariance) {
     covariance(1) = sigma_.topLeftCorner(dim_, dim_);
-    if (layout_.speed_scale_dim > 0 && !scale_in_gains) {
-      const int row = layout_.speedScaleRow();
-      sigma_reported_(row, row) = prior.speed_scale_sigma * prior.speed_scale_sigma;
-    }
-    if (layout_.disparity_dim > 0 && !offset_in_gains) {
-      const int row = layout_.disparityRow();
-      sigma_reported_(row, row) = prior.disparity_offset_sigma * prior.disparity_offset_sigma;
-    }
+    for (const auto& [row, variance] : reported_only) sigma_reported_(row, row) = variance;
   }
   clonePose();
 }

@@ -61,6 +61,7 @@ class SyntheticDriveTest(unittest.TestCase):
         cls.tmp = paths.make_temp_dir()
         cls.addClassCleanup(shutil.rmtree, cls.tmp, True)
         cls.results = {}
+        exact_config = cls.exact_config()
         for seed in (11, 12):
             prefix = os.path.join(cls.tmp, 'sim%d' % seed)
             run([PY, os.path.join(SCRIPTS, 'simulate_dataset.py'), '--seed', str(seed), '--out', prefix])
@@ -72,7 +73,7 @@ class SyntheticDriveTest(unittest.TestCase):
             # The simulator's disparities are exact: SLAM again without the counted disparity
             # offset (intrinsic/disparity_offset_counted_sigma), as a filter matched to it.
             out = os.path.join(cls.tmp, 'sim%d_slam_exact' % seed)
-            estimate, stats = offline(prefix + '.bag', 'slam', out, '--config', cls.exact_config())
+            estimate, stats = offline(prefix + '.bag', 'slam', out, '--config', exact_config)
             cls.results[(seed, 'slam_exact')] = (estimate, stats, None)
 
     @classmethod

@@ -11,7 +11,6 @@ import time
 import unittest
 
 import numpy as np
-import rospkg
 import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray
@@ -21,7 +20,8 @@ from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import EQUALITY_TOLERANCE_M, PLAY_RATE, log, read_tum, run  # noqa: E402
+from vislam_rostest import (EQUALITY_TOLERANCE_M, PLAY_RATE, log, read_tum, run,  # noqa: E402
+                            run_script, simulated_drive)
 
 from ekf_vislam_tools import bag_writer, se3  # noqa: E402
 from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
@@ -60,15 +60,13 @@ class GroundRobotTest(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node('ground_robot_rostest', anonymous=True)
         cls.tmp = tempfile.mkdtemp(prefix='ekf_vislam_ground_robot_')
-        scripts = os.path.join(rospkg.RosPack().get_path(PKG), 'scripts')
         prefix = os.path.join(cls.tmp, 'sim')
-        run(['/usr/bin/python3', os.path.join(scripts, 'simulate_dataset.py'), '--seed',
-             str(SEED), '--out', prefix, '--frames', str(FRAMES), '--accel-noise', '0.05'])
+        simulated_drive(prefix, SEED, FRAMES, '--accel-noise', 0.05)
         cls.bags = {}
         for kind, twist_type in (('direct', 'twist_stamped'), ('combined', 'imu_odometry')):
             cls.bags[kind] = os.path.join(cls.tmp, kind + '.bag')
-            run(['/usr/bin/python3', os.path.join(scripts, 'dataset_to_bag.py'), prefix + '.npz',
-                 cls.bags[kind], '--twist-type', twist_type])
+            run_script('dataset_to_bag.py', prefix + '.npz', cls.bags[kind], '--twist-type',
+                       twist_type)
             log(run(['rosrun', PKG, 'vislam_offline', '--bag', cls.bags[kind], '--out',
                      os.path.join(cls.tmp, 'offline_' + kind)]).strip())
         log(run(['rosrun', PKG, 'vislam_offline', '--bag', cls.bags['combined'], '--imu-frame',

@@ -13,7 +13,6 @@ import unittest
 
 import numpy as np
 import rosbag
-import rospkg
 import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticStatus
@@ -21,7 +20,7 @@ from ekf_vislam.msg import StereoFeatureArray
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from vislam_rostest import (STEREO_INPUTS, NewestStatuses, log,  # noqa: E402
-                            rendered_drive_bag, run, stereo_inputs_required)
+                            rendered_drive_bag, run_script, stereo_inputs_required)
 
 from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
 
@@ -37,12 +36,10 @@ TURNED_NS = '/turned'
 def variant_bag(tmp, name, namespace, options):
     """The rendered drive in TMP/drive copied by image_variant.py with OPTIONS, as a bag whose
     stereo topics lie under NAMESPACE: TMP/NAME.bag."""
-    scripts = os.path.join(rospkg.RosPack().get_path(PKG), 'scripts')
     folder = os.path.join(tmp, name)
     bag, renamed = os.path.join(tmp, name + '_images.bag'), os.path.join(tmp, name + '.bag')
-    run(['/usr/bin/python3', os.path.join(scripts, 'image_variant.py'),
-         os.path.join(tmp, 'drive'), folder] + options)
-    run(['/usr/bin/python3', os.path.join(scripts, 'play_stereo_images.py'), folder, '--bag', bag])
+    run_script('image_variant.py', os.path.join(tmp, 'drive'), folder, *options)
+    run_script('play_stereo_images.py', folder, '--bag', bag)
     with rosbag.Bag(bag) as source, rosbag.Bag(renamed, 'w') as out:
         for topic, msg, stamp in source.read_messages(topics=list(STEREO_INPUTS)):
             out.write(namespace + topic, msg, stamp)

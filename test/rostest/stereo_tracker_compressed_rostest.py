@@ -12,13 +12,12 @@ import sys
 import unittest
 
 import rosbag
-import rospkg
 import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticStatus
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import (LiveFeatures, OneTrackerStatus, run,  # noqa: E402
+from vislam_rostest import (LiveFeatures, OneTrackerStatus, run_script,  # noqa: E402
                             set_up_rendered_drive_test, track_drive_offline)
 
 from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
@@ -40,9 +39,8 @@ def compressed_bag(tmp):
     right stamp RIGHT_OFFSET_S later) with a left image that does not decode.
     TMP/compressed.bag."""
     written = os.path.join(tmp, 'drive_png.bag')
-    run(['/usr/bin/python3', os.path.join(rospkg.RosPack().get_path(PKG), 'scripts',
-                                          'play_stereo_images.py'),
-         os.path.join(tmp, 'drive'), '--bag', written, '--compressed', 'png', '--no-twist'])
+    run_script('play_stereo_images.py', os.path.join(tmp, 'drive'), '--bag', written,
+               '--compressed', 'png', '--no-twist')
     bag = os.path.join(tmp, 'compressed.bag')
     last, rights = {}, 0
     with rosbag.Bag(written) as src, rosbag.Bag(bag, 'w') as dst:

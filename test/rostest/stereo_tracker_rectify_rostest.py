@@ -10,7 +10,6 @@ import sys
 import unittest
 
 import numpy as np
-import rospkg
 import rospy
 import rostest
 from nav_msgs.msg import Odometry
@@ -19,7 +18,8 @@ from tf2_msgs.msg import TFMessage
 from ekf_vislam.msg import StereoFeatureArray
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import OneTrackerStatus, log, run, set_up_rendered_drive_test  # noqa: E402
+from vislam_rostest import (OneTrackerStatus, log, run, run_script,  # noqa: E402
+                            set_up_rendered_drive_test)
 
 from ekf_vislam_tools import raw_camera, se3  # noqa: E402
 from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
@@ -44,9 +44,8 @@ class StereoTrackerRectifyTest(OneTrackerStatus, unittest.TestCase):
     def setUpClass(cls):
         set_up_rendered_drive_test(cls, 'stereo_tracker_rectify_rostest', FRAMES)
         cls.bag = os.path.join(cls.tmp, 'raw.bag')
-        run(['/usr/bin/python3', os.path.join(rospkg.RosPack().get_path(PKG), 'scripts',
-                                              'play_stereo_images.py'),
-             os.path.join(cls.tmp, 'drive'), '--bag', cls.bag, '--raw-camera'])
+        run_script('play_stereo_images.py', os.path.join(cls.tmp, 'drive'), '--bag', cls.bag,
+                   '--raw-camera')
         cls.features, cls.odometry, cls.groundtruth, cls.static = [], [], [], []
         keep = cls.keep
         listening = [

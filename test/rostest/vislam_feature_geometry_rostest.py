@@ -2,17 +2,15 @@
 """Plays a simulated drive whose stereo features come from swapped images through the nodelet:
 the node names the swap in /diagnostics (see vislam_feature_geometry.test)."""
 import os
-import subprocess
 import sys
 import unittest
 
 import numpy as np
-import rospkg
 import rospy
 import rostest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import EstimatorStatusCollector  # noqa: E402
+from vislam_rostest import EstimatorStatusCollector, run_script, simulated_drive  # noqa: E402
 
 PKG = 'ekf_vislam'
 FRAMES = 150
@@ -21,10 +19,7 @@ SUMMARY = 'most stereo features rejected'
 
 def swapped_bag(prefix):
     """A simulated drive (seed 3) with u_left and u_right exchanged, as PREFIX.bag."""
-    scripts = os.path.join(rospkg.RosPack().get_path(PKG), 'scripts')
-    subprocess.run(['/usr/bin/python3', os.path.join(scripts, 'simulate_dataset.py'), '--seed',
-                    '3', '--out', prefix, '--frames', str(FRAMES)], check=True,
-                   capture_output=True)
+    simulated_drive(prefix, 3, FRAMES)
     with np.load(prefix + '.npz') as data:
         arrays = {key: data[key] for key in data.files}
     features = arrays['features'].copy()
@@ -32,8 +27,7 @@ def swapped_bag(prefix):
     features[0][seen], features[2][seen] = arrays['features'][2][seen], arrays['features'][0][seen]
     arrays['features'] = features
     np.savez(prefix + '_swapped.npz', **arrays)
-    subprocess.run(['/usr/bin/python3', os.path.join(scripts, 'dataset_to_bag.py'),
-                    prefix + '_swapped.npz', prefix + '.bag'], check=True, capture_output=True)
+    run_script('dataset_to_bag.py', prefix + '_swapped.npz', prefix + '.bag')
     return prefix + '.bag'
 
 

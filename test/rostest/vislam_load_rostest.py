@@ -21,7 +21,7 @@ from std_srvs.srv import Trigger
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from vislam_rostest import (ESTIMATOR_INPUTS, DelayedRelay, log, read_tum, run,  # noqa: E402
-                            simulated_bag)
+                            run_script, simulated_bag)
 
 from ekf_vislam_tools.bag_playback import resume_when_connected, start_player  # noqa: E402
 
@@ -60,8 +60,7 @@ class LoadTest(unittest.TestCase):
         data = data_dir(package)
         if data:
             cls.source = '0027'
-            run(['/usr/bin/python3', os.path.join(package, 'scripts', 'dataset_to_bag.py'),
-                 os.path.join(data, '0027.npz'), cls.bag])
+            run_script('dataset_to_bag.py', os.path.join(data, '0027.npz'), cls.bag)
         else:
             cls.source = 'synthetic drive (no course data)'
             # As long as 0027 (110 s, 11 s at 10x): room for every pause (8.2 s).

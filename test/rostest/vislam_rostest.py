@@ -65,14 +65,25 @@ def run(cmd, timeout=300):
     return result.stdout
 
 
+def run_script(name, *args):
+    """Runs the package's scripts/NAME with Debian's python3 (run: its output)."""
+    script = os.path.join(rospkg.RosPack().get_path(PKG), 'scripts', name)
+    return run(['/usr/bin/python3', script] + [str(arg) for arg in args])
+
+
+def simulated_drive(prefix, seed, frames, *options):
+    """A simulated drive (simulate_dataset.py with `options`): PREFIX.npz and
+    PREFIX_groundtruth.tum."""
+    run_script('simulate_dataset.py', '--seed', seed, '--out', prefix, '--frames', frames,
+               *options)
+
+
 def simulated_bag(prefix, seed, frames, *options):
-    """A simulated drive (simulate_dataset.py with `options`) and its bag: PREFIX.npz,
-    PREFIX_groundtruth.tum and PREFIX.bag (ground truth recorded in it too)."""
-    scripts = os.path.join(rospkg.RosPack().get_path(PKG), 'scripts')
-    run(['/usr/bin/python3', os.path.join(scripts, 'simulate_dataset.py'), '--seed', str(seed),
-         '--out', prefix, '--frames', str(frames)] + list(options))
-    run(['/usr/bin/python3', os.path.join(scripts, 'dataset_to_bag.py'), prefix + '.npz',
-         prefix + '.bag', '--groundtruth', prefix + '_groundtruth.tum'])
+    """A simulated drive (simulated_drive) and its bag: PREFIX.npz, PREFIX_groundtruth.tum and
+    PREFIX.bag (ground truth recorded in it too)."""
+    simulated_drive(prefix, seed, frames, *options)
+    run_script('dataset_to_bag.py', prefix + '.npz', prefix + '.bag', '--groundtruth',
+               prefix + '_groundtruth.tum')
     return prefix + '.bag'
 
 
@@ -89,11 +100,9 @@ def stereo_inputs_required(nodes):
 def rendered_drive_bag(tmp, frames):
     """A rendered stereo drive (render_stereo_drive.py) of `frames` pairs in TMP/drive and its bag
     of images, camera_info, twist and ground truth (play_stereo_images.py --bag): TMP/drive.bag."""
-    scripts = os.path.join(rospkg.RosPack().get_path(PKG), 'scripts')
     folder, bag = os.path.join(tmp, 'drive'), os.path.join(tmp, 'drive.bag')
-    run(['/usr/bin/python3', os.path.join(scripts, 'render_stereo_drive.py'), folder, '--frames',
-         str(frames)])
-    run(['/usr/bin/python3', os.path.join(scripts, 'play_stereo_images.py'), folder, '--bag', bag])
+    run_script('render_stereo_drive.py', folder, '--frames', frames)
+    run_script('play_stereo_images.py', folder, '--bag', bag)
     return bag
 
 

@@ -5,11 +5,10 @@ import os
 import sys
 import unittest
 
-import rospkg
 import rostest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vislam_rostest import EstimatorStatusCollector, run  # noqa: E402
+from vislam_rostest import EstimatorStatusCollector, run_script, simulated_drive  # noqa: E402
 
 PKG = 'ekf_vislam'
 FRAMES = 400
@@ -19,15 +18,12 @@ SPEED_SCALE = 1.05  # measured over true
 def fast_twist_bag(prefix):
     """A simulated drive, its twist replaced by make_variant.py's accurate one (0.05 m/s and
     0.005 rad/s per sample) with the linear velocity SPEED_SCALE times too high."""
-    scripts = os.path.join(rospkg.RosPack().get_path(PKG), 'scripts')
-    run(['/usr/bin/python3', os.path.join(scripts, 'simulate_dataset.py'), '--seed', '1',
-         '--out', prefix, '--frames', str(FRAMES)])
+    simulated_drive(prefix, 1, FRAMES)
     groundtruth = prefix + '_groundtruth.tum'
-    run(['/usr/bin/python3', os.path.join(scripts, 'make_variant.py'), prefix + '.npz',
-         '--groundtruth', groundtruth, '--twist', 'accurate', '--speed-scale', str(SPEED_SCALE),
-         '--seed', '1', '--out', prefix + '_fast.npz'])
-    run(['/usr/bin/python3', os.path.join(scripts, 'dataset_to_bag.py'), prefix + '_fast.npz',
-         prefix + '_fast.bag', '--groundtruth', groundtruth])
+    run_script('make_variant.py', prefix + '.npz', '--groundtruth', groundtruth, '--twist',
+               'accurate', '--speed-scale', SPEED_SCALE, '--seed', 1, '--out', prefix + '_fast.npz')
+    run_script('dataset_to_bag.py', prefix + '_fast.npz', prefix + '_fast.bag', '--groundtruth',
+               groundtruth)
     return prefix + '_fast.bag'
 
 

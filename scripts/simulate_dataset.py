@@ -46,6 +46,9 @@ def parse_args(argv):
     noise.add_argument('--drift-v', type=float, default=d['drift_v'], metavar='D',
                        help='systematic track drift in v, px per frame of age (KITTI course '
                        'tracks: -0.04 to -0.06; default %(default)s)')
+    noise.add_argument('--disparity-offset', type=float, default=d['disparity_offset'],
+                       metavar='PX', help='measured minus true disparity: every u_right moved '
+                       'left by PX (a rig whose rectification is off; default %(default)s)')
     noise.add_argument('--outlier-rate', type=float, default=d['outlier_rate'], metavar='R',
                        help='fraction of gross outlier observations (default %(default)s)')
     noise.add_argument('--velocity-noise', type=float, default=d['velocity_noise'], metavar='V',
@@ -107,7 +110,7 @@ def main(argv=None):
     args = parse_args(sys.argv[1:] if argv is None else argv)
     options = {name: getattr(args, name) for name in (
         'frames', 'length_m', 'pixel_noise', 'pixel_correlation', 'drift_expansion', 'drift_v',
-        'outlier_rate',
+        'disparity_offset', 'outlier_rate',
         'velocity_noise', 'gyro_noise', 'gyro_bias', 'rate_hz', 'start_time', 'speed_min',
         'speed_max', 'max_yaw_rate', 'roll_amplitude', 'pitch_amplitude', 'target_obs',
         'track_loss', 'landmark_density', 'max_depth', 'accel_noise', 'accel_bias')}

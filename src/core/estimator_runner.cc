@@ -259,6 +259,9 @@ RunSummary EstimatorRunner::summary() const {
   // Online calibration estimates at the end of the run.
   s.extra["disparity_offset_px"] = estimator_.disparityOffset();
   s.extra["disparity_offset_sigma_px"] = estimator_.disparityOffsetSigma();
+  s.extra["disparity_offset_shown_px"] = estimator_.disparityOffsetMonitor().error();
+  s.extra["disparity_offset_shown_white_sigma_px"] =
+      estimator_.disparityOffsetMonitor().whiteSigma();
   s.extra["baseline_scale"] = estimator_.baselineScale();
   s.extra["twist_speed_scale"] = estimator_.twistSpeedScale();
   s.extra["twist_speed_scale_sigma"] = estimator_.twistSpeedScaleSigma();

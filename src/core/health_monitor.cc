@@ -123,6 +123,22 @@ std::string speedErrorHint(double shown_scale, double counted_sigma, double conf
   return text.str();
 }
 
+std::string disparityOffsetHint(double shown_px, double counted_px, double configured_px) {
+  if (!(configured_px > 0.0) || !(counted_px > configured_px)) return "";
+  std::ostringstream text;
+  text << std::fixed;
+  text.precision(2);
+  text << "the camera's observations read the stereo disparities " << std::abs(shown_px)
+       << " px too " << (shown_px > 0.0 ? "large" : "small")
+       << " against the twist's motion, more than intrinsic/disparity_offset_counted_sigma ("
+       << configured_px << " px): the reported covariance counts " << counted_px
+       << " px, the estimate is not corrected. A rig whose rectification is off reads so, and so "
+          "does a noisy twist's own error: check the rig (the tracker's rig check) and the "
+          "odometry; on a rig known to be off, let the filter estimate the offset "
+          "(intrinsic/estimate_disparity_offset: true)";
+  return text.str();
+}
+
 std::string roadTiltHint(double road_tilt_deg, const VehicleOptions& vehicle) {
   const double prior_deg = vehicle.tilt_sigma * 180.0 / M_PI;
   if (!(vehicle.tilt_sigma > 0.0) || !(road_tilt_deg > kTiltHintSigmas * prior_deg)) return "";

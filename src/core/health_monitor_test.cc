@@ -180,5 +180,14 @@ TEST(HealthMonitor, SpeedErrorHintWhenTheCountedErrorGrewBeyondTheConfiguredOne)
   EXPECT_NE(speedErrorHint(1.0225, 0.0205, 0.01).find("too low"), std::string::npos);
 }
 
+TEST(HealthMonitor, DisparityOffsetHintWhenTheShownOffsetWasCounted) {
+  EXPECT_EQ(disparityOffsetHint(-0.05, 0.0, 0.1), "");  // never counted
+  EXPECT_EQ(disparityOffsetHint(-0.9, 0.85, 0.0), "");  // not counted at all
+  const std::string hint = disparityOffsetHint(-0.9, 0.85, 0.1);
+  EXPECT_NE(hint.find("0.90 px too small"), std::string::npos) << hint;
+  EXPECT_NE(hint.find("counts 0.85 px"), std::string::npos) << hint;
+  EXPECT_NE(disparityOffsetHint(1.2, 1.1, 0.1).find("too large"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace ekf_vislam

@@ -146,7 +146,7 @@ double mahalanobis2(const FilterState& state, const SparseJacobian& jacobian,
 
 UpdateOutcome update(FilterState* state, const std::vector<SparseJacobian>& jacobians,
                      const Eigen::VectorXd& residual, double noise_var, bool correct_pose,
-                     double reported_noise_var, int consider_row) {
+                     double reported_noise_var, const ConsiderRows& consider_rows) {
   UpdateOutcome outcome;
   auto S = state->covariance();
   const ArrangedJacobian arranged = arrange(jacobians);
@@ -169,14 +169,15 @@ UpdateOutcome update(FilterState* state, const std::vector<SparseJacobian>& jaco
     const Eigen::MatrixXd K = llt.matrixU().solve(B).transpose();
     auto reported = state->covariance(1);
     const Eigen::MatrixXd reported_PHt = covarianceTimesHt(arranged, reported);
-    const double consider_var = consider_row >= 0 ? reported(consider_row, consider_row) : 0.0;
-    if (consider_var > 0.0) {
+    for (int k = 0; k < kMaxConsiderRows; ++k) {
+      const int row = consider_rows[k];
+      const double consider_var = row >= 0 ? reported(row, row) : 0.0;
+      if (!(consider_var > 0.0)) continue;
       // g = H P[:, row] / P(row, row): the row of P H^T (P symmetric), scaled.
       const Eigen::VectorXd u =
-          llt.matrixL().solve(Eigen::VectorXd(reported_PHt.row(consider_row).transpose())) /
-          consider_var;
-      outcome.consider_score = u.dot(w);
-      outcome.consider_information = u.squaredNorm();
+          llt.matrixL().solve(Eigen::VectorXd(reported_PHt.row(row).transpose())) / consider_var;
+      outcome.consider[k].score = u.dot(w);
+      outcome.consider[k].information = u.squaredNorm();
     }
     updateReported(arranged, K, reported_PHt,
                    reported_noise_var < 0.0 ? noise_var : reported_noise_var, reported);

@@ -303,20 +303,22 @@ TEST(StateHelper, ConsiderEvidenceReadsAnInnovationAlongTheSensitivity) {
   // An innovation that is the scale's error of -0.029 alone: the evidence reads it exactly.
   const double c = -0.029;
   const UpdateOutcome outcome =
-      state_helper::update(&s.state, jacobians, H * s.b * c, 0.5, false, 2.0, row);
+      state_helper::update(&s.state, jacobians, H * s.b * c, 0.5, false, 2.0, {-1, row});
   ASSERT_EQ(outcome.status, UpdateStatus::kApplied);
-  EXPECT_NEAR(outcome.consider_score / outcome.consider_information, c, 1e-12);
+  EXPECT_NEAR(outcome.consider[1].score / outcome.consider[1].information, c, 1e-12);
+  EXPECT_EQ(outcome.consider[0].information, 0.0);
   // information = g^T S^-1 g with g = H b, S of the gains' covariance.
   ConsiderStates again = makeConsiderState(0.01, &(rng = std::mt19937(31)));
   const Eigen::MatrixXd S = H * again.state.covariance(0) * H.transpose() +
                             0.5 * Eigen::MatrixXd::Identity(H.rows(), H.rows());
   const Eigen::VectorXd g = H * again.b;
-  EXPECT_NEAR(outcome.consider_information, g.dot(S.ldlt().solve(g)),
-              1e-9 * outcome.consider_information);
+  EXPECT_NEAR(outcome.consider[1].information, g.dot(S.ldlt().solve(g)),
+              1e-9 * outcome.consider[1].information);
   // Without a consider row: no evidence.
-  EXPECT_EQ(
-      state_helper::update(&s.state, jacobians, H * s.b * c, 0.5, false, 2.0).consider_information,
-      0.0);
+  EXPECT_EQ(state_helper::update(&s.state, jacobians, H * s.b * c, 0.5, false, 2.0)
+                .consider[1]
+                .information,
+            0.0);
 }
 
 TEST(StateHelper, SetConsiderSigmaEqualsThePriorOfThatSigma) {

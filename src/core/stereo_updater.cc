@@ -269,10 +269,12 @@ bool StereoUpdater::stackedUpdate(const std::vector<StereoCandidate*>& accepted,
     residual.segment(static_cast<Eigen::Index>(k) * r, r) = accepted[k]->residual;
   }
   const double pixel_var = options_->noise.pixel_sigma * options_->noise.pixel_sigma;
-  const int consider_row = countsSpeedScale(*options_) ? state->layout().speedScaleRow() : -1;
+  const ConsiderRows consider_rows = {
+      countsSpeedScale(*options_) ? state->layout().speedScaleRow() : -1,
+      countsDisparityOffset(*options_) ? state->layout().disparityRow() : -1};
   const UpdateOutcome update = state_helper::update(
       state, jacobians, residual, pixel_var, options_->mode == EstimatorMode::kSlam,
-      pixel_var * track_correlation_.varianceFactor(), consider_row);
+      pixel_var * track_correlation_.varianceFactor(), consider_rows);
   if (update.status == UpdateStatus::kNotPositiveDefinite) {
     stats->increment(Counter::kUpdateNonFinite);
     result->message = "innovation covariance not positive definite: update skipped";
@@ -283,8 +285,8 @@ bool StereoUpdater::stackedUpdate(const std::vector<StereoCandidate*>& accepted,
     result->message = "update produced non-finite numbers: discarded";
     return false;
   }
-  outcome->speed_scale_score = update.consider_score;
-  outcome->speed_scale_information = update.consider_information;
+  outcome->speed_scale = update.consider[0];
+  outcome->disparity_offset = update.consider[1];
   for (const StereoCandidate* c : accepted) ++landmarks->mapEntry(c->landmark).observations;
   stats->increment(Counter::kObservationUpdate, n);
   result->observations_updated += n;

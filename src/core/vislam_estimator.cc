@@ -19,11 +19,11 @@ constexpr double kMaxDriftInterval = 1.0;
 // A reported sigma is raised to an error the data show only when short of it by more than this
 // fraction (each raise is an O(n^2) update of the reported covariance).
 constexpr double kShownErrorTolerance = 0.01;
-// The speed error the observations show (noise/count_observed_speed_error) is read once its white
-// sigma is this fraction of the configured one or less, and counted less kShownSpeedErrorSigmas
-// of them.
-constexpr double kShownSpeedEvidence = 0.25;
-constexpr double kShownSpeedErrorSigmas = 2.0;
+// The error of a counted variable the observations show (noise/count_observed_speed_error,
+// intrinsic/count_shown_disparity_offset) is read once its white sigma is this fraction of the
+// configured one or less, and counted less kShownErrorSigmas of them.
+constexpr double kShownErrorEvidence = 0.25;
+constexpr double kShownErrorSigmas = 2.0;
 // A road tilt estimated beyond this many vehicle/tilt_sigma shows the excess as tilt error
 // (vehicle/count_shown_tilt_error).
 constexpr double kShownTiltErrorSigmas = 2.0;
@@ -136,6 +136,8 @@ void VislamEstimator::initializeState() {
   landmarks_.clear();
   health_.reset();
   speed_monitor_.clear();
+  disparity_monitor_.clear();
+  disparity_offset_counted_shown_ = 0.0;
 }
 
 void VislamEstimator::reset() { initializeState(); }
@@ -417,8 +419,10 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result
     outcome = updater_.update(&updates, consumeJumpTest(), nominal_calibration_, &camera_, &state_,
                               &landmarks_, &stats_, result);
     landmarks_.apply(outcome.leaving, &state_, &stats_, result);
-    speed_monitor_.add(outcome.speed_scale_score, outcome.speed_scale_information);
+    speed_monitor_.add(outcome.speed_scale);
+    disparity_monitor_.add(outcome.disparity_offset);
     countObservedSpeedError();
+    countShownDisparityOffset();
   }
   countShownTiltError();
   // Tracks through the last repeated frame have been seen from the clone: from now on they
@@ -444,16 +448,28 @@ void VislamEstimator::countObservedSpeedError() {
       !countsSpeedScale(o)) {
     return;
   }
+  countShownError(speed_monitor_, o.noise.twist_speed_scale_sigma, twistSpeedScaleSigma(),
+                  state_.layout().speedScaleRow());
+}
+
+void VislamEstimator::countShownDisparityOffset() {
+  const VislamOptions& o = *options_;
+  if (!o.intrinsic.count_shown_disparity_offset || !countsDisparityOffset(o)) return;
+  disparity_offset_counted_shown_ =
+      std::max(disparity_offset_counted_shown_,
+               countShownError(disparity_monitor_, o.intrinsic.disparity_offset_counted_sigma,
+                               disparityOffsetSigma(), state_.layout().disparityRow()));
+}
+
+double VislamEstimator::countShownError(const ConsiderErrorMonitor& monitor, double configured,
+                                        double counted, int row) {
   // Only once the evidence is fine enough, and only ever up: real tracks, correlated from frame
   // to frame, scatter the early estimate by several of its white sigmas.
-  const double configured = o.noise.twist_speed_scale_sigma;
-  if (!(speed_monitor_.whiteSigma() <= kShownSpeedEvidence * configured)) return;
-  const double shown =
-      std::abs(speed_monitor_.scaleError()) - kShownSpeedErrorSigmas * speed_monitor_.whiteSigma();
-  const double counted = twistSpeedScaleSigma();
-  if (shown > (1.0 + kShownErrorTolerance) * counted) {
-    state_.setConsiderSigma(state_.layout().speedScaleRow(), shown);
-  }
+  if (!(monitor.whiteSigma() <= kShownErrorEvidence * configured)) return 0.0;
+  const double shown = std::abs(monitor.error()) - kShownErrorSigmas * monitor.whiteSigma();
+  if (!(shown > (1.0 + kShownErrorTolerance) * counted)) return 0.0;
+  state_.setConsiderSigma(row, shown);
+  return shown;
 }
 
 void VislamEstimator::countShownTiltError() {

@@ -934,6 +934,7 @@ TEST(VislamEstimator, ACountedDisparityOffsetWidensTheReportedCovarianceAlone) {
   so.disparity_offset_px = 0.8;
   const Scenario s = makeScenario(so);
   VislamOptions counted = defaultOptions();
+  counted.intrinsic.count_shown_disparity_offset = false;  // the configured sigma alone
   VislamOptions uncounted = counted;
   uncounted.intrinsic.disparity_offset_counted_sigma = 0.0;
   counted.intrinsic.disparity_offset_counted_sigma = 0.8;
@@ -950,9 +951,46 @@ TEST(VislamEstimator, ACountedDisparityOffsetWidensTheReportedCovarianceAlone) {
   EXPECT_NEAR(estimator.disparityOffsetSigma(), 0.8, 1e-12);
 }
 
+TEST(VislamEstimator, TheCountedDisparityOffsetGrowsToTheOneTheObservationsShow) {
+  // Tracks whose disparity is 0.8 px too large, 0.1 px counted (the default): the innovations,
+  // projected on the offset's sensitivity, read the offset (ConsiderErrorMonitor), and the
+  // counted sigma grows to it (intrinsic/count_shown_disparity_offset); the estimate stays the
+  // same. With exact disparities it stays at 0.1 px.
+  ScenarioOptions so;
+  so.frames = 600;  // at 400 the reading's white sigma (0.0258 px) is still above 0.025
+  so.disparity_offset_px = 0.8;
+  const Scenario offset = makeScenario(so);
+  VislamOptions shown = defaultOptions();
+  ASSERT_TRUE(shown.intrinsic.count_shown_disparity_offset);  // the default
+  shown.intrinsic.disparity_offset_counted_sigma =
+      VislamOptions().intrinsic.disparity_offset_counted_sigma;  // 0.1 px
+  ASSERT_DOUBLE_EQ(shown.intrinsic.disparity_offset_counted_sigma, 0.1);
+  VislamOptions configured = shown;
+  configured.intrinsic.count_shown_disparity_offset = false;
+  const RunResult a = run(offset, shown), b = run(offset, configured);
+  VislamEstimator estimator(shown);
+  feedDrive(offset, &estimator);
+  so.disparity_offset_px = 0.0;
+  VislamEstimator exact(shown);
+  feedDrive(makeScenario(so), &exact);
+  std::printf(
+      "disparity 0.8 px too large, 0.1 px counted: read %.3f px, sigma %.3f px, pose NEES %.2f "
+      "(%.2f with the configured sigma alone), white sigma %.4f px; exact disparities: read %.3f "
+      "px, sigma %.3f px\n",
+      estimator.disparityOffsetMonitor().error(), estimator.disparityOffsetSigma(), a.mean_nees,
+      b.mean_nees, estimator.disparityOffsetMonitor().whiteSigma(),
+      exact.disparityOffsetMonitor().error(), exact.disparityOffsetSigma());
+  EXPECT_GT(estimator.disparityOffsetSigma(), 0.5);
+  EXPECT_LT(estimator.disparityOffsetSigma(), 1.0);
+  EXPECT_LT(a.mean_nees, 0.8 * b.mean_nees);  // counted only late in the drive
+  EXPECT_LT(maxTrajectoryDifference(a, b), 1e-6);
+  EXPECT_DOUBLE_EQ(exact.disparityOffsetSigma(), 0.1);
+  EXPECT_EQ(estimator.disparityOffset(), 0.0);  // never updated
+}
+
 TEST(VislamEstimator, TheCountedSpeedErrorGrowsToTheOneTheObservationsShow) {
   // The speed 3 % high, 1 % counted: the observations' innovations, projected on the scale's
-  // sensitivity, read the error (SpeedErrorMonitor), and the counted sigma grows to it
+  // sensitivity, read the error (ConsiderErrorMonitor), and the counted sigma grows to it
   // (noise/count_observed_speed_error); the estimate stays the same. At the right speed it
   // stays at 1 %.
   VislamOptions observed;

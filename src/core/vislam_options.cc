@@ -72,6 +72,7 @@ void visitVislamOptions(Options& o, Visitor& v) {
            Bound::kNonNegative);
   v.number("intrinsic/disparity_offset_counted_sigma", intrinsic.disparity_offset_counted_sigma,
            Bound::kNonNegative);
+  v.flag("intrinsic/count_shown_disparity_offset", intrinsic.count_shown_disparity_offset);
   v.flag("intrinsic/estimate_baseline_scale", intrinsic.estimate_baseline_scale);
   v.number("intrinsic/baseline_scale_prior_sigma", intrinsic.baseline_scale_prior_sigma,
            Bound::kPositive);

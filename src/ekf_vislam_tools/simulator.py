@@ -79,6 +79,9 @@ DEFAULT_OPTIONS = {
                                # tracks (0.18-0.28): px per frame of age per unit of normalized
                                # image x, added to u_left and u_right (an outward drift that also
                                # grows the disparity); 0: none
+    'disparity_offset': 0.0,   # px, measured minus true disparity: every u_right moved left by
+                               # it (a rig whose rectification disagrees with its images, KITTI's
+                               # 0.23-1.39 px); 0: exact
     'drift_v': 0.0,            # px per frame of age added to v (KITTI course tracks: -0.04 to
                                # -0.06, upward); 0: none
     'outlier_rate': 0.03,      # fraction of observations replaced by gross outliers
@@ -541,6 +544,7 @@ def _measure_pixels(rng, z_true, obs_frame, obs_id, opts):
     n = z_true.shape[0]
     z = z_true + _pixel_errors(rng, obs_frame, obs_id, opts) + _track_drift(z_true, obs_frame,
                                                                              obs_id, opts)
+    z[:, 2] -= opts['disparity_offset']
     is_outlier = rng.random(n) < opts['outlier_rate']
     idx = np.flatnonzero(is_outlier)
     negative = rng.random(idx.size) < 1.0 / 3.0

@@ -52,6 +52,12 @@ VislamRos::DiagnosticHints VislamRos::collectHints(const EstimatorStats& stats, 
   hints.speed = speedErrorHint(estimator.twistSpeedScaleShown(), estimator.twistSpeedScaleSigma(),
                                options_.noise.twist_speed_scale_sigma);
   if (!hints.speed.empty()) ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), hints.speed.c_str());
+  hints.offset = disparityOffsetHint(estimator.disparityOffsetMonitor().error(),
+                                     estimator.disparityOffsetCountedShown(),
+                                     options_.intrinsic.disparity_offset_counted_sigma);
+  if (!hints.offset.empty()) {
+    ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), hints.offset.c_str());
+  }
   updateObservationRate(stats);
   updateFeatureGeometry(stats);
   return hints;
@@ -94,10 +100,19 @@ void VislamRos::setSummary(const DiagnosticHints& hints, const ros::WallTime& no
     status.summary(DiagnosticStatus::WARN,
                    "noisy angular velocity on a slow drive: less accurate, and too confident "
                    "unless a disparity offset is counted (see the log)");
-  } else if (!hints.speed.empty()) {
+  } else if (!hints.speed.empty() || !hints.offset.empty()) {
+    // Either error reads partly as the other (both scale the depths against the motion).
+    std::string what;
+    if (!hints.speed.empty())
+      what = "the twist's speed errs by more than noise/twist_speed_scale_sigma";
+    if (!hints.offset.empty()) {
+      what += (what.empty() ? "" : "; ");
+      what += "the stereo disparities err by more than intrinsic/disparity_offset_counted_sigma";
+    }
     status.summary(DiagnosticStatus::WARN,
-                   "the twist's speed errs by more than noise/twist_speed_scale_sigma: the "
-                   "reported covariance counts it, the estimate is not corrected (see the log)");
+                   what +
+                       ": the reported covariance counts it, the estimate is not corrected "
+                       "(see the log)");
   } else if (!sparse_hint_.empty()) {
     status.summary(DiagnosticStatus::WARN,
                    "few observations per frame: the covariance is likely too small (see the log)");
@@ -141,6 +156,8 @@ void VislamRos::addDiagnosticValues(double twist_rate, double feature_rate,
   status.add("total_landmarks", estimator.landmarks().size());
   status.add("state_dimension", estimator.stateDimension());
   status.add("disparity_offset_px", estimator.disparityOffset());
+  status.add("disparity_offset_sigma_px", estimator.disparityOffsetSigma());
+  status.add("disparity_offset_shown_px", estimator.disparityOffsetMonitor().error());
   status.add("baseline_scale", estimator.baselineScale());
   status.add("twist_speed_scale", estimator.twistSpeedScale());
   status.add("twist_speed_scale_sigma", estimator.twistSpeedScaleSigma());

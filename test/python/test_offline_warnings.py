@@ -1,7 +1,8 @@
 """vislam_offline's warnings about the regime: few observations updating the filter
 (sparseObservationsHint), a road tilt beyond its prior (roadTiltHint), an accelerometer whose
 samples are refused (accelerometerHint), stereo features from swapped or unrectified images
-(featureGeometryHint) and a camera_info that changes during the bag."""
+(featureGeometryHint), a disparity offset the observations show (disparityOffsetHint) and a
+camera_info that changes during the bag."""
 import json
 import os
 import subprocess
@@ -18,6 +19,8 @@ TILT_WARNING = "the road's tilt is estimated at"
 SWAP_WARNING = 'are the left and right images (or u_left and u_right) swapped?'
 ROW_WARNING = 'had left and right rows further apart than limits/max_row_difference_px'
 INFO_WARNING = 'camera_info message(s) differ from the first of their camera: ignored'
+OFFSET_WARNING = "px too large against the twist's motion"
+ACCURATE_TWIST = dict(velocity_noise=0.05, gyro_noise=0.005, gyro_bias=[0.001])
 
 
 class RegimeWarningsTest(unittest.TestCase):
@@ -121,6 +124,23 @@ class RegimeWarningsTest(unittest.TestCase):
         self.assertGreater(stats['road_tilt_deg'], 8.6)
         self.assertIn(TILT_WARNING, stderr)
         self.assertIn('tilt_sigma', stderr)
+
+    def test_a_disparity_offset_the_observations_show_is_counted_and_named(self):
+        # Every disparity 1 px too large, a good twist: the updates' innovations read the offset
+        # and the counted sigma (0.1 px configured) grows to it; the same drive with exact
+        # disparities reads little and counts 0.1 px.
+        for offset in (1.0, 0.0):
+            stderr, stats = self.run_offline('offset%g' % offset, target_obs=70, seed=2,
+                                             frames=600, disparity_offset=offset,
+                                             **ACCURATE_TWIST)
+            self.assertAlmostEqual(stats['disparity_offset_shown_px'], offset, delta=0.2)
+            if offset:
+                self.assertGreater(stats['disparity_offset_sigma_px'], 0.6)
+                self.assertIn(OFFSET_WARNING, stderr)
+                self.assertIn('disparity_offset_counted_sigma (0.10 px)', stderr)
+            else:
+                self.assertAlmostEqual(stats['disparity_offset_sigma_px'], 0.1, delta=0.01)
+                self.assertNotIn('disparity_offset_counted_sigma', stderr)
 
     def test_a_changed_camera_info_is_counted_and_ignored(self):
         stderr, stats = self.run_offline('info', target_obs=70)

@@ -124,6 +124,15 @@ class SimulatorTest(unittest.TestCase):
         zero = simulator.simulate(7, frames=50, drift_expansion=0.0, drift_v=0.0)
         np.testing.assert_array_equal(plain['features'], zero['features'])
 
+    def test_a_disparity_offset_moves_every_right_column(self):
+        plain = simulator.simulate(7, frames=50)
+        offset = simulator.simulate(7, frames=50, disparity_offset=0.8)
+        inlier = observed_mask(plain['features']) & ~plain['outlier_mask']
+        moved = plain['features'][2][inlier] - offset['features'][2][inlier]
+        np.testing.assert_allclose(moved, 0.8, atol=1e-9)  # outliers are made from it anew
+        np.testing.assert_array_equal(plain['features'][[0, 1, 3]], offset['features'][[0, 1, 3]])
+        np.testing.assert_array_equal(plain['features_true'], offset['features_true'])
+
     def test_few_observations_per_frame(self):
         # Below the 20 per frame the simulator once floored the target at.
         for target in (2, 5):

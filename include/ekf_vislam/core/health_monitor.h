@@ -72,6 +72,14 @@ std::string slowDriveHint(EstimatorMode mode, double mean_speed, double angular_
 /// the sigma counted now. Empty otherwise.
 std::string speedErrorHint(double shown_scale, double counted_sigma, double configured_sigma);
 
+/// A hint when the counted disparity offset grew beyond the configured one
+/// (intrinsic/count_shown_disparity_offset): the observations show the rig's disparities off by
+/// more than intrinsic/disparity_offset_counted_sigma against the motion, the reported covariance
+/// counts it, the estimate is uncorrected. `shown_px` is the offset read (measured minus true),
+/// `counted_px` the sigma the shown offset set (VislamEstimator::disparityOffsetCountedShown).
+/// Empty otherwise.
+std::string disparityOffsetHint(double shown_px, double counted_px, double configured_px);
+
 /// A hint when the road tilt state (vehicle/tilt_sigma, SLAM mode) lies more than
 /// kTiltHintSigmas prior standard deviations from the start's level: either the road is steeper
 /// than the prior allows, or drifting tracks are turning the vehicle's roll and pitch (the

@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 
+#include <array>
 #include <vector>
 
 namespace ekf_vislam {
@@ -23,17 +24,26 @@ using SparseJacobian = std::vector<JacobianBlock>;
 
 enum class UpdateStatus { kApplied, kNotPositiveDefinite, kNonFinite };
 
+/// What an update's innovation r says of one consider variable (a row the reported covariance
+/// alone carries) c, which no update moves. The reported covariance's column of the row, over its
+/// variance, is the sensitivity b of the state's error to c; g = H b. Then score = g^T S^-1 r and
+/// information = g^T S^-1 g (S of the gains' covariance), so that sum(score) / sum(information)
+/// over updates estimates c, with variance 1 / sum(information) when the innovations are white.
+struct ConsiderEvidence {
+  double score = 0.0;
+  double information = 0.0;
+};
+
+/// The consider rows an update reads (update's consider_rows; -1: none), at most two.
+constexpr int kMaxConsiderRows = 2;
+using ConsiderRows = std::array<int, kMaxConsiderRows>;
+constexpr ConsiderRows kNoConsiderRows = {-1, -1};
+
 struct UpdateOutcome {
   UpdateStatus status = UpdateStatus::kApplied;
   bool covariance_repaired = false;  ///< a diagonal entry was not positive and was floored
-  /// With a consider row (update's consider_row): what the innovation r says of that variable's
-  /// error c, which no update moves. The reported covariance's column of the row, over its
-  /// variance, is the sensitivity b of the state's error to c; g = H b. Then
-  /// score = g^T S^-1 r and information = g^T S^-1 g (S of the gains' covariance), so that
-  /// sum(score) / sum(information) over updates estimates c, with variance 1 / sum(information)
-  /// when the innovations are white.
-  double consider_score = 0.0;
-  double consider_information = 0.0;
+  /// Per consider row of the update (same order): what the innovation says of it.
+  std::array<ConsiderEvidence, kMaxConsiderRows> consider{};
 };
 
 namespace state_helper {
@@ -48,11 +58,12 @@ double mahalanobis2(const FilterState& state, const SparseJacobian& jacobian,
 /// FilterState::applyCorrection(dx, correct_pose). Nothing changes unless kApplied.
 /// With a reported covariance (FilterState::covarianceCount() 2), that one is updated with the
 /// same gain in the Joseph form for observation noise reported_noise_var I (negative: noise_var):
-/// the covariance of this gain's error when the noise is that large. consider_row >= 0 (a row
-/// the reported covariance alone carries): the outcome's consider_score and _information.
+/// the covariance of this gain's error when the noise is that large. consider_rows (rows the
+/// reported covariance alone carries, -1: none): the outcome's consider evidence of each.
 UpdateOutcome update(FilterState* state, const std::vector<SparseJacobian>& jacobians,
                      const Eigen::VectorXd& residual, double noise_var, bool correct_pose,
-                     double reported_noise_var = -1.0, int consider_row = -1);
+                     double reported_noise_var = -1.0,
+                     const ConsiderRows& consider_rows = kNoConsiderRows);
 
 /// Appends a landmark whose error is x_new = A x_head + n (A: 3 x head dim, only pose and
 /// auxiliary columns non-zero; n: independent, covariance own_covariance).

@@ -55,10 +55,10 @@ struct StereoUpdateOutcome {
   std::vector<StereoCandidate> restart_from;
   /// Observations that disagreed with the filter (gated or jumped).
   int disagreeing = 0;
-  /// What the update's innovations say of the counted speed scale (UpdateOutcome's consider_*;
-  /// 0 when it is not counted).
-  double speed_scale_score = 0.0;
-  double speed_scale_information = 0.0;
+  /// What the update's innovations say of the counted speed scale and disparity offset
+  /// (UpdateOutcome::consider; 0 for one not counted).
+  ConsiderEvidence speed_scale;
+  ConsiderEvidence disparity_offset;
 };
 
 class StereoUpdater {

@@ -26,6 +26,7 @@
 // (MeasurementSequencer does that for live input).
 #pragma once
 
+#include "ekf_vislam/core/consider_error_monitor.h"
 #include "ekf_vislam/core/estimator_stats.h"
 #include "ekf_vislam/core/feed_result.h"
 #include "ekf_vislam/core/filter_state.h"
@@ -36,7 +37,6 @@
 #include "ekf_vislam/core/propagator.h"
 #include "ekf_vislam/core/repeated_frame_detector.h"
 #include "ekf_vislam/core/repeated_frame_handler.h"
-#include "ekf_vislam/core/speed_error_monitor.h"
 #include "ekf_vislam/core/stereo_camera.h"
 #include "ekf_vislam/core/stereo_updater.h"
 #include "ekf_vislam/core/types.h"
@@ -95,9 +95,9 @@ class VislamEstimator {
   double twistSpeedScale() const { return 1.0 + state_.speed_scale_error; }
   double twistSpeedScaleSigma() const;
   /// The twist's speed error the camera's observations show where the scale is only counted
-  /// (SpeedErrorMonitor), and the scale (true / measured speed) it reads: 1 without evidence.
-  const SpeedErrorMonitor& speedErrorMonitor() const { return speed_monitor_; }
-  double twistSpeedScaleShown() const { return 1.0 + speed_monitor_.scaleError(); }
+  /// (ConsiderErrorMonitor), and the scale (true / measured speed) it reads: 1 without evidence.
+  const ConsiderErrorMonitor& speedErrorMonitor() const { return speed_monitor_; }
+  double twistSpeedScaleShown() const { return 1.0 + speed_monitor_.error(); }
   /// Estimated rotation from the twist's measurement frame to the IMU frame (identity when not
   /// estimated).
   const Eigen::Matrix3d& twistRotation() const { return state_.imu_R_twist; }
@@ -106,6 +106,11 @@ class VislamEstimator {
   /// intrinsic/disparity_offset_counted_sigma, where it is only counted; 0 without the row).
   double disparityOffset() const { return state_.disparity_offset; }
   double disparityOffsetSigma() const;
+  /// The disparity offset the camera's observations show where it is only counted
+  /// (ConsiderErrorMonitor; px, measured minus true).
+  const ConsiderErrorMonitor& disparityOffsetMonitor() const { return disparity_monitor_; }
+  /// The largest counted sigma the shown offset set, px (0: it never exceeded the configured one).
+  double disparityOffsetCountedShown() const { return disparity_offset_counted_shown_; }
   /// Estimated stereo baseline scale (true baseline / calibrated baseline; 1 when not estimated)
   /// and the standard deviation of that ratio.
   double baselineScale() const { return 1.0 + state_.baseline_scale_error; }
@@ -173,6 +178,13 @@ class VislamEstimator {
   /// The counted speed error follows the one the observations show
   /// (noise/count_observed_speed_error).
   void countObservedSpeedError();
+  /// The counted disparity offset follows the one the observations show
+  /// (intrinsic/count_shown_disparity_offset).
+  void countShownDisparityOffset();
+  /// Raises the counted sigma of consider row `row` (now `counted`, configured `configured`) to
+  /// the error `monitor` shows, once its evidence is fine enough: the sigma set, or 0.
+  double countShownError(const ConsiderErrorMonitor& monitor, double configured, double counted,
+                         int row);
   /// The reported tilt takes the error the road tilt's estimate shows beyond its prior
   /// (vehicle/count_shown_tilt_error).
   void countShownTiltError();
@@ -195,7 +207,9 @@ class VislamEstimator {
   LandmarkManager landmarks_;
   RepeatedFrameHandler repeated_handler_;
   HealthMonitor health_;
-  SpeedErrorMonitor speed_monitor_;
+  ConsiderErrorMonitor speed_monitor_;
+  ConsiderErrorMonitor disparity_monitor_;
+  double disparity_offset_counted_shown_ = 0.0;
   RepeatedFrameDetector repeated_frames_;
 
   StereoCalibration nominal_calibration_;

@@ -76,7 +76,7 @@ struct NoiseOptions {
   /// error it would cause, the estimate does not change. 0: not counted.
   double twist_speed_scale_sigma = 0.01;
   /// In SLAM mode, the counted speed error grows to the one the observations show when that is
-  /// larger (SpeedErrorMonitor: their innovations projected on the scale's sensitivity, less
+  /// larger (ConsiderErrorMonitor: their innovations projected on the scale's sensitivity, less
   /// two of its white-noise sigmas, read once that sigma is a quarter of
   /// twist_speed_scale_sigma), and never shrinks. The estimate does not change.
   bool count_observed_speed_error = true;
@@ -128,6 +128,11 @@ struct IntrinsicOptions {
   /// Where the offset is not estimated: its standard deviation counted in the reported covariance
   /// (a consider parameter), px; the estimate does not change. 0: not counted.
   double disparity_offset_counted_sigma = 0.1;
+  /// The counted offset grows to the one the observations show when that is larger
+  /// (ConsiderErrorMonitor: their innovations projected on the offset's sensitivity, less two of
+  /// its white-noise sigmas, read once that sigma is a quarter of disparity_offset_counted_sigma),
+  /// and never shrinks. The estimate does not change.
+  bool count_shown_disparity_offset = true;
   /// A scale factor of the stereo baseline (every triangulated depth scales with it), made
   /// observable by the twist's speed.
   bool estimate_baseline_scale = false;

@@ -114,6 +114,7 @@ class VislamRos {
     std::string tilt;          ///< the road tilt left its prior
     std::string slow;          ///< a noisy angular velocity on a slow drive
     std::string speed;         ///< the observations read a twist speed error beyond the configured
+    std::string offset;        ///< the observations read a disparity offset beyond the configured
   };
   /// The hints of this period, each warned (throttled) in the log.
   DiagnosticHints collectHints(const EstimatorStats& stats, double dt);

@@ -454,7 +454,11 @@ void VislamEstimator::countObservedSpeedError() {
 
 void VislamEstimator::countShownDisparityOffset() {
   const VislamOptions& o = *options_;
-  if (!o.intrinsic.count_shown_disparity_offset || !countsDisparityOffset(o)) return;
+  // In mapping mode the innovations also hold the uncorrected pose's drift: no reading there.
+  if (!o.intrinsic.count_shown_disparity_offset || o.mode != EstimatorMode::kSlam ||
+      !countsDisparityOffset(o)) {
+    return;
+  }
   disparity_offset_counted_shown_ =
       std::max(disparity_offset_counted_shown_,
                countShownError(disparity_monitor_, o.intrinsic.disparity_offset_counted_sigma,

@@ -128,7 +128,7 @@ struct IntrinsicOptions {
   /// Where the offset is not estimated: its standard deviation counted in the reported covariance
   /// (a consider parameter), px; the estimate does not change. 0: not counted.
   double disparity_offset_counted_sigma = 0.1;
-  /// The counted offset grows to the one the observations show when that is larger
+  /// In SLAM mode, the counted offset grows to the one the observations show when that is larger
   /// (ConsiderErrorMonitor: their innovations projected on the offset's sensitivity, less two of
   /// its white-noise sigmas, read once that sigma is a quarter of disparity_offset_counted_sigma),
   /// and never shrinks. The estimate does not change.

@@ -1,5 +1,6 @@
 #include "ekf_vislam/core/vislam_estimator.h"
 
+#include "ekf_vislam/core/estimator_hints.h"
 #include "ekf_vislam/core/se3.h"
 #include "ekf_vislam/core/stereo_camera.h"
 #include "testing/synthetic_scenario.h"
@@ -39,6 +40,7 @@ struct RunResult {
   double disparity_offset_sigma = 0.0;
   double disparity_offset_shown = 0.0;
   double disparity_offset_shown_white_sigma = 0.0;
+  StateHints hints;  ///< at the end of the run
 };
 
 Eigen::Matrix4d toMatrix(const Eigen::Isometry3d& T) { return T.matrix(); }
@@ -85,6 +87,7 @@ RunResult run(const Scenario& s, const VislamOptions& options, int first_frames 
   r.disparity_offset_sigma = estimator.disparityOffsetSigma();
   r.disparity_offset_shown = estimator.disparityOffsetMonitor().error();
   r.disparity_offset_shown_white_sigma = estimator.disparityOffsetMonitor().whiteSigma();
+  r.hints = stateHints(estimator);
   if (track_drift_rate != nullptr) *track_drift_rate = estimator.trackDriftRate();
   if (track_correlation != nullptr) *track_correlation = estimator.trackCorrelation();
   return r;
@@ -991,6 +994,10 @@ TEST(VislamEstimator, TheCountedDisparityOffsetGrowsToTheOneTheObservationsShow)
   EXPECT_LT(maxTrajectoryDifference(a, b), 1e-6);
   EXPECT_DOUBLE_EQ(exact.disparity_offset_sigma, 0.1);
   EXPECT_EQ(a.disparity_offset, 0.0);  // never updated
+  // Said as a hint (the node's /diagnostics and vislam_offline's summary), and only then.
+  EXPECT_NE(a.hints.offset.find("too large"), std::string::npos) << a.hints.offset;
+  EXPECT_EQ(b.hints.offset, "");
+  EXPECT_EQ(exact.hints.offset, "");
 }
 
 TEST(VislamEstimator, TheCountedSpeedErrorGrowsToTheOneTheObservationsShow) {
@@ -1017,6 +1024,9 @@ TEST(VislamEstimator, TheCountedSpeedErrorGrowsToTheOneTheObservationsShow) {
   EXPECT_DOUBLE_EQ(b.twist_speed_scale_sigma, 0.01);
   EXPECT_DOUBLE_EQ(right.twist_speed_scale_sigma, 0.01);
   EXPECT_LT(maxTrajectoryDifference(a, b), 1e-9);
+  EXPECT_NE(a.hints.speed, "");  // said as a hint, and only then
+  EXPECT_EQ(b.hints.speed, "");
+  EXPECT_EQ(right.hints.speed, "");
 }
 
 // One scenario under two filter options a and b, and dead reckoning (b's options); prints a line.

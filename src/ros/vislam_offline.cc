@@ -10,6 +10,7 @@
 //
 // Feeds the estimator through the same conversions, MeasurementSequencer and EstimatorRunner as
 // the nodelet, so the nodelet's trajectory on the same bag is the same.
+#include "ekf_vislam/core/estimator_hints.h"
 #include "ekf_vislam/core/estimator_runner.h"
 #include "ekf_vislam/core/health_monitor.h"
 #include "ekf_vislam/core/yaml_parameter_source.h"
@@ -373,24 +374,17 @@ void printSummary(const EstimatorRunner& runner, const std::string& out_dir) {
                times.percentile(0.99), summary.wall_s, p.x(), p.y(), p.z(), out_dir.c_str());
   const VislamEstimator& estimator = runner.estimator();
   const VislamOptions& options = estimator.options();
-  const std::string hints[] = {
+  const StateHints state = stateHints(estimator);
+  std::vector<std::string> hints = {
       disagreementHint(options.mode, stats.get(Counter::kObsGated),
                        stats.get(Counter::kObservationUpdate)),
-      travelDirectionHint(estimator.travelDirection(), options.vehicle),
       sparseObservationsHint(options.mode, stats.get(Counter::kObservationUpdate),
                              stats.get(Counter::kFrameUsed)),
-      roadTiltHint(estimator.roadTiltDegrees(), options.vehicle),
-      slowDriveHint(options.mode, estimator.meanTwistSpeed(), estimator.angularNoiseDensity(),
-                    estimator.twistSpeedSamples(), countsDisparityOffset(options)),
-      speedErrorHint(estimator.twistSpeedScaleShown(), estimator.twistSpeedScaleSigma(),
-                     options.noise.twist_speed_scale_sigma),
-      disparityOffsetHint(estimator.disparityOffsetMonitor().error(),
-                          estimator.disparityOffsetCountedShown(),
-                          options.intrinsic.disparity_offset_counted_sigma),
       accelerometerHint(stats.get(Counter::kAccelImplausible) + stats.get(Counter::kAccelNonFinite),
                         stats.get(Counter::kAccelUsed)),
       featureGeometryHint(stats.get(Counter::kObsRowMismatch), stats.get(Counter::kObsDisparity),
                           stats.observationsScreened())};
+  for (const std::string* hint : state.all()) hints.push_back(*hint);
   for (const std::string& hint : hints) {
     if (!hint.empty()) std::fprintf(stderr, "vislam_offline: warning: %s\n", hint.c_str());
   }

@@ -2,6 +2,7 @@
 // the hints that explain it (health_monitor.h), and every input rate and counter.
 #include "ekf_vislam/ros/vislam_ros.h"
 
+#include "ekf_vislam/core/estimator_hints.h"
 #include "ekf_vislam/core/health_monitor.h"
 
 #include <algorithm>
@@ -28,7 +29,6 @@ void VislamRos::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
 }
 
 VislamRos::DiagnosticHints VislamRos::collectHints(const EstimatorStats& stats, double dt) {
-  const VislamEstimator& estimator = runner_->estimator();
   DiagnosticHints hints;
   // Inputs that contradict each other (twist axes against the camera tf, calibration, stamps)
   // show as many gated observations, period after period.
@@ -39,24 +39,13 @@ VislamRos::DiagnosticHints VislamRos::collectHints(const EstimatorStats& stats, 
     ROS_WARN_THROTTLE(30.0, "%s: in the last %.1f s %s", name_.c_str(), dt,
                       hints.disagreement.c_str());
   }
-  hints.travel = travelDirectionHint(estimator.travelDirection(), options_.vehicle);
-  if (!hints.travel.empty()) {
-    ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), hints.travel.c_str());
-  }
-  hints.tilt = roadTiltHint(estimator.roadTiltDegrees(), options_.vehicle);
-  if (!hints.tilt.empty()) ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), hints.tilt.c_str());
-  hints.slow =
-      slowDriveHint(options_.mode, estimator.meanTwistSpeed(), estimator.angularNoiseDensity(),
-                    estimator.twistSpeedSamples(), countsDisparityOffset(options_));
-  if (!hints.slow.empty()) ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), hints.slow.c_str());
-  hints.speed = speedErrorHint(estimator.twistSpeedScaleShown(), estimator.twistSpeedScaleSigma(),
-                               options_.noise.twist_speed_scale_sigma);
-  if (!hints.speed.empty()) ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), hints.speed.c_str());
-  hints.offset = disparityOffsetHint(estimator.disparityOffsetMonitor().error(),
-                                     estimator.disparityOffsetCountedShown(),
-                                     options_.intrinsic.disparity_offset_counted_sigma);
-  if (!hints.offset.empty()) {
-    ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), hints.offset.c_str());
+  hints.state = stateHints(runner_->estimator());
+  const ros::WallTime now = ros::WallTime::now();
+  for (size_t i = 0; i < StateHints::kCount; ++i) {  // each at most once a minute
+    const std::string& hint = *hints.state.all()[i];
+    if (hint.empty() || (now - state_hint_warned_[i]).toSec() < 60.0) continue;
+    state_hint_warned_[i] = now;
+    ROS_WARN("%s: %s", name_.c_str(), hint.c_str());
   }
   updateObservationRate(stats);
   updateFeatureGeometry(stats);
@@ -89,23 +78,23 @@ void VislamRos::setSummary(const DiagnosticHints& hints, const ros::WallTime& no
     status.summary(DiagnosticStatus::WARN,
                    "many observations gated: do the twist, the camera tf and the stamps agree? "
                    "(see the log)");
-  } else if (!hints.travel.empty()) {
+  } else if (!hints.state.travel.empty()) {
     status.summary(DiagnosticStatus::WARN,
                    "the twist does not travel along its x axis: the vehicle prior removes a part "
                    "of the velocity (see the log)");
-  } else if (!hints.tilt.empty()) {
+  } else if (!hints.state.tilt.empty()) {
     status.summary(DiagnosticStatus::WARN,
                    "the road tilt left its prior: the height is not to be trusted (see the log)");
-  } else if (!hints.slow.empty()) {
+  } else if (!hints.state.slow.empty()) {
     status.summary(DiagnosticStatus::WARN,
                    "noisy angular velocity on a slow drive: less accurate, and too confident "
                    "unless a disparity offset is counted (see the log)");
-  } else if (!hints.speed.empty() || !hints.offset.empty()) {
+  } else if (!hints.state.speed.empty() || !hints.state.offset.empty()) {
     // Either error reads partly as the other (both scale the depths against the motion).
     std::string what;
-    if (!hints.speed.empty())
+    if (!hints.state.speed.empty())
       what = "the twist's speed errs by more than noise/twist_speed_scale_sigma";
-    if (!hints.offset.empty()) {
+    if (!hints.state.offset.empty()) {
       what += (what.empty() ? "" : "; ");
       what += "the stereo disparities err by more than intrinsic/disparity_offset_counted_sigma";
     }

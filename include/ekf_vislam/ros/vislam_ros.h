@@ -18,6 +18,7 @@
 #include <ekf_vislam/StereoFeature.h>
 #include <ekf_vislam/StereoFeatureArray.h>
 #include "ekf_vislam/core/counter_window.h"
+#include "ekf_vislam/core/estimator_hints.h"
 #include "ekf_vislam/core/estimator_runner.h"
 #include "ekf_vislam/core/stamp_gap_detector.h"
 #include "ekf_vislam/core/types.h"
@@ -39,6 +40,7 @@
 #include <tf2_ros/transform_listener.h>
 #include <visualization_msgs/MarkerArray.h>
 
+#include <array>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -110,11 +112,7 @@ class VislamRos {
   /// What the log and the status say about the inputs and the regime (empty: nothing).
   struct DiagnosticHints {
     std::string disagreement;  ///< many observations gated in the last period
-    std::string travel;        ///< the twist travels off its x axis
-    std::string tilt;          ///< the road tilt left its prior
-    std::string slow;          ///< a noisy angular velocity on a slow drive
-    std::string speed;         ///< the observations read a twist speed error beyond the configured
-    std::string offset;        ///< the observations read a disparity offset beyond the configured
+    StateHints state;          ///< the hints read from the estimator's state (estimator_hints.h)
   };
   /// The hints of this period, each warned (throttled) in the log.
   DiagnosticHints collectHints(const EstimatorStats& stats, double dt);
@@ -188,7 +186,9 @@ class VislamRos {
   // Observations per frame over windows of at least kSparseHintMinFrames frames.
   CounterWindow<2> rate_window_;          ///< frames used, observations used in updates
   double observations_per_frame_ = -1.0;  ///< over the last full window (-1: none yet)
-  std::string sparse_hint_;               ///< sparseObservationsHint of that window
+  /// When each state hint was last warned in the log (once a minute at most).
+  std::array<ros::WallTime, StateHints::kCount> state_hint_warned_;
+  std::string sparse_hint_;  ///< sparseObservationsHint of that window
   // Rejected stereo geometry over windows of at least kFeatureHintMinObservations observations.
   CounterWindow<3> geometry_window_;  ///< observations screened, rejected for rows, disparity
   std::string geometry_hint_;         ///< featureGeometryHint of the last full window

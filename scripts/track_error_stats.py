@@ -24,20 +24,7 @@ import sys
 
 import numpy as np
 
-from ekf_vislam_tools import dataset, metrics, track_errors, trajectory
-
-
-def camera_poses(data, groundtruth_path):
-    """(T,4,4) cam_T_world per dataset frame, NaN where the ground truth has no pose."""
-    t_gt, world_T_imu = trajectory.read_groundtruth(groundtruth_path, data.t, data.cam_T_imu)
-    index_data, index_gt = metrics.associate(data.t, t_gt, 0.02)
-    if index_data.size < 2:
-        raise ValueError('%s: fewer than 2 poses match the dataset\'s time stamps'
-                         % groundtruth_path)
-    cam_T_world = np.full((data.num_frames, 4, 4), np.nan)
-    cam_T_world[index_data] = np.einsum('ij,njk->nik', data.cam_T_imu,
-                                        np.linalg.inv(world_T_imu[index_gt]))
-    return cam_T_world
+from ekf_vislam_tools import dataset, track_errors
 
 
 def report(stats):
@@ -96,7 +83,7 @@ def main(argv):
     try:
         data = dataset.load_dataset(args.dataset, fix_twist_axes=False)  # the twist is not used
         residual, frame, track, z = track_errors.track_residuals(
-            data.features, camera_poses(data, args.groundtruth), data.K, data.b)
+            data.features, track_errors.camera_poses(data, args.groundtruth), data.K, data.b)
         stats = track_errors.statistics(residual, frame, track, z)
         walk = stats['random_walk']
         walk['frame_period_s'] = float(np.median(np.diff(data.t)))

@@ -246,6 +246,7 @@ RunSummary EstimatorRunner::summary() const {
   s.frames = frames_;
   s.twists = twists_;
   s.landmarks_total = estimator_.landmarks().size();
+  s.landmarks_in_map = landmarksInMap(estimator_.landmarks());
   s.peak_state_dimension = peak_state_dimension_;
   s.peak_active_landmarks = peak_active_landmarks_;
   s.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();

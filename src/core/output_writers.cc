@@ -82,6 +82,7 @@ bool writeLandmarksCsv(const std::string& path, const std::vector<LandmarkEstima
   if (!openForWriting(path, &out, error)) return false;
   out << "id,x,y,z,sigma_x,sigma_y,sigma_z,observations\n" << std::setprecision(9);
   for (const LandmarkEstimate& l : landmarks) {
+    if (!l.confirmed()) continue;
     const Eigen::Vector3d sigma = l.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
     out << l.id << ',' << l.p_world.x() << ',' << l.p_world.y() << ',' << l.p_world.z() << ','
         << sigma.x() << ',' << sigma.y() << ',' << sigma.z() << ',' << l.observations << '\n';
@@ -107,6 +108,7 @@ std::string statsToJson(const EstimatorStats& stats, const ProcessingTimes& time
   j << "  \"frames\": " << summary.frames << ",\n";
   j << "  \"twists\": " << summary.twists << ",\n";
   j << "  \"landmarks\": " << summary.landmarks_total << ",\n";
+  j << "  \"landmarks_in_map\": " << summary.landmarks_in_map << ",\n";
   j << "  \"observations_used\": "
     << stats.get(Counter::kObservationUpdate) + stats.get(Counter::kObservationInitialized)
     << ",\n";

@@ -27,21 +27,25 @@ TEST(OutputWriters, TumLineHasTimePositionQuaternion) {
   EXPECT_NEAR(v[7], std::sqrt(0.5), 1e-9);  // qw
 }
 
-TEST(OutputWriters, LandmarksCsvHeaderAndSigmas) {
+TEST(OutputWriters, LandmarksCsvHeaderAndSigmasOfTheConfirmedOnes) {
   LandmarkEstimate l;
   l.id = 42;
   l.p_world = Eigen::Vector3d(1, 2, 3);
   l.covariance = Eigen::Vector3d(0.04, 0.09, 0.16).asDiagonal();
   l.observations = 7;
+  LandmarkEstimate seen_once = l;  // not in the map
+  seen_once.id = 43;
+  seen_once.observations = 1;
   const std::string path = ::testing::TempDir() + "/landmarks.csv";
   std::string error;
-  ASSERT_TRUE(writeLandmarksCsv(path, {l}, &error)) << error;
+  ASSERT_TRUE(writeLandmarksCsv(path, {l, seen_once}, &error)) << error;
   std::ifstream in(path);
-  std::string header, row;
+  std::string header, row, more;
   std::getline(in, header);
   std::getline(in, row);
   EXPECT_EQ(header, "id,x,y,z,sigma_x,sigma_y,sigma_z,observations");
   EXPECT_EQ(row, "42,1,2,3,0.2,0.3,0.4,7");
+  EXPECT_FALSE(std::getline(in, more));
   EXPECT_FALSE(writeLandmarksCsv("/nonexistent/dir/x.csv", {l}, &error));
   EXPECT_NE(error.find("/nonexistent/dir/x.csv"), std::string::npos);
 }

@@ -307,6 +307,13 @@ def match_and_align(t_est, estworld_T_imu, t_gt, gtworld_T_imu, max_dt=0.02):
         position_errors_m=result['errors'], distance_m=distance_full[idx_gt])
 
 
+def estimator_gauge(matched):
+    """gtworld_T_estworld that puts the estimate's first matched pose on the ground truth's: the
+    frame in which the estimator's covariances hold (its first pose is exact), for an
+    AlignedTrajectory."""
+    return matched.gtworld_T_imu_gt[0] @ _inverse_rigid(matched.estworld_T_imu_est[:1])[0]
+
+
 def _span(t):
     return '%.3f, %.3f' % (t.min(), t.max()) if t.size else 'empty'
 
@@ -390,7 +397,7 @@ def read_landmarks_csv(path, require_sigma=False):
 
 
 def landmark_errors(est_ids, estworld_xyz, gt_ids, gtworld_xyz, gtworld_T_estworld=None,
-                    est_sigma=None):
+                    est_sigma=None, gauge_gtworld_T_estworld=None):
     """Errors of estimated landmarks against ground truth, matched by id.
 
     ``estworld_xyz`` (N, 3) are in the estimator's world; they are moved by the trajectory
@@ -403,10 +410,18 @@ def landmark_errors(est_ids, estworld_xyz, gt_ids, gtworld_xyz, gtworld_T_estwor
     diagonal covariance. A landmark is within 3 sigma when its squared Mahalanobis error (the
     error rotated back into the estimator's world) is <= CHI2_3DOF_3SIGMA (14.16, the 3-dof
     quantile at the 1-D 3-sigma probability 0.9973). Rows with non-positive or non-finite sigmas
-    are left out of that fraction.
+    are left out of that fraction. The same errors give the landmark NEES (the mean of that
+    squared Mahalanobis error: 3 when the sigmas are right, whatever the axes' correlation, which
+    a diagonal leaves out) and the RMS of error / sigma per axis (1 when right).
+
+    ``gauge_gtworld_T_estworld``: the ground truth's world from the estimator's as the estimator
+    defines it (its first pose is exact), for those consistency figures; the trajectory's
+    alignment would take out part of the drift that the landmarks' sigmas carry. When None,
+    ``gtworld_T_estworld`` serves.
 
     Returns a dict: landmark_rmse_m, landmark_mean_m, landmark_median_m, landmark_max_m,
     landmarks_matched, landmarks_estimated, landmark_within_3sigma (fraction or None),
+    landmark_nees (mean, or None), landmark_error_over_sigma_rms ({x, y, z} or None),
     landmarks_with_sigma, errors (array over matched rows), matched_rows (indices into est).
     """
     est_ids = np.asarray(est_ids).ravel()
@@ -425,21 +440,29 @@ def landmark_errors(est_ids, estworld_xyz, gt_ids, gtworld_xyz, gtworld_T_estwor
     errors = np.linalg.norm(error_gtworld, axis=1)
     stats = error_stats(errors)
 
-    within, n_sigma = None, 0
+    within, landmark_nees, per_axis, n_sigma = None, None, None, 0
     if est_sigma is not None and rows.size:
         sigma = np.asarray(est_sigma, dtype=float).reshape(-1, 3)[rows]
         valid = np.all(np.isfinite(sigma) & (sigma > 0), axis=1)
         n_sigma = int(valid.sum())
         if n_sigma:
-            # R^T e row-wise: the error in the estimator's world, where sigma is diagonal.
-            error_estworld = error_gtworld[valid] @ np.asarray(gtworld_T_estworld)[:3, :3]
-            mahalanobis2 = np.sum((error_estworld / sigma[valid]) ** 2, axis=1)
+            gauge = gtworld_T_estworld if gauge_gtworld_T_estworld is None else (
+                np.asarray(gauge_gtworld_T_estworld, dtype=float))
+            # The error in the estimator's world (where sigma is diagonal), in the gauge.
+            estworld_T_gtworld = _inverse_rigid(np.asarray(gauge)[None])[0]
+            error_estworld = (transform_points(estworld_T_gtworld, gtworld_xyz[gt_rows[valid]])
+                              - estworld_xyz[rows[valid]])
+            normalized = error_estworld / sigma[valid]
+            mahalanobis2 = np.sum(normalized ** 2, axis=1)
             within = float(np.mean(mahalanobis2 <= CHI2_3DOF_3SIGMA))
+            landmark_nees = float(np.mean(mahalanobis2))
+            per_axis = dict(zip('xyz', (float(v) for v in np.sqrt(np.mean(normalized ** 2, 0)))))
     return dict(
         landmark_rmse_m=stats['rmse'], landmark_mean_m=stats['mean'],
         landmark_median_m=stats['median'], landmark_max_m=stats['max'],
         landmarks_matched=int(rows.size), landmarks_estimated=int(est_ids.size),
-        landmark_within_3sigma=within, landmarks_with_sigma=n_sigma,
+        landmark_within_3sigma=within, landmark_nees=landmark_nees,
+        landmark_error_over_sigma_rms=per_axis, landmarks_with_sigma=n_sigma,
         errors=errors, matched_rows=rows)
 
 

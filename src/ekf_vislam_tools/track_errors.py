@@ -12,7 +12,7 @@ that the worst tracks hold).
 """
 import numpy as np
 
-from ekf_vislam_tools import stereo_geometry
+from ekf_vislam_tools import metrics, stereo_geometry, trajectory
 
 INLIER_PX = 6.0       # residuals beyond this are outliers for the statistics
 TRACK_MAX_PX = 20.0   # a track with a larger residual is dropped (wrong association)
@@ -23,6 +23,20 @@ PER_TRACK_MIN = 6     # inlier observations for a track's own RMS and drift rate
 PERCENTILES = (10, 50, 90)
 
 
+def camera_poses(data, groundtruth_path):
+    """(T,4,4) cam_T_world per frame of a `dataset.Dataset` from ground truth (TUM world_T_imu
+    matched by time stamp, or KITTI poses), NaN where the ground truth has no pose."""
+    t_gt, world_T_imu = trajectory.read_groundtruth(groundtruth_path, data.t, data.cam_T_imu)
+    index_data, index_gt = metrics.associate(data.t, t_gt, 0.02)
+    if index_data.size < 2:
+        raise ValueError('%s: fewer than 2 poses match the dataset\'s time stamps'
+                         % groundtruth_path)
+    cam_T_world = np.full((data.num_frames, 4, 4), np.nan)
+    cam_T_world[index_data] = np.einsum('ij,njk->nik', data.cam_T_imu,
+                                        np.linalg.inv(world_T_imu[index_gt]))
+    return cam_T_world
+
+
 def _project(cam_T_world, p_world, K, b):
     """(n,4) predicted [uL, vL, uR, vR], (n,4,3) Jacobians w.r.t. p_world and (n,) depths."""
     R, t = cam_T_world[:, :3, :3], cam_T_world[:, :3, 3]
@@ -31,14 +45,16 @@ def _project(cam_T_world, p_world, K, b):
     return z_pred, np.einsum('nij,njk->nik', stereo_geometry.project_jacobian(p_cam, K, b), R), depth
 
 
-def fit_track(z, cam_T_world, K, b, iterations=8):
-    """Landmark fitted to one track's observations z (n,4) -> residuals (n,4), or None when the
-    track cannot be fitted (non-positive disparity, behind a camera, gross residuals)."""
-    if z[0, 0] - z[0, 2] <= 0.5:
-        return None
-    p_cam = stereo_geometry.triangulate(z[:1], K, b)[0]
-    world_T_cam0 = np.linalg.inv(cam_T_world[0])
-    p = world_T_cam0[:3, :3] @ p_cam + world_T_cam0[:3, 3]
+def _stereo_point(z, cam_T_world, K, b, i):
+    """World point of observation i's own stereo triangulation."""
+    p_cam = stereo_geometry.triangulate(z[i:i + 1], K, b)[0]
+    world_T_cam = np.linalg.inv(cam_T_world[i])
+    return world_T_cam[:3, :3] @ p_cam + world_T_cam[:3, 3]
+
+
+def _gauss_newton(z, cam_T_world, K, b, p, iterations):
+    """Huber-weighted Gauss-Newton on the stereo reprojection from p -> p, or None when a camera
+    sees the point closer than 0.5 m or the iteration leaves the finite numbers."""
     for _ in range(iterations):
         z_pred, H, depth = _project(cam_T_world, p, K, b)
         if np.any(depth < 0.5):
@@ -48,13 +64,55 @@ def fit_track(z, cam_T_world, K, b, iterations=8):
         w = 1.0 / np.maximum(1.0, np.abs(r) / 3.0)  # Huber
         step = np.linalg.lstsq(J * w[:, None], r * w, rcond=None)[0]
         p = p + step
+        if not np.all(np.isfinite(p)):
+            return None
         if np.linalg.norm(step) < 1e-6:
             break
+    return p
+
+
+def fit_track(z, cam_T_world, K, b, iterations=8):
+    """Landmark fitted to one track's observations z (n,4) -> residuals (n,4), or None when the
+    track cannot be fitted (non-positive disparity, behind a camera, gross residuals)."""
+    if z[0, 0] - z[0, 2] <= 0.5:
+        return None
+    p = _gauss_newton(z, cam_T_world, K, b, _stereo_point(z, cam_T_world, K, b, 0), iterations)
+    if p is None:
+        return None
     z_pred, _, depth = _project(cam_T_world, p, K, b)
     residual = z - z_pred
     if np.any(depth < 0.5) or np.max(np.abs(residual)) > TRACK_MAX_PX:
         return None
     return residual
+
+
+def fit_landmark(z, cam_T_world, K, b, inlier_px=INLIER_PX, rounds=4, iterations=15):
+    """The world point that best explains a track's observations z (n,4) from the cameras
+    cam_T_world (n,4,4): Gauss-Newton from the first observation with a disparity above 0.5 px,
+    then the observations with a residual over inlier_px (any coordinate) left out and the point
+    fitted again, until the set holds (at most `rounds` fits). -> (p_world (3,), inliers (n,)
+    bool), or None with fewer than 2 inliers, or a point that an inlier camera sees closer than
+    0.5 m or at a disparity below 0.5 px (its depth not determined)."""
+    inliers = np.ones(len(z), dtype=bool)
+    p = None
+    for _ in range(rounds):
+        start = np.flatnonzero(inliers & (z[:, 0] - z[:, 2] > 0.5))
+        if inliers.sum() < 2 or start.size == 0:
+            return None
+        p = _gauss_newton(z[inliers], cam_T_world[inliers], K, b,
+                          _stereo_point(z, cam_T_world, K, b, start[0]), iterations)
+        if p is None:
+            return None
+        z_pred, _, depth = _project(cam_T_world, p, K, b)
+        fitted = np.max(np.abs(z - z_pred), axis=1) <= inlier_px
+        if np.array_equal(fitted, inliers):
+            break
+        inliers = fitted
+    predicted_disparity = z_pred[:, 0] - z_pred[:, 2]
+    if inliers.sum() < 2 or np.any(depth[inliers] < 0.5) or np.any(
+            predicted_disparity[inliers] < 0.5):
+        return None
+    return p, inliers
 
 
 def track_residuals(features, cam_T_world, K, b):

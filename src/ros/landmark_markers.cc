@@ -86,12 +86,14 @@ visualization_msgs::MarkerArray landmarkMarkers(const std::vector<LandmarkEstima
   std::vector<const LandmarkEstimate*> active_landmarks;
   for (const LandmarkEstimate& landmark : landmarks) {
     if (!landmark.p_world.allFinite() || !landmark.covariance.allFinite()) continue;
-    const double sigma = std::sqrt(std::max(0.0, landmark.covariance.diagonal().maxCoeff()));
-    map.points.push_back(toPoint(landmark.p_world));
-    map.colors.push_back(
-        sigmaColor(sigma, options.landmark_sigma_good, options.landmark_sigma_bad));
-    if (landmark.active) {
-      active.points.push_back(map.points.back());
+    if (landmark.confirmed()) {  // the map: seen twice or more (LandmarkEstimate::confirmed)
+      const double sigma = std::sqrt(std::max(0.0, landmark.covariance.diagonal().maxCoeff()));
+      map.points.push_back(toPoint(landmark.p_world));
+      map.colors.push_back(
+          sigmaColor(sigma, options.landmark_sigma_good, options.landmark_sigma_bad));
+    }
+    if (landmark.active) {  // the filter's state, confirmed or not
+      active.points.push_back(toPoint(landmark.p_world));
       active_landmarks.push_back(&landmark);
     }
   }

@@ -7,8 +7,9 @@
 namespace ekf_vislam {
 namespace {
 
-LandmarkEstimate landmark(double x, double sigma, bool active) {
+LandmarkEstimate landmark(double x, double sigma, bool active, bool confirmed = true) {
   LandmarkEstimate l;
+  l.observations = confirmed ? 2 : 1;
   l.p_world = Eigen::Vector3d(x, 1.0, 2.0);
   l.covariance =
       Eigen::Vector3d(sigma * sigma, 0.25 * sigma * sigma, 0.01 * sigma * sigma).asDiagonal();
@@ -36,11 +37,13 @@ TEST(LandmarkMarkers, SigmaColourRunsFromGreenThroughYellowToRed) {
   EXPECT_FLOAT_EQ(bad.g, 0.0f);
 }
 
-TEST(LandmarkMarkers, EveryFiniteLandmarkIsAPointAndActiveOnesAreDrawnAgain) {
+TEST(LandmarkMarkers, EveryFiniteConfirmedLandmarkIsAPointAndActiveOnesAreDrawnAgain) {
   VislamRosOptions options;
   options.world_frame = "map";
-  std::vector<LandmarkEstimate> landmarks = {landmark(1.0, 0.1, true), landmark(2.0, 20.0, false),
-                                             landmark(3.0, 1.0, true)};
+  // Seen once: in the state (drawn as active) but not in the map; left behind: in neither.
+  std::vector<LandmarkEstimate> landmarks = {
+      landmark(1.0, 0.1, true), landmark(2.0, 20.0, false), landmark(3.0, 1.0, true),
+      landmark(5.0, 0.1, true, /*confirmed=*/false), landmark(6.0, 0.1, false, false)};
   LandmarkEstimate broken = landmark(4.0, 1.0, true);
   broken.p_world.x() = std::numeric_limits<double>::quiet_NaN();
   landmarks.push_back(broken);
@@ -52,13 +55,15 @@ TEST(LandmarkMarkers, EveryFiniteLandmarkIsAPointAndActiveOnesAreDrawnAgain) {
   ASSERT_NE(active, nullptr);
   EXPECT_EQ(map->header.frame_id, "map");
   EXPECT_DOUBLE_EQ(map->header.stamp.toSec(), 12.5);
-  ASSERT_EQ(map->points.size(), 3u);  // the NaN one left out
+  ASSERT_EQ(map->points.size(), 3u);  // the NaN one and the unconfirmed ones left out
   ASSERT_EQ(map->colors.size(), 3u);
+  EXPECT_DOUBLE_EQ(map->points[2].x, 3.0);
   EXPECT_FLOAT_EQ(map->colors[0].g, 1.0f);  // 0.1 m: green
   EXPECT_FLOAT_EQ(map->colors[1].r, 1.0f);  // 20 m: red
   EXPECT_FLOAT_EQ(map->colors[1].g, 0.0f);
-  ASSERT_EQ(active->points.size(), 2u);
+  ASSERT_EQ(active->points.size(), 3u);
   EXPECT_DOUBLE_EQ(active->points[1].x, 3.0);
+  EXPECT_DOUBLE_EQ(active->points[2].x, 5.0);
   EXPECT_EQ(ellipsoids, 0u);
   EXPECT_EQ(find(array, "landmark_covariance"), nullptr);
 }

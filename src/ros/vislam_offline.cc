@@ -363,11 +363,13 @@ void printSummary(const EstimatorRunner& runner, const std::string& out_dir) {
   const EstimatorStats& stats = runner.estimator().stats();
   const Eigen::Vector3d p = runner.estimator().worldTImu().translation();
   std::fprintf(stderr,
-               "vislam_offline: %s, %lu frames, %lu twists, %zu landmarks, %lu observations "
+               "vislam_offline: %s, %lu frames, %lu twists, %zu landmarks (%zu in the map), %lu "
+               "observations "
                "used, %lu rejected, %.2f ms/frame (p99 %.2f), %.1f s wall, final position "
                "(%.2f, %.2f, %.2f) m -> %s\n",
                summary.mode.c_str(), static_cast<unsigned long>(summary.frames),
                static_cast<unsigned long>(summary.twists), summary.landmarks_total,
+               summary.landmarks_in_map,
                static_cast<unsigned long>(stats.get(Counter::kObservationUpdate) +
                                           stats.get(Counter::kObservationInitialized)),
                static_cast<unsigned long>(stats.observationsRejected()), times.mean(),

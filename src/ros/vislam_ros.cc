@@ -591,7 +591,8 @@ bool VislamRos::saveLocked(std::string* message) {
     return false;
   }
   *message = "saved " + std::to_string(runner_->trajectory().size()) + " poses and " +
-             std::to_string(runner_->estimator().landmarks().size()) + " landmarks to " + dir;
+             std::to_string(landmarksInMap(runner_->estimator().landmarks())) + " landmarks to " +
+             dir;
   return true;
 }
 

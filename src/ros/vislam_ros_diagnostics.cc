@@ -143,6 +143,7 @@ void VislamRos::addDiagnosticValues(double twist_rate, double feature_rate,
   status.add("latency_ms_p99", runner_->latencies().percentile(0.99));
   status.add("active_landmarks", estimator.activeLandmarkCount());
   status.add("total_landmarks", estimator.landmarks().size());
+  status.add("map_landmarks", landmarksInMap(estimator.landmarks()));
   status.add("state_dimension", estimator.stateDimension());
   status.add("disparity_offset_px", estimator.disparityOffset());
   status.add("disparity_offset_sigma_px", estimator.disparityOffsetSigma());

@@ -44,6 +44,18 @@ def make_temp_dir(testcase=None, prefix='ekf_vislam_test_'):
     return path
 
 
+def simulated_drive(test_class, *simulator_args, name='sim'):
+    """For a TestCase's setUpClass: a temporary directory (removed after the class) holding a
+    drive of simulate_dataset.py with `simulator_args` -> (directory, PREFIX of its files)."""
+    directory = make_temp_dir()
+    test_class.addClassCleanup(remove_dir, directory)
+    prefix = os.path.join(directory, name)
+    proc = run_script('simulate_dataset.py', *simulator_args, '--out', prefix)
+    if proc.returncode != 0:
+        raise RuntimeError('simulate_dataset.py failed: %s' % proc.stderr)
+    return directory, prefix
+
+
 def write_npz(directory, name, arrays):
     """Writes `arrays` as DIRECTORY/NAME (an uncompressed npz) and returns the path."""
     path = os.path.join(directory, name)

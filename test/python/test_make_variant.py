@@ -17,12 +17,7 @@ class MakeVariantTest(unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
-        cls.tmp = ekf_test_paths.make_temp_dir()
-        cls.addClassCleanup(ekf_test_paths.remove_dir, cls.tmp)
-        cls.prefix = os.path.join(cls.tmp, 'sim')
-        proc = ekf_test_paths.run_script('simulate_dataset.py', '--seed', 4, '--frames', 120,
-                                         '--out', cls.prefix)
-        assert proc.returncode == 0, proc.stderr
+        cls.tmp, cls.prefix = ekf_test_paths.simulated_drive(cls, '--seed', 4, '--frames', 120)
         cls.gt = cls.prefix + '_groundtruth.tum'
 
     def variant(self, name, *args):

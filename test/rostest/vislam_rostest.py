@@ -553,9 +553,10 @@ class VislamPipelineTest(unittest.TestCase):
         with self.recorder.lock:
             counts = list(self.recorder.marker_counts)
         self.assertGreaterEqual(len(counts), 3)
+        # The map (landmarks seen twice or more) grows; a landmark whose track restarts leaves it
+        # until seen again.
         totals = [c[1] for c in counts]
         self.assertGreater(totals[-1], totals[0])
-        self.assertTrue(all(b >= a for a, b in zip(totals, totals[1:])), totals)
         offline_landmarks = sum(1 for _ in open(
             os.path.join(self.offline_dir, 'landmarks.csv'))) - 1
         self.assertEqual(totals[-1], offline_landmarks)

@@ -37,7 +37,8 @@ bool writeTumTrajectory(const std::string& path, const std::vector<StampedPose>&
 bool writeTrajectoryCovariance(const std::string& path, const std::vector<StampedPose>& trajectory,
                                const std::vector<Matrix6d>& covariances, std::string* error);
 
-/// Header "id,x,y,z,sigma_x,sigma_y,sigma_z,observations", one row per landmark.
+/// Header "id,x,y,z,sigma_x,sigma_y,sigma_z,observations", one row per confirmed landmark
+/// (LandmarkEstimate::confirmed: the map; a landmark seen once is left out).
 bool writeLandmarksCsv(const std::string& path, const std::vector<LandmarkEstimate>& landmarks,
                        std::string* error);
 
@@ -46,7 +47,8 @@ struct RunSummary {
   std::string mode;
   uint64_t frames = 0;
   uint64_t twists = 0;
-  size_t landmarks_total = 0;
+  size_t landmarks_total = 0;   ///< every landmark initialized
+  size_t landmarks_in_map = 0;  ///< of them, confirmed (landmarks.csv's rows)
   int peak_state_dimension = 0;
   size_t peak_active_landmarks = 0;
   double wall_s = 0.0;

@@ -85,6 +85,19 @@ struct LandmarkEstimate {
   bool active = false;        ///< still in the filter state
   double first_stamp = 0.0;
   double last_stamp = 0.0;
+
+  /// Its estimate has used two observations or more (a restart of its track starts it again from
+  /// one). The map the package outputs (landmarks.csv, the markers' map) holds confirmed
+  /// landmarks only: one observation confirms nothing, and a landmark started from a wrong stereo
+  /// match is a confident wrong point.
+  bool confirmed() const { return observations >= 2; }
 };
+
+/// How many of `landmarks` are confirmed (the map's size).
+inline size_t landmarksInMap(const std::vector<LandmarkEstimate>& landmarks) {
+  size_t count = 0;
+  for (const LandmarkEstimate& l : landmarks) count += l.confirmed() ? 1 : 0;
+  return count;
+}
 
 }  // namespace ekf_vislam

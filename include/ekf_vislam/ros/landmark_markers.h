@@ -18,11 +18,11 @@ namespace ros_markers {
 std_msgs::ColorRGBA sigmaColor(double sigma, double good, double bad);
 
 /// Markers of `landmarks` (non-finite ones left out) in options.world_frame at `stamp`:
-/// namespace "landmarks" (all, coloured by their largest sigma), "active_landmarks" (those in the
-/// state) and, with options.covariance_ellipsoids, "landmark_covariance" (one sphere per active
-/// landmark, half-axes ellipsoid_sigma_scale sigma). Ellipsoid ids from a previous array that are
-/// no longer used (up to *ellipsoid_count on entry) are deleted; *ellipsoid_count becomes the
-/// number drawn now.
+/// namespace "landmarks" (the map: the confirmed ones, coloured by their largest sigma),
+/// "active_landmarks" (those in the state, confirmed or not) and, with
+/// options.covariance_ellipsoids, "landmark_covariance" (one sphere per active landmark, half-axes
+/// ellipsoid_sigma_scale sigma). Ellipsoid ids from a previous array that are no longer used (up to
+/// *ellipsoid_count on entry) are deleted; *ellipsoid_count becomes the number drawn now.
 visualization_msgs::MarkerArray landmarkMarkers(const std::vector<LandmarkEstimate>& landmarks,
                                                 const ros::Time& stamp,
                                                 const VislamRosOptions& options,

@@ -16,8 +16,8 @@ world, and the observations kept) then stands for the true landmarks:
 The reference shares the tracks' own errors with the estimate, which read the same
 observations: its error against the estimate leaves out the part of the landmark's error that the
 tracks make, so the map's NEES against it is a lower bound. On simulated drives (exact landmarks
-known) the two read (diagonal NEES, 3 is consistent): white 2 px tracks 1.99 against the reference,
-2.68 against the truth; drifting tracks 5.16 and 5.33 (doc/experiments.md).
+known) the two read (diagonal NEES, 3 is consistent): white 2 px tracks 1.81 against the reference,
+2.41 against the truth; drifting tracks 5.29 and 5.46 (doc/experiments.md).
 
 GT holds world_T_imu (TUM; frames matched to the dataset by time stamp) or is a KITTI poses file
 (world_T_cam0, a line per dataset frame). Ids seen in fewer than 2 frames with ground truth, or

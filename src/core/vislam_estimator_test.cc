@@ -1033,6 +1033,32 @@ TEST(VislamEstimator, TheMapHoldsTheLandmarksSeenTwiceAndTheirCovarianceHolds) {
   EXPECT_GT(mean(seen_once), 10.0 * mean(in_map));
 }
 
+TEST(VislamEstimator, TheMappingModesMapCarriesTheDeadReckonedPosesError) {
+  // Mapping places the landmarks from the dead-reckoned poses, whose error grows with the drive;
+  // the map's covariance must carry it (its own block alone: only the placement's error).
+  ScenarioOptions so;
+  so.frames = 400;
+  const Scenario s = makeScenario(so);
+  VislamOptions options = defaultOptions();
+  options.mode = EstimatorMode::kMapping;
+  VislamEstimator estimator(options);
+  feedDrive(s, &estimator);
+  double nees = 0.0, error = 0.0;
+  size_t count = 0;
+  for (const LandmarkEstimate& l : estimator.landmarks()) {
+    if (!l.confirmed()) continue;
+    const Eigen::Vector3d e = s.p_world.at(l.id) - l.p_world;
+    nees += e.dot(l.covariance.ldlt().solve(e));
+    error += e.norm();
+    ++count;
+  }
+  ASSERT_GT(count, 200u);
+  std::printf("mapping: %zu landmarks in the map, mean error %.2f m, NEES %.2f\n", count,
+              error / static_cast<double>(count), nees / static_cast<double>(count));
+  EXPECT_GT(error / static_cast<double>(count), 1.0);  // the dead reckoning's drift
+  EXPECT_LT(nees / static_cast<double>(count), 4.5);
+}
+
 TEST(VislamEstimator, TheCountedSpeedErrorGrowsToTheOneTheObservationsShow) {
   // The speed 3 % high, 1 % counted: the observations' innovations, projected on the scale's
   // sensitivity, read the error (ConsiderErrorMonitor), and the counted sigma grows to it

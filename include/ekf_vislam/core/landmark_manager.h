@@ -116,7 +116,8 @@ class LandmarkManager {
   void syncMap(const FilterState& state, double time);
 
  private:
-  /// Covariance of the additive error of landmark k (dp = xi - p^ phi in SLAM mode).
+  /// Covariance of the world error of landmark k: dp = xi - p^ phi in SLAM mode; in mapping mode
+  /// its state is conditioned on the dead-reckoned pose, whose error moves it by rho - p^ phi.
   Eigen::Matrix3d covariance(const FilterState& state, size_t k) const;
   void syncEntry(const FilterState& state, size_t k);
 

@@ -192,32 +192,24 @@ void LandmarkManager::apply(const LandmarkDecisions& decisions, FilterState* sta
 }
 
 Eigen::Matrix3d LandmarkManager::covariance(const FilterState& state, size_t k) const {
+  // The world error dp of the landmark from the joint covariance of [rho; phi; xi]. SLAM: its
+  // state carries the pose's rho, dp = xi - p^ phi. Mapping: it was placed from the dead-reckoned
+  // poses as if they were exact (xi is that placement's error), and a pose error exp([rho; phi]^)
+  // moves it by rho - p^ phi (the pose covariance of now: its latest frame's once it has left).
   const int row = state.layout().landmarkRow(k);
   const auto S = state.reportedCovariance();
-  if (options_->mode == EstimatorMode::kMapping) {
-    // The landmark was placed from the dead-reckoned poses as if they were exact (its state xi
-    // is that placement's error); a pose error exp([rho; phi]^) moves it by rho - p^ phi, with
-    // the pose covariance of now (its latest observation's, once it has left the state).
-    Eigen::Matrix<double, 3, 9> M;  // on [rho; phi; xi]
+  Eigen::Matrix<double, 3, 9> M;
+  if (options_->mode == EstimatorMode::kSlam) {
+    M.leftCols<3>().setZero();
+  } else {
     M.leftCols<3>().setIdentity();
-    M.middleCols<3>(3) = -se3::hat(state.landmark(k));
-    M.rightCols<3>().setIdentity();
-    Eigen::Matrix<double, 9, 9> joint;
-    joint.topLeftCorner<6, 6>() = S.block<6, 6>(StateLayout::kPoseRow, StateLayout::kPoseRow);
-    joint.topRightCorner<6, 3>() = S.block<6, 3>(StateLayout::kPoseRow, row);
-    joint.bottomLeftCorner<3, 6>() = S.block<3, 6>(row, StateLayout::kPoseRow);
-    joint.bottomRightCorner<3, 3>() = S.block<3, 3>(row, row);
-    return M * joint * M.transpose();
   }
-  if (options_->mode != EstimatorMode::kSlam) return S.block<3, 3>(row, row);
-  // dp = xi - p^ phi.
-  Eigen::Matrix<double, 3, 6> M;
-  M.leftCols<3>() = -se3::hat(state.landmark(k));
+  M.middleCols<3>(3) = -se3::hat(state.landmark(k));
   M.rightCols<3>().setIdentity();
-  Eigen::Matrix<double, 6, 6> joint;
-  joint.topLeftCorner<3, 3>() = S.block<3, 3>(3, 3);
-  joint.topRightCorner<3, 3>() = S.block<3, 3>(3, row);
-  joint.bottomLeftCorner<3, 3>() = S.block<3, 3>(row, 3);
+  Eigen::Matrix<double, 9, 9> joint;
+  joint.topLeftCorner<6, 6>() = S.block<6, 6>(StateLayout::kPoseRow, StateLayout::kPoseRow);
+  joint.topRightCorner<6, 3>() = S.block<6, 3>(StateLayout::kPoseRow, row);
+  joint.bottomLeftCorner<3, 6>() = S.block<3, 6>(row, StateLayout::kPoseRow);
   joint.bottomRightCorner<3, 3>() = S.block<3, 3>(row, row);
   return M * joint * M.transpose();
 }

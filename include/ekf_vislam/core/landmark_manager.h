@@ -117,7 +117,7 @@ class LandmarkManager {
 
  private:
   /// Covariance of the world error of landmark k: dp = xi - p^ phi in SLAM mode; in mapping mode
-  /// its state is conditioned on the dead-reckoned pose, whose error moves it by rho - p^ phi.
+  /// its state is conditioned on the dead-reckoned pose, whose error moves it by rho - p^ phi too.
   Eigen::Matrix3d covariance(const FilterState& state, size_t k) const;
   void syncEntry(const FilterState& state, size_t k);
 

@@ -446,10 +446,10 @@ def landmark_errors(est_ids, estworld_xyz, gt_ids, gtworld_xyz, gtworld_T_estwor
         valid = np.all(np.isfinite(sigma) & (sigma > 0), axis=1)
         n_sigma = int(valid.sum())
         if n_sigma:
-            gauge = gtworld_T_estworld if gauge_gtworld_T_estworld is None else (
-                np.asarray(gauge_gtworld_T_estworld, dtype=float))
+            gauge = (gtworld_T_estworld if gauge_gtworld_T_estworld is None
+                     else gauge_gtworld_T_estworld)
             # The error in the estimator's world (where sigma is diagonal), in the gauge.
-            estworld_T_gtworld = _inverse_rigid(np.asarray(gauge)[None])[0]
+            estworld_T_gtworld = _inverse_rigid(np.asarray(gauge, dtype=float)[None])[0]
             error_estworld = (transform_points(estworld_T_gtworld, gtworld_xyz[gt_rows[valid]])
                               - estworld_xyz[rows[valid]])
             normalized = error_estworld / sigma[valid]

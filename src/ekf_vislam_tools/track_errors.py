@@ -94,7 +94,6 @@ def fit_landmark(z, cam_T_world, K, b, inlier_px=INLIER_PX, rounds=4, iterations
     bool), or None with fewer than 2 inliers, or a point that an inlier camera sees closer than
     0.5 m or at a disparity below 0.5 px (its depth not determined)."""
     inliers = np.ones(len(z), dtype=bool)
-    p = None
     for _ in range(rounds):
         start = np.flatnonzero(inliers & (z[:, 0] - z[:, 2] > 0.5))
         if inliers.sum() < 2 or start.size == 0:

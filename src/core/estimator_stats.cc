@@ -18,6 +18,7 @@ const char* counterName(Counter counter) {
     case Counter::kFrameRepeated: return "frame_repeated";
     case Counter::kFrameCapped: return "frame_capped";
     case Counter::kFrameNonFiniteStamp: return "frame_non_finite_stamp";
+    case Counter::kFramePredictionWidened: return "frame_prediction_widened";
     case Counter::kObservationUpdate: return "observation_update";
     case Counter::kObservationInitialized: return "observation_initialized";
     case Counter::kObsNonFinite: return "observation_non_finite";

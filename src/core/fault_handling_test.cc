@@ -405,11 +405,9 @@ constexpr size_t kGapFrames = 15;
 TEST(FaultHandling, TwistGapBeyondMaxTwistGapPredictPolicy) {
   VislamOptions o = faultOptions();
   o.limits.gap_policy = GapPolicy::kPredict;
-  // Measured against the clean drive with the same options. The jump test is off here: it lowers
-  // the clean drive's final error to 0.487 m (0.642 m without) but not the heading error that
-  // 1+ s of prediction on a held twist adds (1.101 m with it, 1.225 m without), so 2x the clean
-  // figure would measure the jump test, not the gap handling.
-  o.landmarks.jump_threshold_px = 0.0;
+  // The heading error that 1.5 s of prediction on a held twist adds is unobservable and stays, so
+  // what must hold is that the filter works as before once the twist returns (the motion after
+  // the gap against the clean drive's, as for the faults that end every track).
   VislamEstimator e = startedEstimator(o);
   const size_t resume = kFault + kGapFrames;
   ASSERT_GT(twistAt(resume).stamp - twistAt(kFault - 1).stamp, o.limits.max_twist_gap);
@@ -423,7 +421,7 @@ TEST(FaultHandling, TwistGapBeyondMaxTwistGapPredictPolicy) {
   ASSERT_TRUE(e.feedFeatures(drive().frames[resume]).accepted);
   EXPECT_EQ(delta(before, e.stats(), Counter::kTwistGap), 1);
   expectHealthy(e, "first frame after the gap");
-  expectRecovers(&e, resume + 1, o);
+  expectRecovers(&e, resume + 1, o, Check::kMotionAfterRestart);
 }
 
 TEST(FaultHandling, TwistGapBeyondMaxTwistGapResetPolicy) {

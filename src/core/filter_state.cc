@@ -37,6 +37,7 @@ void FilterState::reset(const StatePrior& prior) {
 void FilterState::setPrior(const StatePrior& prior) {
   auto S = covariance();
   S.setZero();
+  noise_since_update_.setZero();
   const double p2 = prior.position_sigma * prior.position_sigma;
   const double r2 = prior.rotation_sigma * prior.rotation_sigma;
   // The prior is isotropic in (delta p, delta theta) about the current position; the internal
@@ -331,7 +332,14 @@ void FilterState::deferPrediction(const Eigen::MatrixXd& gain, const Matrix6d& n
     d.random_walk_sum += random_walk;
   }
   d.noise_sum += noise;
+  noise_since_update_ += noise;
   ++d.steps;
+}
+
+void FilterState::addPoseProcessNoise(const Matrix6d& noise, bool landmarks_follow_pose) {
+  // A step with F = I: only D noise D^T.
+  deferPrediction(Eigen::MatrixXd::Zero(StateLayout::kPoseDim, layout_.auxDim()), noise,
+                  Eigen::VectorXd::Zero(layout_.auxDim()), landmarks_follow_pose);
 }
 
 Eigen::MatrixXd FilterState::deferredNoiseMap() const {

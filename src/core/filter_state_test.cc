@@ -512,5 +512,31 @@ TEST(FilterState, ALandmarkChangeAppliesTheDeferredPredictionsFirst) {
             1e-12 * stepwise.covariance().norm());
 }
 
+TEST(FilterState, ProcessNoiseSinceTheUpdateIsSummedAndCanBeWidened) {
+  std::mt19937 rng(9);
+  FilterState state = randomState(3, &rng);
+  FilterState expected = state;
+  const int aux = state.layout().auxDim();
+  const Eigen::MatrixXd G = 0.1 * randomMatrix(6, aux, &rng);
+  const Eigen::MatrixXd B = 0.1 * randomMatrix(6, 6, &rng);
+  const Matrix6d Q = B * B.transpose();
+  const Eigen::VectorXd r = Eigen::VectorXd::Zero(aux);
+  state.deferPrediction(G, Q, r, true);
+  state.deferPrediction(G, 2.0 * Q, r, true);
+  EXPECT_LT((state.processNoiseSinceUpdate() - 3.0 * Q).norm(), 1e-15);
+  // Widening: the same D Q D^T as a step with F = I, in every covariance, the means unchanged.
+  state.addPoseProcessNoise(5.0 * Q, true);
+  applyStepNow(&expected, G, Q, r);
+  applyStepNow(&expected, G, 2.0 * Q, r);
+  applyStepNow(&expected, Eigen::MatrixXd::Zero(6, aux), 5.0 * Q, r);
+  for (int which = 0; which < state.covarianceCount(); ++which) {
+    EXPECT_LT((state.covariance(which) - expected.covariance(which)).norm(),
+              1e-10 * expected.covariance(which).norm());
+  }
+  EXPECT_TRUE(state.imu_T_world.isApprox(expected.imu_T_world));
+  state.markUpdate();
+  EXPECT_TRUE(state.processNoiseSinceUpdate().isZero(0.0));
+}
+
 }  // namespace
 }  // namespace ekf_vislam

@@ -120,11 +120,11 @@ void updateReported(const ArrangedJacobian& jacobian, const Eigen::MatrixXd& K,
 
 }  // namespace
 
-double mahalanobis2(const FilterState& state, const SparseJacobian& jacobian,
-                    const Eigen::VectorXd& residual, double noise_var) {
+Eigen::MatrixXd innovationCovariance(const FilterState& state, const SparseJacobian& jacobian,
+                                     double noise_var) {
   int columns = 0;
   for (const JacobianBlock& block : jacobian) columns += static_cast<int>(block.H.cols());
-  const int rows = static_cast<int>(residual.size());
+  const int rows = jacobian.empty() ? 0 : static_cast<int>(jacobian.front().H.rows());
   Eigen::MatrixXd H(rows, columns);
   std::vector<int> index;
   index.reserve(columns);
@@ -141,7 +141,12 @@ double mahalanobis2(const FilterState& state, const SparseJacobian& jacobian,
   }
   Eigen::MatrixXd innovation_cov = H * sub * H.transpose();
   innovation_cov.diagonal().array() += noise_var;
-  return residual.dot(innovation_cov.ldlt().solve(residual));
+  return innovation_cov;
+}
+
+double mahalanobis2(const FilterState& state, const SparseJacobian& jacobian,
+                    const Eigen::VectorXd& residual, double noise_var) {
+  return residual.dot(innovationCovariance(state, jacobian, noise_var).ldlt().solve(residual));
 }
 
 UpdateOutcome update(FilterState* state, const std::vector<SparseJacobian>& jacobians,

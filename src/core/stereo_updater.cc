@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 
 namespace ekf_vislam {
 
@@ -105,10 +106,54 @@ bool StereoUpdater::linearizeCandidate(const StereoCamera& camera, const FilterS
   c->flow_residual = c->residual.head<2>();
   c->flow_H_landmark = c->H_landmark.topRows<2>();
   difference(camera, state, landmarks, c);
-  const double pixel_var = options_->noise.pixel_sigma * options_->noise.pixel_sigma;
-  c->mahalanobis2 =
-      state_helper::mahalanobis2(state, gateJacobian(state, *c), c->residual, pixel_var);
+  gate(state, c);
   return true;
+}
+
+void StereoUpdater::gate(const FilterState& state, StereoCandidate* c) const {
+  const double pixel_var = options_->noise.pixel_sigma * options_->noise.pixel_sigma;
+  c->innovation_cov = state_helper::innovationCovariance(state, gateJacobian(state, *c), pixel_var);
+  c->mahalanobis2 = c->residual.dot(c->innovation_cov.ldlt().solve(c->residual));
+}
+
+void StereoUpdater::checkPrediction(std::vector<StereoCandidate>* candidates, FilterState* state,
+                                    EstimatorStats* stats, FeedResult* result) const {
+  PredictionCheckOptions check;
+  check.gate_threshold = gate_threshold_;
+  check.likelihood_cap = restart_threshold_;
+  int predicted = 0, gated = 0;
+  for (const StereoCandidate& c : *candidates) {
+    if (!c.predicted) continue;
+    ++predicted;
+    if (!(c.mahalanobis2 <= gate_threshold_)) ++gated;
+  }
+  if (predicted < check.min_observations || 2 * gated <= predicted) return;
+  // The process noise reaches an observation through the pose's columns and, the landmark error
+  // being attached to the current rotation, through the landmark's: D = [0, p^] there.
+  std::vector<PredictionCheckInput> inputs;
+  inputs.reserve(static_cast<size_t>(predicted));
+  for (const StereoCandidate& c : *candidates) {
+    if (!c.predicted) continue;
+    Eigen::MatrixXd B = c.H_pose;
+    B.rightCols<3>() += c.H_landmark * se3::hat(state->landmark(c.landmark));
+    inputs.push_back({c.residual, c.innovation_cov, B});
+  }
+  const Matrix6d process_noise = state->processNoiseSinceUpdate();
+  const double factor = predictionNoiseFactor(inputs, process_noise, check);
+  if (factor <= 1.0) return;
+  state->addPoseProcessNoise((factor - 1.0) * process_noise, true);
+  for (StereoCandidate& c : *candidates) {
+    if (c.predicted) gate(*state, &c);
+  }
+  stats->increment(Counter::kFramePredictionWidened);
+  if (result->message.empty()) {
+    std::ostringstream why;
+    why << gated << " of " << predicted
+        << " re-observed landmarks disagreed with the prediction: the process noise since the "
+           "last update taken x"
+        << factor << " (a twist worse than its noise model)";
+    result->message = why.str();
+  }
 }
 
 void StereoUpdater::difference(const StereoCamera& camera, const FilterState& state,
@@ -179,6 +224,10 @@ StereoUpdateOutcome StereoUpdater::update(std::vector<StereoCandidate>* candidat
       landmarks->track(c.landmark).has_flow_reference = false;
     }
   }
+  if (options_->landmarks.prediction_check && options_->mode == EstimatorMode::kSlam) {
+    checkPrediction(candidates, state, stats, result);
+  }
+  state->markUpdate();
   if (jump_test) detectJumps(*state, *landmarks, candidates);
   std::vector<StereoCandidate*> accepted;
   accepted.reserve(candidates->size());

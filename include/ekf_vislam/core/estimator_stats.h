@@ -19,13 +19,14 @@ enum class Counter : int {
   kTwistGap,   ///< time gap beyond limits/max_twist_gap: handled per gap policy
   // Feature messages
   kFrameUsed,
-  kFrameEmpty,           ///< no features (prediction still done)
-  kFrameStale,           ///< stamp older than the filter time: rejected
-  kFrameNoCalibration,   ///< calibration missing or invalid: rejected
-  kFrameBeforeTwist,     ///< no twist yet: rejected (the filter has no time origin)
-  kFrameRepeated,        ///< shared tracks all identical to the previous frame's
-  kFrameCapped,          ///< more than limits/max_features_per_frame: extra features dropped
-  kFrameNonFiniteStamp,  ///< stamp NaN/Inf: rejected
+  kFrameEmpty,              ///< no features (prediction still done)
+  kFrameStale,              ///< stamp older than the filter time: rejected
+  kFrameNoCalibration,      ///< calibration missing or invalid: rejected
+  kFrameBeforeTwist,        ///< no twist yet: rejected (the filter has no time origin)
+  kFrameRepeated,           ///< shared tracks all identical to the previous frame's
+  kFrameCapped,             ///< more than limits/max_features_per_frame: extra features dropped
+  kFrameNonFiniteStamp,     ///< stamp NaN/Inf: rejected
+  kFramePredictionWidened,  ///< most observations gated: the prediction's noise widened
   // Observations (one feature of one frame)
   kObservationUpdate,        ///< used in an EKF update
   kObservationInitialized,   ///< started a new landmark

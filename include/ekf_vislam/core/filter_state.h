@@ -127,6 +127,13 @@ class FilterState {
   /// F = I + D (sum G) A and sums of small matrices (doc/estimator.md, Prediction).
   void deferPrediction(const Eigen::MatrixXd& gain, const Matrix6d& noise,
                        const Eigen::VectorXd& random_walk, bool landmarks_follow_pose);
+  /// Sum of the pose's process noise Q (world frame) of the steps deferred since the last
+  /// markUpdate(): what the prediction since the last update added to the pose.
+  const Matrix6d& processNoiseSinceUpdate() const { return noise_since_update_; }
+  void markUpdate() { noise_since_update_.setZero(); }
+  /// More process noise for the steps already taken: D noise D^T added to every covariance (D as
+  /// in deferPrediction), the mean unchanged.
+  void addPoseProcessNoise(const Matrix6d& noise, bool landmarks_follow_pose);
   /// Scales the road tilt's rows and columns by f and adds `variance` to its diagonal in every
   /// covariance; commutes with the deferred predictions (D and G have no tilt entries), so none
   /// is applied.
@@ -237,6 +244,7 @@ class FilterState {
   mutable Eigen::MatrixXd sigma_;           ///< capacity >= dim_; the top-left dim_ block is live
   mutable Eigen::MatrixXd sigma_reported_;  ///< the same size, when layout_.reported_covariance
   mutable DeferredPredictions deferred_;
+  Matrix6d noise_since_update_ = Matrix6d::Zero();
 };
 
 }  // namespace ekf_vislam

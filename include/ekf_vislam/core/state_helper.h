@@ -48,6 +48,9 @@ struct UpdateOutcome {
 
 namespace state_helper {
 
+/// H Sigma H^T + noise_var I over the touched variables only (the gains' covariance).
+Eigen::MatrixXd innovationCovariance(const FilterState& state, const SparseJacobian& jacobian,
+                                     double noise_var);
 /// r^T (H Sigma H^T + noise_var I)^-1 r over the touched variables only.
 double mahalanobis2(const FilterState& state, const SparseJacobian& jacobian,
                     const Eigen::VectorXd& residual, double noise_var);

@@ -7,6 +7,7 @@
 #include "ekf_vislam/core/feed_result.h"
 #include "ekf_vislam/core/filter_state.h"
 #include "ekf_vislam/core/landmark_manager.h"
+#include "ekf_vislam/core/prediction_check.h"
 #include "ekf_vislam/core/state_helper.h"
 #include "ekf_vislam/core/stereo_camera.h"
 #include "ekf_vislam/core/track_correlation_estimator.h"
@@ -43,9 +44,10 @@ struct StereoCandidate {
   /// differencing): the track-jump test's input.
   Eigen::Vector2d flow_residual = Eigen::Vector2d::Zero();
   Eigen::Matrix<double, 2, 3> flow_H_landmark = Eigen::Matrix<double, 2, 3>::Zero();
-  double mahalanobis2 = 0.0;  ///< of the residual against its own innovation covariance
-  bool predicted = false;     ///< false: the landmark is not in front of the camera
-  bool jumped = false;        ///< the track-jump test flagged it
+  Eigen::MatrixXd innovation_cov;  ///< H Sigma H^T + R of the gate (the gains' covariance)
+  double mahalanobis2 = 0.0;       ///< of the residual against its own innovation covariance
+  bool predicted = false;          ///< false: the landmark is not in front of the camera
+  bool jumped = false;             ///< the track-jump test flagged it
 };
 
 /// What the update decided besides the correction.
@@ -109,6 +111,13 @@ class StereoUpdater {
   /// Jacobian blocks over the touched variables: for the gate, and for the stacked update.
   SparseJacobian gateJacobian(const FilterState& state, const StereoCandidate& c) const;
   SparseJacobian updateJacobian(const FilterState& state, const StereoCandidate& c) const;
+  /// Gate of one linearized candidate against the state's covariance (innovation covariance
+  /// and Mahalanobis distance).
+  void gate(const FilterState& state, StereoCandidate* c) const;
+  /// landmarks/prediction_check: when most candidates fail the gate, widens the pose's process
+  /// noise since the last update (prediction_check.h) and gates them again.
+  void checkPrediction(std::vector<StereoCandidate>* candidates, FilterState* state,
+                       EstimatorStats* stats, FeedResult* result) const;
   /// Flags the candidates whose track jumped (track_jump_detector.h).
   void detectJumps(const FilterState& state, const LandmarkManager& landmarks,
                    std::vector<StereoCandidate>* candidates) const;

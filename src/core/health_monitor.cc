@@ -6,6 +6,16 @@
 
 namespace ekf_vislam {
 
+namespace {
+
+/// What to check when the inputs contradict each other.
+constexpr char kCheckTheInputs[] =
+    ": check that the twist and the camera tf use the same axes (a twist in x forward, y left, z "
+    "up against a tf to x forward, y right, z down turns every yaw rate the wrong way), the "
+    "camera calibration and the time stamps";
+
+}  // namespace
+
 std::string disagreementHint(EstimatorMode mode, uint64_t gated, uint64_t updated) {
   const uint64_t total = gated + updated;
   if (total < kDisagreementMinObservations) return "";
@@ -22,9 +32,21 @@ std::string disagreementHint(EstimatorMode mode, uint64_t gated, uint64_t update
   } else {
     text << ", where real data gives a few %";
   }
-  text << ": check that the twist and the camera tf use the same axes (a twist in x forward, y "
-          "left, z up against a tf to x forward, y right, z down turns every yaw rate the wrong "
-          "way), the camera calibration and the time stamps";
+  text << kCheckTheInputs;
+  return text.str();
+}
+
+std::string widenedPredictionHint(uint64_t widened_frames, uint64_t frames) {
+  if (frames < kWidenedHintMinFrames) return "";
+  const double fraction = static_cast<double>(widened_frames) / static_cast<double>(frames);
+  if (fraction <= kWidenedFramesFraction) return "";
+  std::ostringstream text;
+  text.precision(3);
+  text << "in " << 100.0 * fraction << " % of the frames (" << widened_frames << " of " << frames
+       << ") most re-observed landmarks disagreed with the prediction, whose noise was widened "
+          "so that the images correct it (landmarks/prediction_check), where real twists give a "
+          "few %"
+       << kCheckTheInputs;
   return text.str();
 }
 

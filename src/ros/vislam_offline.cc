@@ -380,6 +380,8 @@ void printSummary(const EstimatorRunner& runner, const std::string& out_dir) {
   std::vector<std::string> hints = {
       disagreementHint(options.mode, stats.get(Counter::kObsGated),
                        stats.get(Counter::kObservationUpdate)),
+      widenedPredictionHint(stats.get(Counter::kFramePredictionWidened),
+                            stats.get(Counter::kFrameUsed)),
       sparseObservationsHint(options.mode, stats.get(Counter::kObservationUpdate),
                              stats.get(Counter::kFrameUsed)),
       accelerometerHint(stats.get(Counter::kAccelImplausible) + stats.get(Counter::kAccelNonFinite),

@@ -74,10 +74,13 @@ void VislamRos::setSummary(const DiagnosticHints& hints, const ros::WallTime& no
     status.summary(DiagnosticStatus::WARN,
                    "most stereo features rejected: images not rectified, or left and right "
                    "swapped? (see the log)");
-  } else if (!hints.disagreement.empty()) {
+  } else if (!hints.disagreement.empty() || !widened_hint_.empty()) {
     status.summary(DiagnosticStatus::WARN,
-                   "many observations gated: do the twist, the camera tf and the stamps agree? "
-                   "(see the log)");
+                   hints.disagreement.empty()
+                       ? "the prediction disagreed with the images in many frames: do the twist, "
+                         "the camera tf and the stamps agree? (see the log)"
+                       : "many observations gated: do the twist, the camera tf and the stamps "
+                         "agree? (see the log)");
   } else if (!hints.state.travel.empty()) {
     status.summary(DiagnosticStatus::WARN,
                    "the twist does not travel along its x axis: the vehicle prior removes a part "
@@ -173,15 +176,21 @@ void VislamRos::addDiagnosticValues(double twist_rate, double feature_rate,
 }
 
 void VislamRos::updateObservationRate(const EstimatorStats& stats) {
+  static_assert(kWidenedHintMinFrames <= kSparseHintMinFrames, "one window serves both hints");
   const auto window =
-      rate_window_.close({stats.get(Counter::kFrameUsed), stats.get(Counter::kObservationUpdate)},
+      rate_window_.close({stats.get(Counter::kFrameUsed), stats.get(Counter::kObservationUpdate),
+                          stats.get(Counter::kFramePredictionWidened)},
                          kSparseHintMinFrames);
   if (!window) return;
-  const auto [frames, updates] = *window;
+  const auto [frames, updates, widened] = *window;
   observations_per_frame_ = static_cast<double>(updates) / static_cast<double>(frames);
   sparse_hint_ = sparseObservationsHint(options_.mode, updates, frames);
   if (!sparse_hint_.empty()) {
     ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), sparse_hint_.c_str());
+  }
+  widened_hint_ = widenedPredictionHint(widened, frames);
+  if (!widened_hint_.empty()) {
+    ROS_WARN_THROTTLE(30.0, "%s: %s", name_.c_str(), widened_hint_.c_str());
   }
 }
 

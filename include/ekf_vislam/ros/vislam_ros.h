@@ -123,7 +123,7 @@ class VislamRos {
   void addDiagnosticValues(double twist_rate, double feature_rate,
                            diagnostic_updater::DiagnosticStatusWrapper& status) const;
   /// Closes the observation-rate window once it holds kSparseHintMinFrames frames: sets
-  /// observations_per_frame_ and sparse_hint_ (warned in the log).
+  /// observations_per_frame_, sparse_hint_ and widened_hint_ (warned in the log).
   void updateObservationRate(const EstimatorStats& stats);
   /// Closes the feature-geometry window once it holds kFeatureHintMinObservations observations:
   /// sets geometry_hint_ (warned in the log).
@@ -184,11 +184,13 @@ class VislamRos {
   /// Observations gated and used in updates, per diagnostics period (the disagreement hint).
   CounterWindow<2> disagreement_window_;
   // Observations per frame over windows of at least kSparseHintMinFrames frames.
-  CounterWindow<2> rate_window_;          ///< frames used, observations used in updates
+  /// Frames used, observations used in updates, frames whose prediction was widened.
+  CounterWindow<3> rate_window_;
   double observations_per_frame_ = -1.0;  ///< over the last full window (-1: none yet)
   /// When each state hint was last warned in the log (once a minute at most).
   std::array<ros::WallTime, StateHints::kCount> state_hint_warned_;
-  std::string sparse_hint_;  ///< sparseObservationsHint of that window
+  std::string sparse_hint_;   ///< sparseObservationsHint of that window
+  std::string widened_hint_;  ///< widenedPredictionHint of that window
   // Rejected stereo geometry over windows of at least kFeatureHintMinObservations observations.
   CounterWindow<3> geometry_window_;  ///< observations screened, rejected for rows, disparity
   std::string geometry_hint_;         ///< featureGeometryHint of the last full window

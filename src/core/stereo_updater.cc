@@ -121,9 +121,15 @@ void StereoUpdater::checkPrediction(std::vector<StereoCandidate>* candidates, Fi
   PredictionCheckOptions check;
   check.gate_threshold = gate_threshold_;
   check.likelihood_cap = restart_threshold_;
+  // An observation seen from the clone (a track through a repeated frame) shows its landmark
+  // from the pose at that frame: what the prediction added since does not reach it, so it can
+  // neither disagree with the prediction nor vote on it.
+  const auto sees_the_prediction = [](const StereoCandidate& c) {
+    return c.predicted && !c.via_clone;
+  };
   int predicted = 0, gated = 0;
   for (const StereoCandidate& c : *candidates) {
-    if (!c.predicted) continue;
+    if (!sees_the_prediction(c)) continue;
     ++predicted;
     if (!(c.mahalanobis2 <= gate_threshold_)) ++gated;
   }
@@ -133,7 +139,7 @@ void StereoUpdater::checkPrediction(std::vector<StereoCandidate>* candidates, Fi
   std::vector<PredictionCheckInput> inputs;
   inputs.reserve(static_cast<size_t>(predicted));
   for (const StereoCandidate& c : *candidates) {
-    if (!c.predicted) continue;
+    if (!sees_the_prediction(c)) continue;
     Eigen::MatrixXd B = c.H_pose;
     B.rightCols<3>() += c.H_landmark * se3::hat(state->landmark(c.landmark));
     inputs.push_back({c.residual, c.innovation_cov, B});

@@ -614,21 +614,18 @@ TEST(VislamEstimator, RepeatedFramesAreCountedAndOptionallySkipped) {
   EXPECT_GT((skipped - used).norm(), 1e-6);
 }
 
-TEST(VislamEstimator, ShiftPolicyFollowsTracksThatLagAfterARepeatedFrame) {
-  // The course files' pattern, reproduced on a synthetic drive: every 12th frame repeats the
-  // previous one for the tracks they share (new tracks start in it, at their true coordinates),
-  // and from then on each of those tracks reports the point its landmark would be if carried
-  // along by the repeated frame's motion, p' = world_T_imu(repeated) imu_T_world(previous) p
-  // (again for every later repeat it runs through).
-  ScenarioOptions so;
-  so.frames = 300;
-  so.pixel_sigma = 0.5;
-  Scenario s = makeScenario(so);
+// The course files' pattern of repeated frames, reproduced on a synthetic drive: every
+// `every`-th frame repeats the previous one for the tracks they share (new tracks start in it, at
+// their true coordinates), and from then on each of those tracks reports the point its landmark
+// would be if carried along by the repeated frame's motion, p' = world_T_imu(repeated)
+// imu_T_world(previous) p (again for every later repeat it runs through). Returns how many.
+int withRepeatedFrames(Scenario* scenario, size_t every) {
+  Scenario& s = *scenario;
   const StereoCamera camera(s.calibration);
   std::map<uint32_t, Eigen::Vector3d> p_reported;  // the point each track reports
   int repeated_frames = 0;
   for (size_t k = 1; k < s.frames.size(); ++k) {
-    const bool repeat = k % 12 == 0;
+    const bool repeat = k % every == 0;
     std::map<uint32_t, StereoObservation> previous;
     for (const StereoObservation& f : s.frames[k - 1].features) previous[f.id] = f;
     const Eigen::Matrix4d delta =
@@ -657,6 +654,15 @@ TEST(VislamEstimator, ShiftPolicyFollowsTracksThatLagAfterARepeatedFrame) {
     s.frames[k].features = kept;
     if (repeat) ++repeated_frames;
   }
+  return repeated_frames;
+}
+
+TEST(VislamEstimator, ShiftPolicyFollowsTracksThatLagAfterARepeatedFrame) {
+  ScenarioOptions so;
+  so.frames = 300;
+  so.pixel_sigma = 0.5;
+  Scenario s = makeScenario(so);
+  const int repeated_frames = withRepeatedFrames(&s, 12);
   auto runWith = [&](RepeatedFramePolicy policy, uint64_t* shifted) {
     VislamOptions o = testing::matchedOptions(so);
     o.limits.repeated_frames = policy;

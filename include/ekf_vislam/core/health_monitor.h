@@ -25,8 +25,8 @@ std::string disagreementHint(EstimatorMode mode, uint64_t gated, uint64_t update
 /// A hint when the prediction check (landmarks/prediction_check) had to widen the prediction's
 /// noise in more than kWidenedFramesFraction of at least kWidenedHintMinFrames frames: most
 /// re-observed landmarks disagreed with the prediction frame after frame, where real twists do so
-/// in a few % of the frames (2.09 % with twice the KITTI course files' angular noise). The images
-/// then correct a twist that contradicts them (other axes than the camera tf's, a wrong
+/// in a few % of the frames (3.41 % with four times the KITTI course files' angular noise). The
+/// images then correct a twist that contradicts them (other axes than the camera tf's, a wrong
 /// calibration, shifted stamps), so few observations are gated and disagreementHint stays silent:
 /// this one says so. Empty when the fraction is ordinary.
 constexpr double kWidenedFramesFraction = 0.1;

@@ -198,10 +198,11 @@ struct LandmarkOptions {
   /// A landmark whose observations disagree grossly (beyond the chi-square 0.9999 quantile) this
   /// many frames in a row restarts from its current observation; 0 = never.
   int reinitialize_after_gated = 1;
-  /// SLAM: when more than half of a frame's re-observed landmarks (8 or more) fail the gate, the
+  /// SLAM: when more than half of a frame's re-observed landmarks (8 or more; not those seen from
+  /// the clone of a repeated frame, which the prediction does not reach) fail the gate, the
   /// prediction is taken to be what is wrong: the pose's process noise since the last update is
-  /// widened (x4, 16, ... 1024, the smallest that lets most pass; prediction_check.h) in both
-  /// covariances before the gate decides, and counted (frame_prediction_widened).
+  /// widened (x4, 16, ... 1024, as the frame's capped likelihood prefers; prediction_check.h) in
+  /// both covariances before the gate decides, and counted (frame_prediction_widened).
   bool prediction_check = true;
   /// A landmark tracked in this many frames leaves the state (its estimate stays in the map) and
   /// its track continues as a new landmark (same id, new map entry). 0 = never.

@@ -43,9 +43,10 @@ double cappedNegativeLogLikelihood(const std::vector<PredictionCheckInput>& obse
 
 double predictionNoiseFactor(const std::vector<PredictionCheckInput>& observations,
                              const Matrix6d& process_noise, const PredictionCheckOptions& options) {
-  const int n = static_cast<int>(observations.size());
-  if (n < options.min_observations || !(process_noise.trace() > 0.0)) return 1.0;
-  if (2 * gatedWithWidenedNoise(observations, process_noise, 1.0, options.gate_threshold) <= n) {
+  if (!(process_noise.trace() > 0.0) ||
+      !predictionSuspected(
+          gatedWithWidenedNoise(observations, process_noise, 1.0, options.gate_threshold),
+          static_cast<int>(observations.size()), options)) {
     return 1.0;
   }
   double best = 1.0;

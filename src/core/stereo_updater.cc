@@ -23,7 +23,10 @@ StereoUpdater::StereoUpdater(const VislamOptions& options)
           chiSquareQuantile(options.landmarks.gating_probability, rows_per_observation_)),
       restart_threshold_(chiSquareQuantile(0.9999, rows_per_observation_)),
       track_correlation_(options.noise.track_correlation_window, kTrackCorrelationMinPairs,
-                         options.noise.track_correlation_max) {}
+                         options.noise.track_correlation_max) {
+  prediction_check_.gate_threshold = gate_threshold_;
+  prediction_check_.likelihood_cap = restart_threshold_;
+}
 
 bool StereoUpdater::predict(const StereoCamera& camera, const FilterState& state,
                             const Eigen::Matrix4d& imu_T_world, const Eigen::Vector3d& p_world,
@@ -118,9 +121,6 @@ void StereoUpdater::gate(const FilterState& state, StereoCandidate* c) const {
 
 void StereoUpdater::checkPrediction(std::vector<StereoCandidate>* candidates, FilterState* state,
                                     EstimatorStats* stats, FeedResult* result) const {
-  PredictionCheckOptions check;
-  check.gate_threshold = gate_threshold_;
-  check.likelihood_cap = restart_threshold_;
   // An observation seen from the clone (a track through a repeated frame) shows its landmark
   // from the pose at that frame: what the prediction added since does not reach it, so it can
   // neither disagree with the prediction nor vote on it.
@@ -133,7 +133,7 @@ void StereoUpdater::checkPrediction(std::vector<StereoCandidate>* candidates, Fi
     ++predicted;
     if (!(c.mahalanobis2 <= gate_threshold_)) ++gated;
   }
-  if (predicted < check.min_observations || 2 * gated <= predicted) return;
+  if (!predictionSuspected(gated, predicted, prediction_check_)) return;
   // The process noise reaches an observation through the pose's columns and, the landmark error
   // being attached to the current rotation, through the landmark's: D = [0, p^] there.
   std::vector<PredictionCheckInput> inputs;
@@ -145,7 +145,7 @@ void StereoUpdater::checkPrediction(std::vector<StereoCandidate>* candidates, Fi
     inputs.push_back({c.residual, c.innovation_cov, B});
   }
   const Matrix6d process_noise = state->processNoiseSinceUpdate();
-  const double factor = predictionNoiseFactor(inputs, process_noise, check);
+  const double factor = predictionNoiseFactor(inputs, process_noise, prediction_check_);
   if (factor <= 1.0) return;
   state->addPoseProcessNoise((factor - 1.0) * process_noise, true);
   for (StereoCandidate& c : *candidates) {

@@ -1,7 +1,7 @@
 // The frame's check of the prediction: when most re-observed landmarks fail the gate together,
 // the prediction is what is wrong (a twist sample worse than its noise model, a twist noise not
 // yet estimated), not the observations. The pose's process noise since the last update is then
-// widened, by the smallest of a few factors that lets most of them pass. No ROS.
+// widened, by the one of a few factors that explains the frame's innovations best. No ROS.
 #pragma once
 
 #include "ekf_vislam/core/types.h"
@@ -32,6 +32,13 @@ struct PredictionCheckOptions {
   /// by their square roots: 2, 4, 8, 16, 32).
   std::vector<double> factors = {4.0, 16.0, 64.0, 256.0, 1024.0};
 };
+
+/// The rule that suspects the prediction: at least options.min_observations, more than half of
+/// them gated.
+inline bool predictionSuspected(int gated, int observations,
+                                const PredictionCheckOptions& options) {
+  return observations >= options.min_observations && 2 * gated > observations;
+}
 
 /// Observations beyond the gate when the pose's process noise Q is taken `factor` times: each
 /// innovation covariance becomes S + (factor - 1) B Q B^T.

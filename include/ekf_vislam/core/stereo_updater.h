@@ -139,6 +139,7 @@ class StereoUpdater {
   Eigen::MatrixXd observation_selector_;  ///< rows x 4
   double gate_threshold_ = 0.0;
   double restart_threshold_ = 0.0;  ///< chi-square 0.9999: gross disagreement (track jumped)
+  PredictionCheckOptions prediction_check_;  ///< the gate's thresholds, built once
   TrackCorrelationEstimator track_correlation_;
 };
 

@@ -19,6 +19,7 @@ const char* counterName(Counter counter) {
     case Counter::kFrameCapped: return "frame_capped";
     case Counter::kFrameNonFiniteStamp: return "frame_non_finite_stamp";
     case Counter::kFramePredictionWidened: return "frame_prediction_widened";
+    case Counter::kFrameGatedJointly: return "frame_gated_jointly";
     case Counter::kObservationUpdate: return "observation_update";
     case Counter::kObservationInitialized: return "observation_initialized";
     case Counter::kObsNonFinite: return "observation_non_finite";

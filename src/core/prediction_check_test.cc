@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 
 namespace ekf_vislam {
@@ -56,7 +57,12 @@ TEST(PredictionCheck, AGoodPredictionIsLeftAlone) {
   EXPECT_EQ(predictionNoiseFactor(observations, Q, optionsFor3Rows()), 1.0);
 }
 
-TEST(PredictionCheck, AYawTheTwistGotWrongWidensItsNoiseByTheFactorThatExplainsIt) {
+int beyondGate(const std::vector<double>& d2, double gate_threshold) {
+  return static_cast<int>(
+      std::count_if(d2.begin(), d2.end(), [&](double v) { return !(v <= gate_threshold); }));
+}
+
+TEST(PredictionCheck, AYawTheTwistGotWrongWidensItsNoiseAndIsGatedJointly) {
   // The first frames of a run whose gyro is twice as noisy as the guessed density, one sample
   // 2.2 sigma off: 1.27 degrees of yaw against a believed 0.27.
   const Matrix6d Q = processNoise(0.03, 0.0047);
@@ -64,12 +70,32 @@ TEST(PredictionCheck, AYawTheTwistGotWrongWidensItsNoiseByTheFactorThatExplainsI
   error(4) = 0.0222;
   const auto observations = observationsOf(error, Q, 60, 2);
   EXPECT_GT(gatedWithWidenedNoise(observations, Q, 1.0, 7.8147), 30);
-  const double factor = predictionNoiseFactor(observations, Q, optionsFor3Rows());
-  EXPECT_GT(factor, 1.0);
-  // Most pass, and the error (4.7 sigma) takes a factor near its square: 16 or 64.
-  EXPECT_LE(gatedWithWidenedNoise(observations, Q, factor, 7.8147), 6);
-  EXPECT_GE(factor, 16.0);
-  EXPECT_LE(factor, 64.0);
+  const PredictionVerdict verdict = judgePrediction(observations, Q, optionsFor3Rows());
+  ASSERT_TRUE(verdict.joint);
+  // The error (4.7 sigma) takes a factor near its square: 16 or 64.
+  EXPECT_GE(verdict.factor, 16.0);
+  EXPECT_LE(verdict.factor, 64.0);
+  EXPECT_LE(gatedWithWidenedNoise(observations, Q, verdict.factor, 7.8147), 6);
+  // Gated on what the fitted yaw leaves: about the 5 % a 95 % gate refuses.
+  ASSERT_EQ(verdict.joint_d2.size(), observations.size());
+  EXPECT_LE(beyondGate(verdict.joint_d2, 7.8147), 6);
+}
+
+TEST(PredictionCheck, AnErrorNoWideningExplainsIsStillFittedOut) {
+  // 12 sigmas of yaw with the widening factors limited to 4: every landmark stays beyond its
+  // capped share of the likelihood whatever the factor, so no widening is chosen, but one pose
+  // change explains them all, and the joint gate passes them.
+  const Matrix6d Q = processNoise(0.03, 0.0047);
+  Eigen::Matrix<double, 6, 1> error = Eigen::Matrix<double, 6, 1>::Zero();
+  error(4) = 12.0 * 0.0047;
+  const auto observations = observationsOf(error, Q, 60, 7);
+  PredictionCheckOptions options = optionsFor3Rows();
+  options.factors = {4.0};
+  ASSERT_GT(gatedWithWidenedNoise(observations, Q, 4.0, 7.8147), 50);
+  const PredictionVerdict verdict = judgePrediction(observations, Q, options);
+  ASSERT_TRUE(verdict.joint);
+  EXPECT_EQ(verdict.factor, 1.0);
+  EXPECT_LE(beyondGate(verdict.joint_d2, 7.8147), 6);
 }
 
 TEST(PredictionCheck, ObservationsThatDisagreeAmongThemselvesAreNotBlamedOnThePrediction) {
@@ -86,7 +112,18 @@ TEST(PredictionCheck, ObservationsThatDisagreeAmongThemselvesAreNotBlamedOnThePr
     observations[i].residual.head<3>() += Eigen::Vector3d(unit(rng), unit(rng), unit(rng));
   }
   ASSERT_GT(gatedWithWidenedNoise(observations, Q, 1.0, 7.8147), 20);
-  EXPECT_EQ(predictionNoiseFactor(observations, Q, optionsFor3Rows()), 1.0);
+  const PredictionVerdict verdict = judgePrediction(observations, Q, optionsFor3Rows());
+  EXPECT_EQ(verdict.factor, 1.0);
+  // Gated jointly, the outliers stay beyond the gate and the others pass.
+  ASSERT_EQ(verdict.joint_d2.size(), observations.size());
+  int outliers_gated = 0, others_gated = 0;
+  for (size_t i = 0; i < observations.size(); ++i) {
+    const bool outlier = i % 2 == 0 || i % 4 == 1;
+    const bool gated = !(verdict.joint_d2[i] <= 7.8147);
+    (outlier ? outliers_gated : others_gated) += gated ? 1 : 0;
+  }
+  EXPECT_GE(outliers_gated, 28);  // of 30
+  EXPECT_LE(others_gated, 2);     // of 10
 }
 
 TEST(PredictionCheck, TooFewObservationsOrNoProcessNoiseSayNothing) {

@@ -145,19 +145,27 @@ void StereoUpdater::checkPrediction(std::vector<StereoCandidate>* candidates, Fi
     inputs.push_back({c.residual, c.innovation_cov, B});
   }
   const Matrix6d process_noise = state->processNoiseSinceUpdate();
-  const double factor = predictionNoiseFactor(inputs, process_noise, prediction_check_);
-  if (factor <= 1.0) return;
-  state->addPoseProcessNoise((factor - 1.0) * process_noise, true);
-  for (StereoCandidate& c : *candidates) {
-    if (c.predicted) gate(*state, &c);
+  const PredictionVerdict verdict = judgePrediction(inputs, process_noise, prediction_check_);
+  if (!verdict.joint) return;
+  stats->increment(Counter::kFrameGatedJointly);
+  if (verdict.factor > 1.0) {
+    state->addPoseProcessNoise((verdict.factor - 1.0) * process_noise, true);
+    for (StereoCandidate& c : *candidates) {
+      if (c.predicted) gate(*state, &c);
+    }
+    stats->increment(Counter::kFramePredictionWidened);
   }
-  stats->increment(Counter::kFramePredictionWidened);
-  if (result->message.empty()) {
+  // Gated jointly: each on what the pose change the frame shares leaves of it.
+  size_t i = 0;
+  for (StereoCandidate& c : *candidates) {
+    if (sees_the_prediction(c)) c.mahalanobis2 = verdict.joint_d2[i++];
+  }
+  if (verdict.factor > 1.0 && result->message.empty()) {
     std::ostringstream why;
     why << gated << " of " << predicted
         << " re-observed landmarks disagreed with the prediction: the process noise since the "
            "last update taken x"
-        << factor << " (a twist worse than its noise model)";
+        << verdict.factor << " (a twist worse than its noise model)";
     result->message = why.str();
   }
 }

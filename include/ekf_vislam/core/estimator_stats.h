@@ -27,6 +27,7 @@ enum class Counter : int {
   kFrameCapped,             ///< more than limits/max_features_per_frame: extra features dropped
   kFrameNonFiniteStamp,     ///< stamp NaN/Inf: rejected
   kFramePredictionWidened,  ///< most observations gated: the prediction's noise widened
+  kFrameGatedJointly,       ///< most observations gated: gated again after their shared error
   // Observations (one feature of one frame)
   kObservationUpdate,        ///< used in an EKF update
   kObservationInitialized,   ///< started a new landmark

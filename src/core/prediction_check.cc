@@ -126,8 +126,7 @@ PredictionVerdict judgePrediction(const std::vector<PredictionCheckInput>& obser
   whitened.reserve(observations.size());
   for (const PredictionCheckInput& o : observations) {
     WhitenedObservation w;
-    w.N.compute(o.innovation_cov -
-                o.noise_sensitivity * process_noise * o.noise_sensitivity.transpose());
+    w.N.compute(widened(o, process_noise, 0.0));
     // Q is the process noise since the last update; the updates of the vehicle's priors may have
     // taken part of it out of S since. Where S no longer holds it, n_i keeps all of S.
     if (w.N.info() != Eigen::Success || !(w.N.vectorD().minCoeff() > 0.0)) {
@@ -153,11 +152,6 @@ PredictionVerdict judgePrediction(const std::vector<PredictionCheckInput>& obser
     verdict.joint_d2.push_back(rest.dot(cov.ldlt().solve(rest)));
   }
   return verdict;
-}
-
-double predictionNoiseFactor(const std::vector<PredictionCheckInput>& observations,
-                             const Matrix6d& process_noise, const PredictionCheckOptions& options) {
-  return judgePrediction(observations, process_noise, options).factor;
 }
 
 }  // namespace ekf_vislam

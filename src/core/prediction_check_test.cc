@@ -54,7 +54,7 @@ TEST(PredictionCheck, AGoodPredictionIsLeftAlone) {
   error << 0.03, -0.02, 0.01, 0.002, -0.004, 0.003;  // within Q
   const auto observations = observationsOf(error, Q, 60, 1);
   EXPECT_LE(gatedWithWidenedNoise(observations, Q, 1.0, 7.8147), 10);
-  EXPECT_EQ(predictionNoiseFactor(observations, Q, optionsFor3Rows()), 1.0);
+  EXPECT_EQ(judgePrediction(observations, Q, optionsFor3Rows()).factor, 1.0);
 }
 
 int beyondGate(const std::vector<double>& d2, double gate_threshold) {
@@ -130,12 +130,12 @@ TEST(PredictionCheck, TooFewObservationsOrNoProcessNoiseSayNothing) {
   const Matrix6d Q = processNoise(0.03, 0.0047);
   Eigen::Matrix<double, 6, 1> error = Eigen::Matrix<double, 6, 1>::Zero();
   error(4) = 0.05;
-  EXPECT_EQ(predictionNoiseFactor(observationsOf(error, Q, 7, 5), Q, optionsFor3Rows()), 1.0);
+  EXPECT_EQ(judgePrediction(observationsOf(error, Q, 7, 5), Q, optionsFor3Rows()).factor, 1.0);
   EXPECT_EQ(
-      predictionNoiseFactor(observationsOf(error, Q, 20, 5), Matrix6d::Zero(), optionsFor3Rows()),
+      judgePrediction(observationsOf(error, Q, 20, 5), Matrix6d::Zero(), optionsFor3Rows()).factor,
       1.0);
   // The same 20 with their process noise: widened.
-  EXPECT_GT(predictionNoiseFactor(observationsOf(error, Q, 20, 5), Q, optionsFor3Rows()), 1.0);
+  EXPECT_GT(judgePrediction(observationsOf(error, Q, 20, 5), Q, optionsFor3Rows()).factor, 1.0);
 }
 
 }  // namespace

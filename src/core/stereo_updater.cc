@@ -150,15 +150,17 @@ void StereoUpdater::checkPrediction(std::vector<StereoCandidate>* candidates, Fi
   stats->increment(Counter::kFrameGatedJointly);
   if (verdict.factor > 1.0) {
     state->addPoseProcessNoise((verdict.factor - 1.0) * process_noise, true);
-    for (StereoCandidate& c : *candidates) {
-      if (c.predicted) gate(*state, &c);
-    }
     stats->increment(Counter::kFramePredictionWidened);
   }
-  // Gated jointly: each on what the pose change the frame shares leaves of it.
+  // Gated jointly: each on what the pose change the frame shares leaves of it. The others (seen
+  // from the clone) are gated again against the widened covariance.
   size_t i = 0;
   for (StereoCandidate& c : *candidates) {
-    if (sees_the_prediction(c)) c.mahalanobis2 = verdict.joint_d2[i++];
+    if (sees_the_prediction(c)) {
+      c.mahalanobis2 = verdict.joint_d2[i++];
+    } else if (c.predicted && verdict.factor > 1.0) {
+      gate(*state, &c);
+    }
   }
   if (verdict.factor > 1.0 && result->message.empty()) {
     std::ostringstream why;

@@ -44,7 +44,8 @@ inline bool predictionSuspected(int gated, int observations,
 }
 
 /// Observations beyond the gate when the pose's process noise Q is taken `factor` times: each
-/// innovation covariance becomes S + (factor - 1) B Q B^T.
+/// innovation covariance becomes S + (factor - 1) B Q B^T (factor 0: N = S - B Q B^T, the
+/// observation without the process noise's part).
 int gatedWithWidenedNoise(const std::vector<PredictionCheckInput>& observations,
                           const Matrix6d& process_noise, double factor, double gate_threshold);
 
@@ -72,9 +73,5 @@ struct PredictionVerdict {
 PredictionVerdict judgePrediction(const std::vector<PredictionCheckInput>& observations,
                                   const Matrix6d& process_noise,
                                   const PredictionCheckOptions& options);
-
-/// judgePrediction's factor.
-double predictionNoiseFactor(const std::vector<PredictionCheckInput>& observations,
-                             const Matrix6d& process_noise, const PredictionCheckOptions& options);
 
 }  // namespace ekf_vislam

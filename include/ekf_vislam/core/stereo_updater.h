@@ -115,7 +115,8 @@ class StereoUpdater {
   /// and Mahalanobis distance).
   void gate(const FilterState& state, StereoCandidate* c) const;
   /// landmarks/prediction_check: when most candidates fail the gate, widens the pose's process
-  /// noise since the last update (prediction_check.h) and gates them again.
+  /// noise since the last update as the frame prefers and gates the frame jointly
+  /// (prediction_check.h).
   void checkPrediction(std::vector<StereoCandidate>* candidates, FilterState* state,
                        EstimatorStats* stats, FeedResult* result) const;
   /// Flags the candidates whose track jumped (track_jump_detector.h).

@@ -202,7 +202,8 @@ struct LandmarkOptions {
   /// the clone of a repeated frame, which the prediction does not reach) fail the gate, the
   /// prediction is taken to be what is wrong: the pose's process noise since the last update is
   /// widened (x4, 16, ... 1024, as the frame's capped likelihood prefers; prediction_check.h) in
-  /// both covariances before the gate decides, and counted (frame_prediction_widened).
+  /// both covariances, and the frame is gated jointly: each observation on what the pose change
+  /// they share leaves of it (counted: frame_prediction_widened, frame_gated_jointly).
   bool prediction_check = true;
   /// A landmark tracked in this many frames leaves the state (its estimate stays in the map) and
   /// its track continues as a new landmark (same id, new map entry). 0 = never.

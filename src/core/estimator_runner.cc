@@ -270,6 +270,7 @@ RunSummary EstimatorRunner::summary() const {
   s.extra["twist_speed_scale_shown_white_sigma"] = estimator_.speedErrorMonitor().whiteSigma();
   s.extra["track_correlation"] = estimator_.trackCorrelation();
   s.extra["track_variance_factor"] = estimator_.trackVarianceFactor();
+  s.extra["track_noise_recount_factor"] = estimator_.trackNoiseRecountFactor();
   // The twist's noise densities in use (m/s/sqrt(Hz), rad/s/sqrt(Hz)) and its mean forward speed.
   s.extra["twist_linear_noise_density"] = estimator_.linearNoiseDensity();
   s.extra["twist_angular_noise_density"] = estimator_.angularNoiseDensity();

@@ -30,6 +30,9 @@ void FilterState::reset(const StatePrior& prior) {
   const int capacity = std::max(64, dim_);
   sigma_ = Eigen::MatrixXd::Zero(capacity, capacity);
   if (layout_.reported_covariance) sigma_reported_ = Eigen::MatrixXd::Zero(capacity, capacity);
+  track_noise_carried_ = layout_.reported_covariance;
+  track_noise_ =
+      track_noise_carried_ ? Eigen::MatrixXd::Zero(capacity, capacity) : Eigen::MatrixXd();
   landmark_means_ = Eigen::VectorXd::Zero(capacity);
   setPrior(prior);
 }
@@ -107,6 +110,8 @@ void FilterState::setPrior(const StatePrior& prior) {
     covariance(1) = sigma_.topLeftCorner(dim_, dim_);
     for (const auto& [row, variance] : reported_only) sigma_reported_(row, row) = variance;
   }
+  if (track_noise_carried_) covariance(kTrackNoise).setZero();
+  track_noise_factor_ = 1.0;
   clonePose();
 }
 
@@ -122,7 +127,7 @@ void FilterState::clonePose() {
   // The clone's error equals the pose error now: rows, then columns (which sets the clone block
   // to the pose block).
   const int c = layout_.cloneRow();
-  for (int which = 0; which < covarianceCount(); ++which) {
+  for (int which = 0; which < carriedCount(); ++which) {
     auto S = covariance(which);
     S.middleRows(c, StateLayout::kPoseDim) = S.topRows(StateLayout::kPoseDim);
     S.middleCols(c, StateLayout::kPoseDim) = S.leftCols(StateLayout::kPoseDim);
@@ -133,7 +138,7 @@ void FilterState::ensureCapacity(int dim) {
   const int capacity = static_cast<int>(sigma_.rows());
   if (dim <= capacity) return;
   const int new_capacity = std::max(dim, 2 * capacity);
-  for (int which = 0; which < covarianceCount(); ++which) {
+  for (int which = 0; which < carriedCount(); ++which) {
     Eigen::MatrixXd grown = Eigen::MatrixXd::Zero(new_capacity, new_capacity);
     grown.topLeftCorner(dim_, dim_) = storage(which).topLeftCorner(dim_, dim_);
     storage(which).swap(grown);
@@ -157,8 +162,13 @@ void FilterState::appendLandmark(const Eigen::Vector3d& p_world,
   applyDeferredPredictions();
   const int row = dim_;
   ensureCapacity(dim_ + 3);
-  for (int which = 0; which < covarianceCount(); ++which) {
+  for (int which = 0; which < carriedCount(); ++which) {
     auto S = storage(which).topLeftCorner(dim_ + 3, dim_ + 3);
+    if (static_cast<size_t>(which) >= cross_covariances.size()) {  // a part not given: zero
+      S.middleRows(row, 3).setZero();
+      S.middleCols(row, 3).setZero();
+      continue;
+    }
     S.block(row, 0, 3, dim_) = cross_covariances[which];
     S.block(0, row, dim_, 3) = cross_covariances[which].transpose();
     S.block<3, 3>(row, row) = own_covariances[which];
@@ -174,7 +184,7 @@ void FilterState::addGravityRows(double level_sigma, double accel_bias_sigma) {
   const int insert = layout_.cloneRow();  // the gravity rows end the auxiliary ones
   const int tail = dim_ - insert;
   ensureCapacity(dim_ + kRows);
-  for (int which = 0; which < covarianceCount(); ++which) {
+  for (int which = 0; which < carriedCount(); ++which) {
     Eigen::MatrixXd& sigma = storage(which);
     const Eigen::MatrixXd old = sigma.topLeftCorner(dim_, dim_);
     auto S = sigma.topLeftCorner(dim_ + kRows, dim_ + kRows);
@@ -183,7 +193,7 @@ void FilterState::addGravityRows(double level_sigma, double accel_bias_sigma) {
     S.block(0, insert + kRows, insert, tail) = old.topRightCorner(insert, tail);
     S.block(insert + kRows, 0, tail, insert) = old.bottomLeftCorner(tail, insert);
     S.bottomRightCorner(tail, tail) = old.bottomRightCorner(tail, tail);
-    for (int i = 0; i < kRows; ++i) {
+    for (int i = 0; i < kRows && which < covarianceCount(); ++i) {
       const double s = i < 2 ? level_sigma : accel_bias_sigma;
       S(insert + i, insert + i) = s * s;
     }
@@ -201,7 +211,7 @@ void FilterState::keepRows(const std::vector<int>& rows) {
   applyDeferredPredictions();
   // New indices never exceed old ones, so ascending copies are safe.
   const int new_dim = static_cast<int>(rows.size());
-  for (int which = 0; which < covarianceCount(); ++which) {
+  for (int which = 0; which < carriedCount(); ++which) {
     Eigen::MatrixXd& sigma = storage(which);
     for (int c = 0; c < new_dim; ++c) {
       if (rows[c] != c) sigma.col(c).head(dim_) = sigma.col(rows[c]).head(dim_);
@@ -218,7 +228,7 @@ void FilterState::keepRows(const std::vector<int>& rows) {
   const int capacity = static_cast<int>(sigma_.rows());
   if (capacity > 256 && dim_ < capacity / 4) {
     const int new_capacity = std::max(64, 2 * dim_);
-    for (int which = 0; which < covarianceCount(); ++which) {
+    for (int which = 0; which < carriedCount(); ++which) {
       Eigen::MatrixXd shrunk = storage(which).topLeftCorner(new_capacity, new_capacity);
       storage(which).swap(shrunk);
     }
@@ -365,13 +375,14 @@ void FilterState::applyDeferredPredictions() const {
     E = D * d.gain_sum;
     walk = D * d.walk_cross;
   }
-  for (int which = 0; which < covarianceCount(); ++which) {
+  for (int which = 0; which < carriedCount(); ++which) {
     auto S = storage(which).topLeftCorner(dim_, dim_);
     if (aux > 0) {
       const Eigen::MatrixXd E_sigma = E * S.middleRows(kPoseDim, aux);  // dim x dim
       const Eigen::MatrixXd sigma_aa = S.block(kPoseDim, kPoseDim, aux, aux);
       S += E_sigma + E_sigma.transpose() + E * sigma_aa * E.transpose();
     }
+    if (which >= covarianceCount()) continue;  // a track-noise part: F only
     S.noalias() += D * noise * D.transpose();
     if (aux > 0) {
       S.block(kPoseDim, kPoseDim, aux, aux).diagonal() += d.random_walk_sum;
@@ -421,12 +432,25 @@ void FilterState::setReportedVarianceAlong(int row, int dim, const Eigen::Vector
 
 void FilterState::propagateRoadTiltCovariance(double f, double variance) {
   const int row = layout_.tiltRow();
-  for (int which = 0; which < covarianceCount(); ++which) {
+  for (int which = 0; which < carriedCount(); ++which) {
     auto S = storage(which).topLeftCorner(dim_, dim_);
     S.middleRows(row, 2) *= f;
     S.middleCols(row, 2) *= f;
-    S.block<2, 2>(row, row).diagonal().array() += variance;
+    if (which < covarianceCount()) S.block<2, 2>(row, row).diagonal().array() += variance;
   }
+}
+
+void FilterState::recountTrackNoise(double factor) {
+  if (!track_noise_carried_ || factor == track_noise_factor_) return;
+  auto P = covariance(1);
+  P += (factor - track_noise_factor_) * covariance(kTrackNoise);
+  track_noise_factor_ = factor;
+}
+
+void FilterState::foldTrackNoise(double factor) {
+  recountTrackNoise(factor);
+  track_noise_carried_ = false;
+  track_noise_ = Eigen::MatrixXd();
 }
 
 }  // namespace ekf_vislam

@@ -32,7 +32,7 @@ void RepeatedFrameHandler::hold(const FeatureFrame& frame, const std::vector<siz
 
 void RepeatedFrameHandler::shiftCovariance(
     const FilterState& state, const Eigen::Matrix3d& R, const Eigen::Vector3d& p_camera_world,
-    const std::vector<std::pair<int, Eigen::Matrix3d>>& moved,
+    const std::vector<std::pair<int, Eigen::Matrix3d>>& moved, bool add_depth_noise,
     Eigen::Block<Eigen::MatrixXd> S) const {
   const StateLayout& layout = state.layout();
   const bool slam = layout.clone_dim > 0;
@@ -58,6 +58,7 @@ void RepeatedFrameHandler::shiftCovariance(
   for (const auto& moved_row : moved) {
     const int row = moved_row.first;
     S.middleRows(row, 3) = S.middleCols(row, 3).transpose();
+    if (!add_depth_noise) continue;
     const Eigen::Vector3d ray = state.landmark((row - layout.headDim()) / 3) - p_camera_world;
     S.block<3, 3>(row, row) += relative_var * ray * ray.transpose();
   }
@@ -91,8 +92,10 @@ void RepeatedFrameHandler::shiftCrossingTracks(const StereoCamera& camera, Filte
   const Eigen::Vector3d p_camera_world =
       world_T_imu.topLeftCorner<3, 3>() * camera.imuTCam().topRightCorner<3, 1>() +
       world_T_imu.topRightCorner<3, 1>();
-  for (int which = 0; which < state->covarianceCount(); ++which) {
-    shiftCovariance(*state, R, p_camera_world, moved, state->covariance(which));
+  for (int which = 0; which < state->carriedCount(); ++which) {
+    // The shift's depth noise is not the tracks' update noise: not in the track-noise parts.
+    shiftCovariance(*state, R, p_camera_world, moved, which < state->covarianceCount(),
+                    state->covariance(which));
   }
   crossing_ids_.clear();
 }

@@ -151,7 +151,8 @@ double mahalanobis2(const FilterState& state, const SparseJacobian& jacobian,
 
 UpdateOutcome update(FilterState* state, const std::vector<SparseJacobian>& jacobians,
                      const Eigen::VectorXd& residual, double noise_var, bool correct_pose,
-                     double reported_noise_var, const ConsiderRows& consider_rows) {
+                     double reported_noise_var, const ConsiderRows& consider_rows,
+                     bool track_observations) {
   UpdateOutcome outcome;
   auto S = state->covariance();
   const ArrangedJacobian arranged = arrange(jacobians);
@@ -184,8 +185,14 @@ UpdateOutcome update(FilterState* state, const std::vector<SparseJacobian>& jaco
       outcome.consider[k].score = u.dot(w);
       outcome.consider[k].information = u.squaredNorm();
     }
-    updateReported(arranged, K, reported_PHt,
-                   reported_noise_var < 0.0 ? noise_var : reported_noise_var, reported);
+    const double counted_var = reported_noise_var < 0.0 ? noise_var : reported_noise_var;
+    updateReported(arranged, K, reported_PHt, counted_var, reported);
+    if (state->carriesTrackNoise()) {
+      // The track-noise part takes the gain's map, and the noise only of the tracks.
+      auto part = state->covariance(FilterState::kTrackNoise);
+      updateReported(arranged, K, covarianceTimesHt(arranged, part),
+                     track_observations ? noise_var : 0.0, part);
+    }
   }
   S.selfadjointView<Eigen::Lower>().rankUpdate(B.transpose(), -1.0);
   mirrorLowerTriangle(S);
@@ -209,10 +216,12 @@ void augment(FilterState* state, const Eigen::Vector3d& p_world, const Eigen::Ma
   const int head = static_cast<int>(A_head.cols());
   std::vector<Eigen::MatrixXd> crosses;
   std::vector<Eigen::Matrix3d> owns;
-  for (int which = 0; which < state->covarianceCount(); ++which) {
+  for (int which = 0; which < state->carriedCount(); ++which) {
     const auto S = state->covariance(which);
     crosses.push_back(A_head * S.topRows(head));
-    owns.push_back(own_covariance + crosses.back().leftCols(head) * A_head.transpose());
+    owns.push_back(crosses.back().leftCols(head) * A_head.transpose());
+    // The landmark's own noise (its first observation's) is not an update's: not in the parts.
+    if (which < state->covarianceCount()) owns.back() += own_covariance;
   }
   state->appendLandmark(p_world, crosses, owns);
 }

@@ -434,6 +434,64 @@ TEST(StateHelper, AugmentAndMarginalizeKeepBothCovariances) {
   }
 }
 
+TEST(StateHelper, FoldingTheTrackNoiseRecountsEveryTrackUpdateAtOneFactor) {
+  // Two states alike: one's reported covariance counts its track updates at the factors of an
+  // estimate still learning (1, then 6: everything so far recounted at 6 before the second),
+  // the other's at 20 from the start. Predictions, an augmentation, an update that is not the
+  // tracks' (its noise the same in both) and a marginalization in between; after the fold at 20
+  // the two reported covariances agree.
+  std::mt19937 rng(17);
+  StateLayout layout;
+  layout.bias_components = {5};
+  layout.reported_covariance = true;
+  FilterState learning = withThreeLandmarks(layout, &rng);
+  learning.covariance(0) = randomCovariance(learning.dim(), &rng);
+  learning.covariance(1) = randomCovariance(learning.dim(), &rng);
+  ASSERT_TRUE(learning.carriesTrackNoise());
+  ASSERT_EQ(learning.carriedCount(), 3);
+  FilterState known = learning;
+  const double pixel_var = 0.5;
+  const double factor = 20.0;
+  const int aux = learning.layout().auxDim();
+  const Eigen::MatrixXd gain = randomMatrix(6, aux, &rng);
+  const Matrix6d noise = randomCovariance(6, &rng);
+  const Eigen::VectorXd walk = Eigen::VectorXd::Constant(aux, 0.01);
+  const Eigen::MatrixXd A_head = randomMatrix(3, learning.layout().headDim(), &rng);
+  const auto trackUpdate = [&](FilterState* state, double counted) {
+    if (state == &learning) state->recountTrackNoise(counted);
+    const std::vector<SparseJacobian> jacobians = twoObservations(state->layout(), &rng);
+    const Eigen::VectorXd residual = randomMatrix(6, 1, &rng);
+    return state_helper::update(state, jacobians, residual, pixel_var, true, counted * pixel_var,
+                                kNoConsiderRows, true)
+        .status;
+  };
+  for (FilterState* state : {&learning, &known}) {
+    std::mt19937 same(23);  // the same observations in both
+    std::swap(rng, same);
+    const bool learns = state == &learning;
+    state->deferPrediction(gain, noise, walk, true);
+    ASSERT_EQ(trackUpdate(state, learns ? 1.0 : factor), UpdateStatus::kApplied);
+    state_helper::augment(state, Eigen::Vector3d(1.0, 2.0, 30.0), A_head,
+                          0.3 * Eigen::Matrix3d::Identity());
+    const std::vector<SparseJacobian> prior = twoObservations(state->layout(), &rng);
+    ASSERT_EQ(state_helper::update(state, prior, randomMatrix(6, 1, &rng), 2.0, true, 2.0).status,
+              UpdateStatus::kApplied);
+    state->deferPrediction(gain, noise, walk, true);
+    ASSERT_EQ(trackUpdate(state, learns ? 6.0 : factor), UpdateStatus::kApplied);
+    state_helper::marginalizeLandmarks(state, {false, true, false, false});
+    std::swap(rng, same);
+  }
+  learning.foldTrackNoise(factor);
+  EXPECT_FALSE(learning.carriesTrackNoise());
+  EXPECT_EQ(learning.carriedCount(), 2);
+  const Eigen::MatrixXd expected = known.covariance(1);
+  EXPECT_LT((Eigen::MatrixXd(learning.covariance(1)) - expected).norm(), 1e-9 * expected.norm());
+  EXPECT_TRUE(learning.covariance(0) == known.covariance(0));
+  // Without the parts' map (the recount applied to the last update alone) it would not agree.
+  EXPECT_GT((Eigen::MatrixXd(learning.covariance(1)) - learning.covariance(0)).norm(),
+            1e-3 * expected.norm());
+}
+
 TEST(StateHelper, ReportedCovarianceIsTheErrorCovarianceOfTheMismatchedGain) {
   // A static 3-vector observed 20 times with noise of std 2 while the gains assume 0.5: the
   // reported covariance (noise 4) must match the spread of the errors over many trials, while

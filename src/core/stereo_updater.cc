@@ -254,8 +254,15 @@ StereoUpdateOutcome StereoUpdater::update(std::vector<StereoCandidate>* candidat
     if (state->layout().scale_dim > 0) {
       *camera = scaledStereoCamera(nominal, state->baseline_scale_error);
     }
-    if (state->covarianceCount() > 1)
+    if (state->covarianceCount() > 1) {
       recordPosteriorResiduals(*camera, *state, accepted, landmarks);
+      // Until the correlation has an estimate the frames' tracks are counted as white; once it
+      // has one, they are counted at it, as the later frames are at theirs.
+      if (state->carriesTrackNoise() && track_correlation_.ready()) {
+        track_noise_recount_factor_ = track_correlation_.varianceFactor();
+        state->foldTrackNoise(track_noise_recount_factor_);
+      }
+    }
   }
   for (const StereoCandidate* c : accepted) {
     landmarks->setFlowReference(c->landmark, c->feature, *camera, *state);
@@ -339,7 +346,7 @@ bool StereoUpdater::stackedUpdate(const std::vector<StereoCandidate*>& accepted,
       countsDisparityOffset(*options_) ? state->layout().disparityRow() : -1};
   const UpdateOutcome update = state_helper::update(
       state, jacobians, residual, pixel_var, options_->mode == EstimatorMode::kSlam,
-      pixel_var * track_correlation_.varianceFactor(), consider_rows);
+      pixel_var * track_correlation_.varianceFactor(), consider_rows, true);
   if (update.status == UpdateStatus::kNotPositiveDefinite) {
     stats->increment(Counter::kUpdateNonFinite);
     result->message = "innovation covariance not positive definite: update skipped";

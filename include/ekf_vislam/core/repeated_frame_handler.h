@@ -43,11 +43,12 @@ class RepeatedFrameHandler {
 
  private:
   /// The covariance part of shiftCrossingTracks for one covariance: Sigma <- J Sigma J^T over
-  /// the moved landmark rows (landmark row, R_D p^ of the old mean), plus the ray term.
+  /// the moved landmark rows (landmark row, R_D p^ of the old mean), plus the ray term when
+  /// add_depth_noise.
   void shiftCovariance(const FilterState& state, const Eigen::Matrix3d& R,
                        const Eigen::Vector3d& p_camera_world,
                        const std::vector<std::pair<int, Eigen::Matrix3d>>& moved,
-                       Eigen::Block<Eigen::MatrixXd> S) const;
+                       bool add_depth_noise, Eigen::Block<Eigen::MatrixXd> S) const;
   const VislamOptions* options_;               ///< not owned (the estimator keeps it alive)
   std::unordered_set<uint32_t> crossing_ids_;  ///< tracks through the last repeated frame
 };

@@ -62,11 +62,15 @@ double mahalanobis2(const FilterState& state, const SparseJacobian& jacobian,
 /// With a reported covariance (FilterState::covarianceCount() 2), that one is updated with the
 /// same gain in the Joseph form for observation noise reported_noise_var I (negative: noise_var):
 /// the covariance of this gain's error when the noise is that large. consider_rows (rows the
-/// reported covariance alone carries, -1: none): the outcome's consider evidence of each.
+/// reported covariance alone carries, -1: none): the outcome's consider evidence of each. The
+/// track-noise part (FilterState::carriesTrackNoise) takes the same gain, and noise_var only
+/// when track_observations (the image's tracks; reported_noise_var must then count them at
+/// FilterState::trackNoiseFactor()).
 UpdateOutcome update(FilterState* state, const std::vector<SparseJacobian>& jacobians,
                      const Eigen::VectorXd& residual, double noise_var, bool correct_pose,
                      double reported_noise_var = -1.0,
-                     const ConsiderRows& consider_rows = kNoConsiderRows);
+                     const ConsiderRows& consider_rows = kNoConsiderRows,
+                     bool track_observations = false);
 
 /// Appends a landmark whose error is x_new = A x_head + n (A: 3 x head dim, only pose and
 /// auxiliary columns non-zero; n: independent, covariance own_covariance).

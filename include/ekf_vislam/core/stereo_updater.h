@@ -86,8 +86,14 @@ class StereoUpdater {
 
   /// The online estimate of the tracks' frame-to-frame residual correlation.
   const TrackCorrelationEstimator& trackCorrelation() const { return track_correlation_; }
+  /// The variance factor the frames before the track correlation's first estimate were
+  /// recounted with once it came (FilterState::foldTrackNoise); 0 until then.
+  double trackNoiseRecountFactor() const { return track_noise_recount_factor_; }
   /// Forgets what was learned from earlier updates (the track correlation).
-  void reset() { track_correlation_.reset(); }
+  void reset() {
+    track_correlation_.reset();
+    track_noise_recount_factor_ = 0.0;
+  }
 
  private:
   /// Residual and Jacobians (landmark, calibration, track drift rate) of observation z, of age
@@ -142,6 +148,7 @@ class StereoUpdater {
   double restart_threshold_ = 0.0;  ///< chi-square 0.9999: gross disagreement (track jumped)
   PredictionCheckOptions prediction_check_;  ///< the gate's thresholds, built once
   TrackCorrelationEstimator track_correlation_;
+  double track_noise_recount_factor_ = 0.0;
 };
 
 }  // namespace ekf_vislam

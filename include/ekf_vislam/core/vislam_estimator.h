@@ -135,6 +135,8 @@ class VislamEstimator {
   /// variance of the reported covariance.
   double trackCorrelation() const { return updater_.trackCorrelation().correlation(); }
   double trackVarianceFactor() const { return updater_.trackCorrelation().varianceFactor(); }
+  /// The factor the frames before its first estimate were recounted with (0: not yet).
+  double trackNoiseRecountFactor() const { return updater_.trackNoiseRecountFactor(); }
   /// Where the twist travels in its own frame (yaw, pitch from x; TravelDirectionEstimator).
   const TravelDirectionEstimator& travelDirection() const { return propagator_.travelDirection(); }
   /// The twist's noise densities in use (m/s/sqrt(Hz), rad/s/sqrt(Hz): estimated online once

@@ -107,6 +107,7 @@ def rendered_drive_bag(tmp, frames):
 
 
 DRIVE_START_TIME = 1000.0  # play_stereo_images.py's default --start-time: the bag's first stamp
+DRIVE_RATE_HZ = 10.0  # render_stereo_drive.py's frame rate
 
 
 def track_drive_offline(tmp, out, extra_args=()):
@@ -117,6 +118,18 @@ def track_drive_offline(tmp, out, extra_args=()):
          '--right', os.path.join(folder, 'image_right'), '--calib',
          os.path.join(folder, 'calib.txt'), '--times', os.path.join(folder, 'times.txt'),
          '--time-offset', str(DRIVE_START_TIME), '--out', out, '--quiet'] + list(extra_args))
+
+
+def play_rate_to_fall_behind(stats_csv, minimum_rate, factor):
+    """The play rate (x real time) at which the rendered drive's pairs come `factor` times faster
+    than this machine tracks them (the median ms_total of track_stereo_images --stats STATS_CSV
+    over the drive, one tracker alone), and at least minimum_rate: a test of a tracker that falls
+    behind needs it to fall behind on a fast machine as on a slow one (machines of a kind differ
+    2-3x)."""
+    ms = np.median(np.genfromtxt(stats_csv, delimiter=',', names=True)['ms_total'][1:])
+    rate = max(minimum_rate, factor * 1000.0 / ms / DRIVE_RATE_HZ)
+    log('tracking takes %.2f ms per pair here: playing at %.1fx' % (ms, rate))
+    return rate
 
 
 def set_up_rendered_drive_test(cls, node_name, frames):

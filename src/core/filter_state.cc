@@ -111,7 +111,6 @@ void FilterState::setPrior(const StatePrior& prior) {
     for (const auto& [row, variance] : reported_only) sigma_reported_(row, row) = variance;
   }
   if (track_noise_carried_) covariance(kTrackNoise).setZero();
-  track_noise_factor_ = 1.0;
   clonePose();
 }
 
@@ -440,15 +439,10 @@ void FilterState::propagateRoadTiltCovariance(double f, double variance) {
   }
 }
 
-void FilterState::recountTrackNoise(double factor) {
-  if (!track_noise_carried_ || factor == track_noise_factor_) return;
-  auto P = covariance(1);
-  P += (factor - track_noise_factor_) * covariance(kTrackNoise);
-  track_noise_factor_ = factor;
-}
-
 void FilterState::foldTrackNoise(double factor) {
-  recountTrackNoise(factor);
+  if (!track_noise_carried_) return;
+  auto P = covariance(1);
+  P += (factor - 1.0) * covariance(kTrackNoise);
   track_noise_carried_ = false;
   track_noise_ = Eigen::MatrixXd();
 }

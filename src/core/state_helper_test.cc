@@ -435,11 +435,10 @@ TEST(StateHelper, AugmentAndMarginalizeKeepBothCovariances) {
 }
 
 TEST(StateHelper, FoldingTheTrackNoiseRecountsEveryTrackUpdateAtOneFactor) {
-  // Two states alike: one's reported covariance counts its track updates at the factors of an
-  // estimate still learning (1, then 6: everything so far recounted at 6 before the second),
-  // the other's at 20 from the start. Predictions, an augmentation, an update that is not the
-  // tracks' (its noise the same in both) and a marginalization in between; after the fold at 20
-  // the two reported covariances agree.
+  // Two states alike: one's reported covariance counts its track updates at the pixel variance
+  // (no correlation estimate yet), the other's at 20 times it. Predictions, an augmentation, an
+  // update that is not the tracks' (its noise the same in both) and a marginalization in
+  // between; after the fold at 20 the two reported covariances agree.
   std::mt19937 rng(17);
   StateLayout layout;
   layout.bias_components = {5};
@@ -458,7 +457,6 @@ TEST(StateHelper, FoldingTheTrackNoiseRecountsEveryTrackUpdateAtOneFactor) {
   const Eigen::VectorXd walk = Eigen::VectorXd::Constant(aux, 0.01);
   const Eigen::MatrixXd A_head = randomMatrix(3, learning.layout().headDim(), &rng);
   const auto trackUpdate = [&](FilterState* state, double counted) {
-    if (state == &learning) state->recountTrackNoise(counted);
     const std::vector<SparseJacobian> jacobians = twoObservations(state->layout(), &rng);
     const Eigen::VectorXd residual = randomMatrix(6, 1, &rng);
     return state_helper::update(state, jacobians, residual, pixel_var, true, counted * pixel_var,
@@ -477,7 +475,7 @@ TEST(StateHelper, FoldingTheTrackNoiseRecountsEveryTrackUpdateAtOneFactor) {
     ASSERT_EQ(state_helper::update(state, prior, randomMatrix(6, 1, &rng), 2.0, true, 2.0).status,
               UpdateStatus::kApplied);
     state->deferPrediction(gain, noise, walk, true);
-    ASSERT_EQ(trackUpdate(state, learns ? 6.0 : factor), UpdateStatus::kApplied);
+    ASSERT_EQ(trackUpdate(state, learns ? 1.0 : factor), UpdateStatus::kApplied);
     state_helper::marginalizeLandmarks(state, {false, true, false, false});
     std::swap(rng, same);
   }

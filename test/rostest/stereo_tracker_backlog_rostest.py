@@ -21,8 +21,8 @@ from vislam_rostest import (LiveFeatures, NewestStatuses, log,  # noqa: E402
 from ekf_vislam_tools.bag_playback import play_bag, wait_until  # noqa: E402
 
 PKG = 'ekf_vislam'
-# 4 s of playback: long enough for the backlog to pass the ROS queues on a fast machine (about
-# twice ROS_QUEUE pairs at 17 ms per pair), short enough for a slow one.
+# 4 s of playback at the slowest rate, less on a fast machine: at the rates below the backlog
+# grows to 240 pairs or more (2.4 times ROS_QUEUE; 289-338 measured), short enough for a slow one.
 FRAMES = 400
 # At least 100 pairs per second, and 2.5 times as many as one tracker alone takes here (17 ms per
 # pair on the slowest machine of the kind met, 4.2 on the fastest): the backlog then grows by more

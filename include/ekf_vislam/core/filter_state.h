@@ -107,20 +107,15 @@ class FilterState {
   /// from the start until foldTrackNoise: one more matrix that every linear step maps as it
   /// maps the covariances (propagation, augmentation, marginalization, the updates' Joseph form)
   /// and that takes no noise but the tracks' own in the image updates, at the pixel variance.
-  /// The reported covariance is then A + c M, c = trackNoiseFactor() the factor on the pixel
-  /// variance it counts every track update at so far (A: the rest). Readable as
-  /// covariance(kTrackNoise).
+  /// While it is carried the reported covariance counts the tracks at the pixel variance too, so
+  /// it is A + M (A: the rest). Readable as covariance(kTrackNoise).
   static constexpr int kTrackNoise = 2;
   /// Matrices carried: covarianceCount(), plus the track-noise part until folded.
   int carriedCount() const { return covarianceCount() + (track_noise_carried_ ? 1 : 0); }
   bool carriesTrackNoise() const { return track_noise_carried_; }
-  double trackNoiseFactor() const { return track_noise_factor_; }
   /// Counts the tracks' noise of every update so far at `factor` times the pixel variance:
-  /// reported += (factor - c) M, c = factor (exact: the reported covariance is affine in that
-  /// noise). The next track update must count its noise at that factor too. Nothing when the
-  /// part is not carried.
-  void recountTrackNoise(double factor);
-  /// recountTrackNoise(factor), then drops the part: later updates count at their own factor.
+  /// reported += (factor - 1) M (exact: the reported covariance is affine in that noise), then
+  /// drops the part: later updates count at their own factor. Nothing when it is not carried.
   void foldTrackNoise(double factor);
   /// Live covariance block (dim x dim) of the capacity-sized storage: `which` 0 is the one the
   /// gains use, 1 the reported one (when carried). Applies the deferred predictions first.
@@ -267,7 +262,6 @@ class FilterState {
   mutable Eigen::MatrixXd sigma_reported_;  ///< the same size, when layout_.reported_covariance
   mutable Eigen::MatrixXd track_noise_;     ///< the track-noise part M, while carried
   bool track_noise_carried_ = false;
-  double track_noise_factor_ = 1.0;  ///< c: the factor M is counted at in the reported one
   mutable DeferredPredictions deferred_;
   Matrix6d noise_since_update_ = Matrix6d::Zero();
 };

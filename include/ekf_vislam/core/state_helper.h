@@ -64,8 +64,8 @@ double mahalanobis2(const FilterState& state, const SparseJacobian& jacobian,
 /// the covariance of this gain's error when the noise is that large. consider_rows (rows the
 /// reported covariance alone carries, -1: none): the outcome's consider evidence of each. The
 /// track-noise part (FilterState::carriesTrackNoise) takes the same gain, and noise_var only
-/// when track_observations (the image's tracks; reported_noise_var must then count them at
-/// FilterState::trackNoiseFactor()).
+/// when track_observations (the image's tracks; while the part is carried reported_noise_var
+/// must count them at noise_var too, FilterState::foldTrackNoise).
 UpdateOutcome update(FilterState* state, const std::vector<SparseJacobian>& jacobians,
                      const Eigen::VectorXd& residual, double noise_var, bool correct_pose,
                      double reported_noise_var = -1.0,

@@ -49,6 +49,43 @@ def one_run(job, data, out, binary, config):
     return result
 
 
+def over_seeds(slam, dr):
+    """-> dict of one regime's runs over the seeds: SLAM ATE mean and max, dead reckoning's mean,
+    the ratio of each seed's SLAM to its dead reckoning (mean, max), SLAM's position and pose NEES
+    (mean, worst seed) and dead reckoning's position NEES. slam and dr: the runs, same seeds."""
+    ratio = [s['ate_m'] / d['ate_m'] for s, d in zip(slam, dr)]
+    row = dict(seeds=len(slam), path_m=slam[0]['path_length_m'],
+               slam_ate_mean=float(np.mean([r['ate_m'] for r in slam])),
+               slam_ate_max=float(np.max([r['ate_m'] for r in slam])),
+               dr_ate_mean=float(np.mean([r['ate_m'] for r in dr])),
+               ratio_mean=float(np.mean(ratio)), ratio_max=float(np.max(ratio)))
+    for name in ('nees_position', 'nees_pose'):
+        values = [r[name] for r in slam if r.get(name) is not None]
+        row[name] = float(np.mean(values)) if values else None
+        row[name + '_max'] = float(np.max(values)) if values else None
+    dr_nees = [r['nees_position'] for r in dr if r.get('nees_position') is not None]
+    row['dr_nees_position'] = float(np.mean(dr_nees)) if dr_nees else None
+    return row
+
+
+OVER_SEEDS_HEADER = ['path m', 'seeds', 'SLAM ATE mean m', 'max m', 'DR ATE m', 'SLAM/DR mean',
+                     'max', 'NEES pos mean', 'max', 'NEES pose mean', 'max', 'DR NEES pos']
+
+
+def over_seeds_cells(row):
+    """The table cells of an over_seeds row, in OVER_SEEDS_HEADER's order."""
+    return [fmt(row['path_m'], '.0f'), '%d' % row['seeds'], fmt(row['slam_ate_mean'], '.3f'),
+            fmt(row['slam_ate_max'], '.3f'), fmt(row['dr_ate_mean'], '.3f'),
+            fmt(row['ratio_mean'], '.2f'), fmt(row['ratio_max'], '.2f'),
+            fmt(row['nees_position'], '.2f'), fmt(row['nees_position_max'], '.2f'),
+            fmt(row['nees_pose'], '.2f'), fmt(row['nees_pose_max'], '.2f'),
+            fmt(row['dr_nees_position'], '.2f')]
+
+
+def by_seed(runs, mode):
+    return sorted((r for r in runs if r['mode'] == mode), key=lambda r: r['seed'])
+
+
 def summarize(results):
     """-> (rows, markdown table): one row per sequence, twist and section, over the seeds."""
     rows, cells = [], []
@@ -57,35 +94,15 @@ def summarize(results):
     for sequence, twist, first, frames in keys:
         runs = [r for r in results if (r['sequence'], r['twist'], r['first']) ==
                 (sequence, twist, first)]
-        slam = sorted((r for r in runs if r['mode'] == 'slam'), key=lambda r: r['seed'])
-        dr = sorted((r for r in runs if r['mode'] == 'deadreckoning'), key=lambda r: r['seed'])
+        slam, dr = by_seed(runs, 'slam'), by_seed(runs, 'deadreckoning')
         if not slam or len(slam) != len(dr):
             continue
-        ratio = [s['ate_m'] / d['ate_m'] for s, d in zip(slam, dr)]
-        row = dict(sequence=sequence, twist=twist, first=first, frames=frames, seeds=len(slam),
-                   path_m=slam[0]['path_length_m'],
-                   slam_ate_mean=float(np.mean([r['ate_m'] for r in slam])),
-                   slam_ate_max=float(np.max([r['ate_m'] for r in slam])),
-                   dr_ate_mean=float(np.mean([r['ate_m'] for r in dr])),
-                   ratio_mean=float(np.mean(ratio)), ratio_max=float(np.max(ratio)))
-        for name in ('nees_position', 'nees_pose'):
-            values = [r[name] for r in slam if r.get(name) is not None]
-            row[name] = float(np.mean(values)) if values else None
-            row[name + '_max'] = float(np.max(values)) if values else None
-        dr_nees = [r['nees_position'] for r in dr if r.get('nees_position') is not None]
-        row['dr_nees_position'] = float(np.mean(dr_nees)) if dr_nees else None
+        row = dict(sequence=sequence, twist=twist, first=first, frames=frames)
+        row.update(over_seeds(slam, dr))
         rows.append(row)
-        cells.append([sequence, twist, '%d-%d' % (first, first + frames - 1),
-                      fmt(row['path_m'], '.0f'), '%d' % row['seeds'],
-                      fmt(row['slam_ate_mean'], '.3f'), fmt(row['slam_ate_max'], '.3f'),
-                      fmt(row['dr_ate_mean'], '.3f'), fmt(row['ratio_mean'], '.2f'),
-                      fmt(row['ratio_max'], '.2f'), fmt(row['nees_position'], '.2f'),
-                      fmt(row['nees_position_max'], '.2f'), fmt(row['nees_pose'], '.2f'),
-                      fmt(row['nees_pose_max'], '.2f'), fmt(row['dr_nees_position'], '.2f')])
-    header = ['sequence', 'twist', 'frames', 'path m', 'seeds', 'SLAM ATE mean m', 'max m',
-              'DR ATE m', 'SLAM/DR mean', 'max', 'NEES pos mean', 'max', 'NEES pose mean', 'max',
-              'DR NEES pos']
-    return rows, markdown_table(header, cells)
+        cells.append([sequence, twist, '%d-%d' % (first, first + frames - 1)]
+                     + over_seeds_cells(row))
+    return rows, markdown_table(['sequence', 'twist', 'frames'] + OVER_SEEDS_HEADER, cells)
 
 
 def main(argv):

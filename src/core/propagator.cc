@@ -55,18 +55,33 @@ Vector6d Propagator::velocityPriorGain(const FilterState& state, const TwistData
 }
 
 // Per-sample std sigma of a sample covering `period`: density = sigma sqrt(period).
+// Before min_samples second differences have come, the few there are may only widen the
+// configured density, and only where they reject it (kEarlyNoiseTestProbability): a twist clearly
+// noisier than the guess is counted from its first samples (counted too small, its early errors
+// would be believed and stay); one as good as the guess or better keeps the guess until the full
+// count (more weight on a few early tracks, some of them wrong, costs more than it gains).
 double Propagator::linearNoiseDensity() const {
-  if (!options_->noise.estimate_twist_noise || !noise_estimator_.linearReady()) {
-    return options_->noise.linear_velocity_noise;
-  }
-  return noise_estimator_.linearSigma() * std::sqrt(period());
+  const double configured = options_->noise.linear_velocity_noise;
+  const bool ready = noise_estimator_.linearReady();
+  return onlineDensity(configured, ready, noise_estimator_.linearSigma(),
+                       !ready && noise_estimator_.linearExceeds(configured / std::sqrt(period()),
+                                                                kEarlyNoiseTestProbability));
 }
 
 double Propagator::angularNoiseDensity() const {
-  if (!options_->noise.estimate_twist_noise || !noise_estimator_.angularReady()) {
-    return options_->noise.angular_velocity_noise;
-  }
-  return noise_estimator_.angularSigma() * std::sqrt(period());
+  const double configured = options_->noise.angular_velocity_noise;
+  const bool ready = noise_estimator_.angularReady();
+  return onlineDensity(configured, ready, noise_estimator_.angularSigma(),
+                       !ready && noise_estimator_.angularExceeds(configured / std::sqrt(period()),
+                                                                 kEarlyNoiseTestProbability));
+}
+
+double Propagator::onlineDensity(double configured, bool ready, double sample_sigma,
+                                 bool rejects_configured) const {
+  if (!options_->noise.estimate_twist_noise) return configured;
+  const double estimated = sample_sigma * std::sqrt(period());
+  if (ready) return estimated;
+  return rejects_configured ? std::max(configured, estimated) : configured;
 }
 
 bool Propagator::usesMessageCovariance(const TwistData& twist) const {

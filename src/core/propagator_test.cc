@@ -304,6 +304,57 @@ TEST(Propagator, OnlineTwistNoiseReplacesTheConfiguredDensitiesOnceReadyAndTheSp
   EXPECT_DOUBLE_EQ(propagator.linearNoiseDensity(), options.noise.linear_velocity_noise);
 }
 
+TEST(Propagator, BeforeTheEstimateIsReadyOnlySamplesThatRejectTheGuessWidenIt) {
+  VislamOptions options;
+  options.noise.twist_noise_min_samples = 5;
+  const double configured_w = options.noise.angular_velocity_noise;
+  const double configured_v = options.noise.linear_velocity_noise;
+  const double guess_w = configured_w / std::sqrt(0.1);  // per-sample std at 10 Hz
+  const double guess_v = configured_v / std::sqrt(0.1);
+  struct Case {
+    double sigma_v, sigma_w;
+    bool estimate;
+  };
+  // Angular noise 4 times the guess, linear a tenth of it; then both at the guess.
+  for (const Case& c : {Case{0.1 * guess_v, 4.0 * guess_w, true},
+                        Case{0.1 * guess_v, 4.0 * guess_w, false}, Case{guess_v, guess_w, true}}) {
+    options.noise.estimate_twist_noise = c.estimate;
+    Propagator propagator(options);
+    propagator.setSamplePeriod(0.1);
+    std::mt19937 rng(5);
+    std::normal_distribution<double> normal(0.0, 1.0);
+    const auto add = [&](int k) {
+      TwistData twist;
+      twist.stamp = 0.1 * k;
+      twist.v_imu = Eigen::Vector3d(8.0, 0.0, 0.0) +
+                    c.sigma_v * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+      twist.w_imu = c.sigma_w * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+      propagator.observeTwist(twist);
+    };
+    // Three samples: one second difference per component, the estimate not ready.
+    for (int k = 0; k < 3; ++k) add(k);
+    const bool noisier = c.estimate && c.sigma_w > guess_w;
+    if (noisier) {
+      EXPECT_GT(propagator.angularNoiseDensity(), 2.0 * configured_w);
+    } else {
+      EXPECT_DOUBLE_EQ(propagator.angularNoiseDensity(), configured_w);
+    }
+    EXPECT_DOUBLE_EQ(propagator.linearNoiseDensity(), configured_v);
+    for (int k = 3; k < 6; ++k) add(k);
+    if (!noisier) {
+      EXPECT_DOUBLE_EQ(propagator.angularNoiseDensity(), configured_w);
+      EXPECT_DOUBLE_EQ(propagator.linearNoiseDensity(), configured_v);
+    }
+    add(6);  // five second differences: the estimate itself, either way
+    if (c.estimate) {
+      EXPECT_NEAR(propagator.angularNoiseDensity(), c.sigma_w * std::sqrt(0.1),
+                  0.6 * c.sigma_w * std::sqrt(0.1));
+      EXPECT_NEAR(propagator.linearNoiseDensity(), c.sigma_v * std::sqrt(0.1),
+                  0.6 * c.sigma_v * std::sqrt(0.1));
+    }
+  }
+}
+
 TEST(Propagator, RoadTiltIsAGaussMarkovProcessOverTheDistanceTravelled) {
   // s' = f s + w, f = exp(-d / L), Var(w) = (1 - f^2) sigma^2 over the distance d = |v| dt: rows
   // and columns of the tilt scale by f, its block gains the process noise; standing still

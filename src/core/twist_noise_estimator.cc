@@ -1,5 +1,6 @@
 #include "ekf_vislam/core/twist_noise_estimator.h"
 
+#include "ekf_vislam/core/chi_square.h"
 #include "ekf_vislam/core/median.h"
 
 #include <algorithm>
@@ -45,6 +46,15 @@ void TwistNoiseEstimator::push(const Eigen::Vector3d& before, const Eigen::Vecto
 double TwistNoiseEstimator::sigmaOf(const std::deque<double>& squares) {
   std::vector<double> values(squares.begin(), squares.end());
   return std::sqrt(upperMedian(&values) / (6.0 * kChiSquare1Median));
+}
+
+bool TwistNoiseEstimator::exceeds(const std::deque<double>& squares, double sigma,
+                                  double probability) {
+  if (squares.empty() || !(sigma > 0.0)) return false;
+  double sum = 0.0;
+  for (double square : squares) sum += square;
+  const int dof = static_cast<int>(squares.size());
+  return sum / (6.0 * sigma * sigma) > chiSquareQuantile(probability, dof);
 }
 
 }  // namespace ekf_vislam

@@ -55,6 +55,26 @@ TEST(TwistNoiseEstimator, ReadyAfterMinSamplesAndRobustToOutliers) {
 // A wheel odometry at rest reads exactly 0 while the gyro keeps its noise: 40 s of rest (more
 // than the window) leave the linear estimate at the drive's, and a gyro-only stream gets an
 // angular estimate without a linear one.
+TEST(TwistNoiseEstimator, TheFirstDifferencesRejectOnlyAStdFarBelowTheirOwn) {
+  // Over 40 starts of the manoeuvring drive (5 samples: 3 second differences, 9 squared values
+  // per group), noise 0.1 m/s and 0.01 rad/s: the true std is rejected at 0.999 in at most 2 of
+  // the 80 tests (0.08 expected from the noise; the manoeuvre adds a little), a quarter of it
+  // in all of them.
+  int rejected_true = 0, rejected_quarter = 0;
+  for (int seed = 0; seed < 40; ++seed) {
+    std::mt19937 rng(static_cast<unsigned>(seed));
+    TwistNoiseEstimator estimator(300, 20);
+    EXPECT_FALSE(estimator.angularExceeds(0.001, 0.999));  // nothing yet: nothing rejected
+    for (int k = 0; k < 5; ++k) estimator.add(noisySample(k, 0.1, 0.01, &rng));
+    ASSERT_FALSE(estimator.angularReady());
+    rejected_true += estimator.linearExceeds(0.1, 0.999) + estimator.angularExceeds(0.01, 0.999);
+    rejected_quarter +=
+        estimator.linearExceeds(0.025, 0.999) + estimator.angularExceeds(0.0025, 0.999);
+  }
+  EXPECT_LE(rejected_true, 2);
+  EXPECT_EQ(rejected_quarter, 80);
+}
+
 TEST(TwistNoiseEstimator, HeldValuesAtRestAreLeftOut) {
   std::mt19937 rng(11);
   std::normal_distribution<double> normal(0.0, 1.0);

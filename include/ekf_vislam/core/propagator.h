@@ -51,7 +51,8 @@ class Propagator {
   }
   size_t speedSamples() const { return speed_samples_; }
   /// Noise densities of a twist without its own covariance (m/s/sqrt(Hz), rad/s/sqrt(Hz)): the
-  /// online estimate once it is ready (noise/estimate_twist_noise), else the configured ones.
+  /// online estimate once it is ready (noise/estimate_twist_noise), before that the configured
+  /// ones, or the few samples' estimate where they reject the configured one as too small.
   double linearNoiseDensity() const;
   double angularNoiseDensity() const;
 
@@ -79,6 +80,13 @@ class Propagator {
                                 const Vector6d& u) const;
 
  private:
+  /// Before the online estimate is ready, the configured density is widened to the estimate
+  /// only where the samples so far reject it at this probability (a test per group and sample).
+  static constexpr double kEarlyNoiseTestProbability = 0.999;
+  /// The density of one part of the twist: configured, estimated (sample_sigma per sample) when
+  /// ready, before that the larger of the two where the samples reject the configured one.
+  double onlineDensity(double configured, bool ready, double sample_sigma,
+                       bool rejects_configured) const;
   /// Per-component factor of the vehicle prior on u = [v; w] (1 where there is none).
   Vector6d velocityPriorGain(const FilterState& state, const TwistData& twist) const;
   /// v_ref - b_v: what the speed scale multiplies (velocity_reference.h).

@@ -31,6 +31,16 @@ class TwistNoiseEstimator {
   /// Per-sample standard deviation of each linear (m/s) and angular (rad/s) component.
   double linearSigma() const { return linear_sigma_; }
   double angularSigma() const { return angular_sigma_; }
+  /// Whether the second differences so far reject a per-sample std `sigma` as too small: the
+  /// sum of their squares over 6 sigma^2, chi-square with one dof per value under white noise of
+  /// that std, beyond its `probability` quantile. A smooth motion adds little to the squares;
+  /// a manoeuvre or an outlier can make the test pass, but not the median (linearSigma()).
+  bool linearExceeds(double sigma, double probability) const {
+    return exceeds(linear_, sigma, probability);
+  }
+  bool angularExceeds(double sigma, double probability) const {
+    return exceeds(angular_, sigma, probability);
+  }
 
  private:
   size_t minSquares() const { return 3 * static_cast<size_t>(min_samples_); }
@@ -39,6 +49,7 @@ class TwistNoiseEstimator {
   void push(const Eigen::Vector3d& before, const Eigen::Vector3d& previous,
             const Eigen::Vector3d& now, std::deque<double>* squares);
   static double sigmaOf(const std::deque<double>& squares);
+  static bool exceeds(const std::deque<double>& squares, double sigma, double probability);
 
   int window_;
   int min_samples_;

@@ -55,4 +55,4 @@ fi
 echo
 "${PY}" "${REPO}/scripts/demo_summary.py" "${OUT}"
 echo
-echo "[demo] results in ${OUT}/ (summary.md$( [[ -n "${GT}" ]] && echo ', eval/trajectory_topdown.png, eval/comparison.png, eval/error_along_path.png' || echo ', trajectory_topdown.png'))"
+echo "[demo] results in ${OUT}/ (summary.md$( [[ -n "${GT}" ]] && echo ', eval/trajectory_topdown.png, eval/comparison.png, eval/error_along_path.png, eval/consistency_slam.png' || echo ', trajectory_topdown.png'))"

@@ -12,7 +12,9 @@ are associated by time stamp, each estimate is aligned to the ground truth (Umey
 scale) and the metrics of ekf_vislam_tools.metrics are computed. The first estimate is the
 primary one: its alignment also moves the landmarks. Writes DIR/metrics.json,
 DIR/trajectory_topdown.png, DIR/error_along_path.png and, with several estimates,
-DIR/comparison.png.
+DIR/comparison.png. An estimate with trajectory_covariance.txt beside it (vislam_offline's) also
+gets DIR/consistency_LABEL.csv and .png: per pose, the position and pose NEES and, per world axis,
+the error and the reported sigma (where the covariance is too narrow, not only by how much).
 
 Exit status: 0 on success, 2 on unusable input (one-line message on stderr).
 """
@@ -20,6 +22,7 @@ import argparse
 import json
 import math
 import os
+import re
 import sys
 import warnings
 
@@ -202,19 +205,26 @@ def load_estimate(path):
 
 
 def evaluate_consistency(path, t_est, estworld_T_imu, t_gt, gtworld_T_imu, max_dt):
-    """NEES against ground truth when trajectory_covariance.txt lies beside the trajectory."""
+    """NEES against ground truth when trajectory_covariance.txt lies beside the trajectory:
+    (the summary for metrics.json, the per-pose series), or ({}, None) without it."""
     covariance_path = os.path.join(os.path.dirname(os.path.abspath(path)),
                                    'trajectory_covariance.txt')
     if not os.path.exists(covariance_path):
-        return {}
+        return {}, None
     try:
         t_cov, covariances = metrics.read_trajectory_covariance(covariance_path)
-        result = metrics.consistency(t_est, estworld_T_imu, t_cov, covariances, t_gt,
-                                     gtworld_T_imu, max_dt)
+        series = metrics.consistency_series(t_est, estworld_T_imu, t_cov, covariances, t_gt,
+                                            gtworld_T_imu, max_dt)
+        result = metrics.consistency_summary(series)
     except metrics.EvaluationError as exc:
         raise UsageError(_one_line(exc))
     result['covariance_file'] = covariance_path
-    return result
+    return result, series
+
+
+def consistency_file_stem(label):
+    """consistency_LABEL, the label's characters outside [A-Za-z0-9_.-] replaced by '_'."""
+    return 'consistency_' + re.sub(r'[^A-Za-z0-9_.-]', '_', label)
 
 
 def evaluate_landmarks(args, gtworld_T_estworld, gauge_gtworld_T_estworld):
@@ -286,7 +296,7 @@ def run(args):
     except OSError as exc:
         raise UsageError('%s: cannot create output directory (%s)' % (args.out, exc.strerror))
 
-    results, matched = {}, {}
+    results, matched, consistency = {}, {}, {}
     for est, (t_est, estworld_T_imu) in loaded:
         try:
             m = metrics.match_and_align(t_est, estworld_T_imu, t_gt, gtworld_T_imu, args.max_dt)
@@ -294,8 +304,11 @@ def run(args):
             raise UsageError('%s: %s' % (est['path'], _one_line(exc)))
         matched[est['label']] = m
         results[est['label']] = dict(estimate=est['path'], **metrics.trajectory_metrics(m))
-        results[est['label']].update(evaluate_consistency(est['path'], t_est, estworld_T_imu,
-                                                          t_gt, gtworld_T_imu, args.max_dt))
+        summary, series = evaluate_consistency(est['path'], t_est, estworld_T_imu, t_gt,
+                                               gtworld_T_imu, args.max_dt)
+        results[est['label']].update(summary)
+        if series is not None:
+            consistency[est['label']] = series
 
     primary = args.estimates[0]['label']
     landmarks_xyz = None
@@ -312,6 +325,10 @@ def run(args):
         with open(os.path.join(args.out, 'metrics.json'), 'w') as f:
             json.dump(json_ready(report), f, indent=2, allow_nan=False)
         write_plots(args, t_gt, gtworld_T_imu, matched, results, landmarks_xyz)
+        for label, series in consistency.items():
+            stem = os.path.join(args.out, consistency_file_stem(label))
+            metrics.write_consistency_csv(stem + '.csv', series)
+            plots.plot_consistency(stem + '.png', label, series, metrics.CHI2_95)
     except OSError as exc:
         raise UsageError('%s: cannot write (%s)' % (exc.filename or args.out, exc.strerror or exc))
     print_summary(results, primary, args.out)

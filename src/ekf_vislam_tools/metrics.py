@@ -533,13 +533,21 @@ def normalized_error_rms(errors, covariances):
     """Per axis, the RMS over the rows of error / sigma (sigma: the square root of that axis's
     variance): 1 when the covariance is right about that axis, below 1 when it is too wide, above
     1 when too narrow. Errors (N,k), covariances (N,k,k)."""
-    errors = np.asarray(errors, dtype=float)
     sigmas = np.sqrt(np.einsum('nii->ni', np.asarray(covariances, dtype=float)))
-    return np.sqrt(np.mean((errors / sigmas) ** 2, axis=0))
+    return error_over_sigma_rms(errors, sigmas)
 
 
-def consistency(t_est, estworld_T_imu, t_cov, covariances, t_gt, gtworld_T_imu, max_dt=0.02):
-    """Position (3 dof) and pose (6 dof) NEES of an estimate with its per-pose covariance."""
+def error_over_sigma_rms(errors, sigmas):
+    """Per axis, the RMS over the rows of error / sigma; errors and sigmas (N,k)."""
+    return np.sqrt(np.mean((np.asarray(errors, dtype=float) / sigmas) ** 2, axis=0))
+
+
+def consistency_series(t_est, estworld_T_imu, t_cov, covariances, t_gt, gtworld_T_imu,
+                       max_dt=0.02):
+    """Per pose with a covariance and ground truth (the first, which defines the gauge, left
+    out): dict of t (N), position_nees (N), pose_nees (N), errors (N,6) and sigmas (N,6), world
+    axes in :data:`POSE_AXES` order (the estimator's world, its first pose on the ground
+    truth's)."""
     idx_cov, idx_cov_est = associate(t_cov, t_est, max_dt)
     if idx_cov.size < 3:
         raise EvaluationError('only %d covariances match an estimate pose' % idx_cov.size)
@@ -550,10 +558,33 @@ def consistency(t_est, estworld_T_imu, t_cov, covariances, t_gt, gtworld_T_imu, 
     est = np.asarray(estworld_T_imu)[idx_cov_est][idx_est]
     P = np.asarray(covariances)[idx_cov][idx_est]
     # The first pose defines the gauge (its error is zero by construction): left out.
-    errors = pose_errors_in_estimator_gauge(est, np.asarray(gtworld_T_imu)[idx_gt])
-    keep = np.arange(errors.shape[0]) > 0
-    position = nees(errors[keep, :3], P[keep][:, :3, :3])
-    pose = nees(errors[keep], P[keep])
-    per_axis = normalized_error_rms(errors[keep], P[keep])
-    return dict(nees_position=nees_stats(position, 3), nees_pose=nees_stats(pose, 6),
+    errors = pose_errors_in_estimator_gauge(est, np.asarray(gtworld_T_imu)[idx_gt])[1:]
+    P = P[1:]
+    return dict(t=est_t[idx_est][1:], position_nees=nees(errors[:, :3], P[:, :3, :3]),
+                pose_nees=nees(errors, P), errors=errors,
+                sigmas=np.sqrt(np.einsum('nii->ni', P)))
+
+
+def consistency(t_est, estworld_T_imu, t_cov, covariances, t_gt, gtworld_T_imu, max_dt=0.02):
+    """Position (3 dof) and pose (6 dof) NEES of an estimate with its per-pose covariance, and
+    per axis the RMS of error / sigma; the per-pose values are :func:`consistency_series`'s."""
+    return consistency_summary(consistency_series(t_est, estworld_T_imu, t_cov, covariances,
+                                                  t_gt, gtworld_T_imu, max_dt))
+
+
+def consistency_summary(series):
+    """:func:`consistency`'s figures from a :func:`consistency_series`."""
+    per_axis = error_over_sigma_rms(series['errors'], series['sigmas'])
+    return dict(nees_position=nees_stats(series['position_nees'], 3),
+                nees_pose=nees_stats(series['pose_nees'], 6),
                 error_over_sigma_rms=dict(zip(POSE_AXES, (float(v) for v in per_axis))))
+
+
+def write_consistency_csv(path, series):
+    """The per-pose values of :func:`consistency_series` as CSV, one row per pose."""
+    header = ['t', 'position_nees', 'pose_nees']
+    header += ['error_' + a for a in POSE_AXES] + ['sigma_' + a for a in POSE_AXES]
+    rows = np.column_stack([series['t'], series['position_nees'], series['pose_nees'],
+                            series['errors'], series['sigmas']])
+    np.savetxt(path, rows, delimiter=',', header=','.join(header), comments='',
+               fmt=['%.6f'] + ['%.9g'] * (rows.shape[1] - 1))

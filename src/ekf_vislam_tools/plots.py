@@ -156,3 +156,42 @@ def plot_comparison(path, gt_xyz, estimates, axes=(0, 1)):
     _topdown_limits(ax, paths_2d)
     _decorate_topdown(ax, 'Aligned trajectories vs ground truth', axes)
     _save(fig, path)
+
+
+def plot_consistency(path, label, series, chi2_95):
+    """Where the reported covariance is right, too wide or too narrow, over time.
+
+    ``series``: :func:`ekf_vislam_tools.metrics.consistency_series`'s dict; ``chi2_95``: the
+    chi-square 95 % bounds by dof. Top: position and pose NEES per pose (log scale) with their
+    dof (the consistent mean) and 95 % bounds; bottom: error / sigma per world axis, with +-2.
+    """
+    t = series['t'] - series['t'][0]
+    fig = Figure(figsize=(9.0, 7.0))
+    FigureCanvasAgg(fig)
+    top, bottom = fig.add_subplot(2, 1, 1), fig.add_subplot(2, 1, 2)
+    for key, dof, color in (('position_nees', 3, 'tab:blue'), ('pose_nees', 6, 'tab:orange')):
+        values = np.maximum(series[key], 1e-6)
+        top.plot(t, values, color=color, linewidth=0.9,
+                 label='%s (mean %.2f; %d is consistent)' % (key.replace('_', ' '),
+                                                             float(np.mean(series[key])), dof))
+        top.axhline(dof, color=color, linewidth=0.8, linestyle=':')
+        top.axhline(chi2_95[dof], color=color, linewidth=0.8, linestyle='--')
+    top.set_yscale('log')
+    top.set_ylabel('NEES (dotted: dof, dashed: 95 %)')
+    top.set_title('Reported covariance against the errors: %s' % label)
+    top.legend(loc='best', fontsize='small')
+    normalized = series['errors'] / series['sigmas']
+    names = ('x', 'y', 'z', 'rot x', 'rot y', 'rot z')
+    colors = ('tab:blue', 'tab:orange', 'tab:green', 'tab:red', 'tab:purple', 'tab:brown')
+    for i, (name, color) in enumerate(zip(names, colors)):
+        rms = float(np.sqrt(np.mean(np.square(normalized[:, i]))))
+        bottom.plot(t, normalized[:, i], color=color, linewidth=0.8,
+                    label='%s (RMS %.2f)' % (name, rms))
+    for level in (-2.0, 2.0):
+        bottom.axhline(level, color='0.3', linewidth=0.8, linestyle='--')
+    bottom.set_xlabel('time since the first pose [s]')
+    bottom.set_ylabel('error / sigma (world axes)')
+    bottom.legend(loc='best', fontsize='small', ncol=3)
+    for ax in (top, bottom):
+        ax.grid(True, linewidth=0.3, alpha=0.5)
+    _save(fig, path)

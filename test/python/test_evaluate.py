@@ -446,6 +446,53 @@ class CommandLineTest(unittest.TestCase):
         self.assertIn('ekf slam', proc.stdout)
         self.assertIn('deadreckoning', proc.stdout)
 
+    def test_per_pose_consistency_shows_where_the_covariance_is_too_narrow(self):
+        # Pose errors drawn from a claimed covariance (the estimator's left perturbation, world
+        # axes), three times larger over the second half: its NEES nine times the first half's.
+        rng = np.random.default_rng(12)
+        t, truth = curvy_trajectory(300, seed=4)
+        sigmas = np.array([0.3, 0.2, 0.1, 0.004, 0.003, 0.005])
+        scale = np.where(np.arange(len(t)) < 150, 1.0, 3.0)
+        eps = rng.normal(size=(len(t), 6)) * sigmas * scale[:, None]
+        eps[0] = 0.0
+        est = truth.copy()
+        for k in range(len(t)):
+            est[k, :3, :3] = se3.so3_exp(eps[k, 3:]) @ truth[k, :3, :3]
+            est[k, :3, 3] = truth[k, :3, 3] + eps[k, :3]
+        folder = os.path.join(self.tmp, 'ekf run')
+        os.makedirs(folder)
+        trajectory.write_tum(os.path.join(folder, 'trajectory.tum'), t, est)
+        P = np.tile(np.diag(sigmas ** 2), (len(t), 1, 1))
+        np.savetxt(os.path.join(folder, 'trajectory_covariance.txt'),
+                   np.column_stack([t, P.reshape(len(t), 36)]), fmt='%.12g')
+        out = os.path.join(self.tmp, 'out_consistency')
+        proc = self.run_evaluate('--groundtruth', self.gt_path_for(t, truth), '--estimate',
+                                 os.path.join(folder, 'trajectory.tum'), '--label', 'ekf slam',
+                                 '--out', out)
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        with open(os.path.join(out, 'metrics.json')) as f:
+            summary = json.load(f)['estimates']['ekf slam']
+        rows = np.genfromtxt(os.path.join(out, 'consistency_ekf_slam.csv'), delimiter=',',
+                             names=True)
+        self.assertEqual(len(rows), len(t) - 1)  # the first pose defines the gauge
+        np.testing.assert_allclose(rows['t'], t[1:], atol=1e-6)
+        self.assertAlmostEqual(float(np.mean(rows['position_nees'])),
+                               summary['nees_position']['mean'], places=6)
+        self.assertAlmostEqual(float(np.mean(rows['pose_nees'])),
+                               summary['nees_pose']['mean'], places=6)
+        for i, axis in enumerate(metrics.POSE_AXES):
+            np.testing.assert_allclose(rows['sigma_' + axis], sigmas[i], rtol=1e-6)
+            np.testing.assert_allclose(rows['error_' + axis], eps[1:, i], atol=1e-6)
+        first, second = rows['pose_nees'][:149], rows['pose_nees'][149:]
+        self.assertAlmostEqual(float(np.mean(first)), 6.0, delta=1.2)
+        self.assertAlmostEqual(float(np.mean(second)), 54.0, delta=11.0)
+        self.assertGreater(os.path.getsize(os.path.join(out, 'consistency_ekf_slam.png')), 1000)
+
+    def gt_path_for(self, t, truth):
+        path = os.path.join(self.tmp, 'gt_consistency.tum')
+        trajectory.write_tum(path, t, truth)
+        return path
+
     def test_single_estimate_writes_no_comparison(self):
         out = os.path.join(self.tmp, 'out_single')
         proc = self.run_evaluate('--groundtruth', self.gt_path, '--estimate', self.estimates[0],
@@ -457,6 +504,7 @@ class CommandLineTest(unittest.TestCase):
         self.assertTrue(os.path.getsize(os.path.join(out, 'trajectory_topdown.png')) > 0)
         self.assertTrue(os.path.getsize(os.path.join(out, 'error_along_path.png')) > 0)
         self.assertFalse(os.path.exists(os.path.join(out, 'comparison.png')))
+        self.assertFalse(os.path.exists(os.path.join(out, 'consistency_slam.csv')))  # no covariance
 
     def test_kitti_poses_with_the_dataset_they_came_from(self):
         """A KITTI poses file (world_T_cam0) read through a 2019-layout dataset: its frame times,

@@ -222,9 +222,18 @@ def evaluate_consistency(path, t_est, estworld_T_imu, t_gt, gtworld_T_imu, max_d
     return result, series
 
 
-def consistency_file_stem(label):
-    """consistency_LABEL, the label's characters outside [A-Za-z0-9_.-] replaced by '_'."""
-    return 'consistency_' + re.sub(r'[^A-Za-z0-9_.-]', '_', label)
+def consistency_file_stems(labels):
+    """consistency_LABEL per label, its characters outside [A-Za-z0-9_.-] replaced by '_' (a
+    suffix -2, -3, ... where two labels come out alike)."""
+    stems, used = {}, set()
+    for label in labels:
+        base = 'consistency_' + re.sub(r'[^A-Za-z0-9_.-]', '_', label)
+        stem, n = base, 2
+        while stem in used:
+            stem, n = '%s-%d' % (base, n), n + 1
+        used.add(stem)
+        stems[label] = stem
+    return stems
 
 
 def evaluate_landmarks(args, gtworld_T_estworld, gauge_gtworld_T_estworld):
@@ -325,8 +334,9 @@ def run(args):
         with open(os.path.join(args.out, 'metrics.json'), 'w') as f:
             json.dump(json_ready(report), f, indent=2, allow_nan=False)
         write_plots(args, t_gt, gtworld_T_imu, matched, results, landmarks_xyz)
+        stems = consistency_file_stems(consistency)
         for label, series in consistency.items():
-            stem = os.path.join(args.out, consistency_file_stem(label))
+            stem = os.path.join(args.out, stems[label])
             metrics.write_consistency_csv(stem + '.csv', series)
             plots.plot_consistency(stem + '.png', label, series, metrics.CHI2_95)
     except OSError as exc:

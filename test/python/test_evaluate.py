@@ -3,6 +3,7 @@
 
 Run: cd test/python && /usr/bin/python3 -m unittest -v test_evaluate
 """
+import importlib.util
 import json
 import os
 import shutil
@@ -487,6 +488,14 @@ class CommandLineTest(unittest.TestCase):
         self.assertAlmostEqual(float(np.mean(first)), 6.0, delta=1.2)
         self.assertAlmostEqual(float(np.mean(second)), 54.0, delta=11.0)
         self.assertGreater(os.path.getsize(os.path.join(out, 'consistency_ekf_slam.png')), 1000)
+
+    def test_consistency_files_of_labels_alike_do_not_overwrite_each_other(self):
+        spec = importlib.util.spec_from_file_location('evaluate_script', EVALUATE)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        self.assertEqual(module.consistency_file_stems(['ekf slam', 'ekf_slam', 'ekf/slam', 'dr']),
+                         {'ekf slam': 'consistency_ekf_slam', 'ekf_slam': 'consistency_ekf_slam-2',
+                          'ekf/slam': 'consistency_ekf_slam-3', 'dr': 'consistency_dr'})
 
     def gt_path_for(self, t, truth):
         path = os.path.join(self.tmp, 'gt_consistency.tum')

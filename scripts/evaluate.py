@@ -338,7 +338,8 @@ def run(args):
         for label, series in consistency.items():
             stem = os.path.join(args.out, stems[label])
             metrics.write_consistency_csv(stem + '.csv', series)
-            plots.plot_consistency(stem + '.png', label, series, metrics.CHI2_95)
+            plots.plot_consistency(stem + '.png', label, series, results[label],
+                                   metrics.CHI2_95)
     except OSError as exc:
         raise UsageError('%s: cannot write (%s)' % (exc.filename or args.out, exc.strerror or exc))
     print_summary(results, primary, args.out)

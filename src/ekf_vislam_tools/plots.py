@@ -49,9 +49,14 @@ def estimate_colors(n):
     return [PRIMARY_COLOR] + [OTHER_COLORS[i % len(OTHER_COLORS)] for i in range(n - 1)]
 
 
-def _new_figure(size=(8.0, 7.0)):
+def _new_canvas(size):
     fig = Figure(figsize=size)
     FigureCanvasAgg(fig)
+    return fig
+
+
+def _new_figure(size=(8.0, 7.0)):
+    fig = _new_canvas(size)
     return fig, fig.add_subplot(1, 1, 1)
 
 
@@ -158,22 +163,22 @@ def plot_comparison(path, gt_xyz, estimates, axes=(0, 1)):
     _save(fig, path)
 
 
-def plot_consistency(path, label, series, chi2_95):
+def plot_consistency(path, label, series, summary, chi2_95):
     """Where the reported covariance is right, too wide or too narrow, over time.
 
-    ``series``: :func:`ekf_vislam_tools.metrics.consistency_series`'s dict; ``chi2_95``: the
-    chi-square 95 % bounds by dof. Top: position and pose NEES per pose (log scale) with their
-    dof (the consistent mean) and 95 % bounds; bottom: error / sigma per world axis, with +-2.
+    ``series``: :func:`ekf_vislam_tools.metrics.consistency_series`'s dict, ``summary``: its
+    :func:`ekf_vislam_tools.metrics.consistency_summary` (the means and RMS in the legends);
+    ``chi2_95``: the chi-square 95 % bounds by dof. Top: position and pose NEES per pose (log
+    scale) with their dof (the consistent mean) and 95 % bounds; bottom: error / sigma per world
+    axis, with +-2.
     """
     t = series['t'] - series['t'][0]
-    fig = Figure(figsize=(9.0, 7.0))
-    FigureCanvasAgg(fig)
+    fig = _new_canvas((9.0, 7.0))
     top, bottom = fig.add_subplot(2, 1, 1), fig.add_subplot(2, 1, 2)
-    for key, dof, color in (('position_nees', 3, 'tab:blue'), ('pose_nees', 6, 'tab:orange')):
-        values = np.maximum(series[key], 1e-6)
-        top.plot(t, values, color=color, linewidth=0.9,
-                 label='%s (mean %.2f; %d is consistent)' % (key.replace('_', ' '),
-                                                             float(np.mean(series[key])), dof))
+    for name, dof, color in (('position', 3, 'tab:blue'), ('pose', 6, 'tab:orange')):
+        top.plot(t, np.maximum(series[name + '_nees'], 1e-6), color=color, linewidth=0.9,
+                 label='%s NEES (mean %.2f; %d is consistent)'
+                 % (name, summary['nees_' + name]['mean'], dof))
         top.axhline(dof, color=color, linewidth=0.8, linestyle=':')
         top.axhline(chi2_95[dof], color=color, linewidth=0.8, linestyle='--')
     top.set_yscale('log')
@@ -181,12 +186,10 @@ def plot_consistency(path, label, series, chi2_95):
     top.set_title('Reported covariance against the errors: %s' % label)
     top.legend(loc='best', fontsize='small')
     normalized = series['errors'] / series['sigmas']
-    names = ('x', 'y', 'z', 'rot x', 'rot y', 'rot z')
     colors = ('tab:blue', 'tab:orange', 'tab:green', 'tab:red', 'tab:purple', 'tab:brown')
-    for i, (name, color) in enumerate(zip(names, colors)):
-        rms = float(np.sqrt(np.mean(np.square(normalized[:, i]))))
+    for i, ((axis, rms), color) in enumerate(zip(summary['error_over_sigma_rms'].items(), colors)):
         bottom.plot(t, normalized[:, i], color=color, linewidth=0.8,
-                    label='%s (RMS %.2f)' % (name, rms))
+                    label='%s (RMS %.2f)' % (axis.replace('_', ' '), rms))
     for level in (-2.0, 2.0):
         bottom.axhline(level, color='0.3', linewidth=0.8, linestyle='--')
     bottom.set_xlabel('time since the first pose [s]')

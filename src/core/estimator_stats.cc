@@ -10,6 +10,7 @@ const char* counterName(Counter counter) {
     case Counter::kTwistNotIncreasing: return "twist_time_not_increasing";
     case Counter::kTwistLate: return "twist_late";
     case Counter::kTwistGap: return "twist_gap";
+    case Counter::kTwistAtRest: return "twist_at_rest";
     case Counter::kFrameUsed: return "frame_used";
     case Counter::kFrameEmpty: return "frame_empty";
     case Counter::kFrameStale: return "frame_stale";
@@ -20,6 +21,7 @@ const char* counterName(Counter counter) {
     case Counter::kFrameNonFiniteStamp: return "frame_non_finite_stamp";
     case Counter::kFramePredictionWidened: return "frame_prediction_widened";
     case Counter::kFrameGatedJointly: return "frame_gated_jointly";
+    case Counter::kFrameAtRest: return "frame_at_rest";
     case Counter::kObservationUpdate: return "observation_update";
     case Counter::kObservationInitialized: return "observation_initialized";
     case Counter::kObsNonFinite: return "observation_non_finite";
@@ -33,6 +35,7 @@ const char* counterName(Counter counter) {
     case Counter::kObsBehindCamera: return "observation_behind_camera";
     case Counter::kObsIgnoredDeadReckoning: return "observation_ignored_deadreckoning";
     case Counter::kObsWaiting: return "observation_waiting";
+    case Counter::kObsAtRest: return "observation_at_rest";
     case Counter::kLandmarkInitialized: return "landmark_initialized";
     case Counter::kLandmarkReinitialized: return "landmark_reinitialized";
     case Counter::kLandmarkSplit: return "landmark_split";
@@ -67,7 +70,7 @@ uint64_t EstimatorStats::observationsRejected() const {
 uint64_t EstimatorStats::observationsScreened() const {
   return observationsRejected() + get(Counter::kObservationUpdate) +
          get(Counter::kObservationInitialized) + get(Counter::kObsWaiting) +
-         get(Counter::kObsJumpHeld);
+         get(Counter::kObsJumpHeld) + get(Counter::kObsAtRest);
 }
 
 }  // namespace ekf_vislam

@@ -188,6 +188,13 @@ void Propagator::predict(double dt, const TwistData& twist, double noise_scale,
   if (layout.tilt_dim > 0) propagateRoadTilt(dt * u.head<3>().norm(), state);
 }
 
+void Propagator::holdStill(double dt, FilterState* state) const {
+  const StateLayout& layout = state->layout();
+  state->deferPrediction(Eigen::MatrixXd::Zero(StateLayout::kPoseDim, layout.auxDim()),
+                         Matrix6d::Zero(), randomWalkVariances(dt, layout),
+                         options_->mode == EstimatorMode::kSlam);
+}
+
 void Propagator::propagateRoadTilt(double distance, FilterState* state) const {
   // First-order Gauss-Markov over the distance travelled: s' = f s + w, f = exp(-d / L),
   // Var(w) = (1 - f^2) sigma^2, so the road's tilt keeps the stationary std sigma and forgets

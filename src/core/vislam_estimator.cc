@@ -1,8 +1,10 @@
 #include "ekf_vislam/core/vislam_estimator.h"
 
+#include "ekf_vislam/core/chi_square.h"
 #include "ekf_vislam/core/landmark_drift.h"
 #include "ekf_vislam/core/pose_covariance.h"
 #include "ekf_vislam/core/se3.h"
+#include "ekf_vislam/core/twist_at_rest.h"
 
 #include <algorithm>
 #include <cmath>
@@ -71,7 +73,8 @@ VislamEstimator::VislamEstimator(const VislamOptions& options)
       updater_(*options_),
       landmarks_(*options_),
       repeated_handler_(*options_),
-      health_(*options_) {
+      health_(*options_),
+      standstill_(options_->standstill) {
   initializeState();
 }
 
@@ -113,6 +116,7 @@ StatePrior VislamEstimator::prior() const {
 void VislamEstimator::resetToPrior() {
   state_.setPrior(prior());
   repeated_handler_.clear();
+  holding_still_ = false;
 }
 
 void VislamEstimator::initializeState() {
@@ -122,6 +126,8 @@ void VislamEstimator::initializeState() {
   in_twist_gap_ = false;
   has_frame_ = false;
   repeated_frames_.reset();
+  standstill_.reset();
+  holding_still_ = false;
   jump_test_paused_ = false;
   last_frame_stamp_ = 0.0;
   drift_stamp_ = std::numeric_limits<double>::quiet_NaN();
@@ -175,6 +181,7 @@ FeedResult VislamEstimator::feedTwist(const TwistData& twist) {
   const double previous_twist_stamp = last_twist_stamp_;
   propagator_.setSamplePeriod(twist.stamp - last_twist_stamp_);
   propagator_.observeTwist(twist);
+  checkTwistAtRest(twist);
   last_twist_stamp_ = twist.stamp;
   if (twist.stamp < time_) {
     // A feature frame after this stamp was already processed: keep it for the next interval.
@@ -183,10 +190,16 @@ FeedResult VislamEstimator::feedTwist(const TwistData& twist) {
     result.message = "twist older than the filter time: held without prediction";
     return result;
   }
+  const bool was_holding_still = holding_still_;
   advanceTo(twist.stamp, twist, previous_twist_stamp, &result);
   in_twist_gap_ = false;
   held_twist_ = twist;
-  if (time_ == twist.stamp) updateGravity(twist);
+  if (time_ == twist.stamp) {
+    if (was_holding_still && holding_still_) {
+      measureGyroBiasAtRest(twist, twist.stamp - previous_twist_stamp);
+    }
+    updateGravity(twist);
+  }
   stats_.increment(Counter::kTwistUsed);
   return result;
 }
@@ -259,7 +272,11 @@ void VislamEstimator::advanceTo(double stamp, const TwistData& twist, double twi
       result->message = why.str();
     }
   }
-  propagator_.predict(dt, twist, noise_scale, &state_);
+  if (holding_still_) {
+    propagator_.holdStill(dt, &state_);
+  } else {
+    propagator_.predict(dt, twist, noise_scale, &state_);
+  }
   time_ = stamp;
   const std::optional<UpdateStatus> tilt = tilt_updater_.update(time_, &state_);
   if (tilt && *tilt != UpdateStatus::kApplied) stats_.increment(Counter::kUpdateNonFinite);
@@ -337,7 +354,14 @@ FeedResult VislamEstimator::feedFeatures(const FeatureFrame& frame) {
       std::isnan(drift_stamp_) ? 0.0 : std::min(frame.stamp - drift_stamp_, kMaxDriftInterval);
   landmark_drift::apply(camera_, options_->noise.track_random_walk, drift_interval, &state_);
   drift_stamp_ = frame.stamp;
-  processFrame(frame, &result);
+  // At rest since the last frame: the pose was held over the interval, and this frame's tracks
+  // repeat the last view. The first frame at rest still updates (the interval before it moved).
+  const bool at_rest =
+      options_->mode == EstimatorMode::kSlam && standstill_.observe(frame) && !twist_moved_;
+  twist_moved_ = false;
+  const bool view_repeated = at_rest && holding_still_;
+  holding_still_ = at_rest;
+  processFrame(frame, view_repeated, &result);
   return result;
 }
 
@@ -394,7 +418,28 @@ bool VislamEstimator::consumeJumpTest() {
   return false;
 }
 
-void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result) {
+void VislamEstimator::checkTwistAtRest(const TwistData& twist) {
+  const StandstillOptions& o = options_->standstill;
+  if (options_->mode != EstimatorMode::kSlam || !o.enabled) return;
+  // At rest a wheel odometry reads 0, and a gyro its bias within its noise.
+  static const double kThreshold = chiSquareQuantile(0.999, 6);
+  if (twist.v_imu.norm() <= o.max_twist_speed &&
+      distanceFromRest2(propagator_, twist, state_) <= kThreshold) {
+    return;
+  }
+  twist_moved_ = true;
+  holding_still_ = false;  // the twist shows motion: the hold ends with this sample
+}
+
+void VislamEstimator::measureGyroBiasAtRest(const TwistData& twist, double sample_period) {
+  stats_.increment(Counter::kTwistAtRest);
+  const std::optional<UpdateStatus> status =
+      updateGyroBiasAtRest(propagator_, twist, sample_period, &state_);
+  if (status && *status != UpdateStatus::kApplied) stats_.increment(Counter::kUpdateNonFinite);
+}
+
+void VislamEstimator::processFrame(const FeatureFrame& frame, bool view_repeated,
+                                   FeedResult* result) {
   size_t count = frame.features.size();
   const int cap = options_->limits.max_features_per_frame;
   if (cap > 0 && count > static_cast<size_t>(cap)) {
@@ -412,7 +457,10 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, FeedResult* result
 
   // Joint update with the re-observed landmarks, then new landmarks from the corrected pose.
   StereoUpdateOutcome outcome;
-  if (!updates.empty()) {
+  if (view_repeated) {
+    stats_.increment(Counter::kFrameAtRest);
+    stats_.increment(Counter::kObsAtRest, updates.size());
+  } else if (!updates.empty()) {
     if (options_->landmarks.inverse_depth_correction) {
       state_.inverse_depth_cam_T_imu = camera_.camTImu();
     }

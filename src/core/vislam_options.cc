@@ -131,6 +131,12 @@ void visitVislamOptions(Options& o, Visitor& v) {
            Bound::kNonNegative);
   v.integer("limits/max_features_per_frame", limits.max_features_per_frame, Bound::kNonNegative);
 
+  auto& standstill = o.standstill;
+  v.flag("standstill/enabled", standstill.enabled);
+  v.number("standstill/max_displacement_px", standstill.max_displacement_px, Bound::kPositive);
+  v.integer("standstill/min_tracks", standstill.min_tracks, Bound::kAtLeastOne);
+  v.number("standstill/max_twist_speed", standstill.max_twist_speed, Bound::kNonNegative);
+
   auto& health = o.health;
   v.number("health/max_position_sigma", health.max_position_sigma, Bound::kPositive);
   v.integer("health/max_rejected_frames", health.max_rejected_frames, Bound::kAtLeastOne);

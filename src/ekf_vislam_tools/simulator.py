@@ -59,7 +59,11 @@ DEFAULT_OPTIONS = {
     'stops': (),               # (start s, duration s) pairs: the vehicle slows to a halt over
                                # STOP_RAMP_S before start and waits `duration` (traffic lights);
                                # at rest the measured linear velocity is exactly 0 (a wheel
-                               # odometry), the gyro keeps its noise and offset
+                               # odometry), the gyro keeps its noise and offset, and each track
+                               # keeps its pixel error (the same view gives the same track) but
+                               # for rest_pixel_jitter
+    'rest_pixel_jitter': 0.02,  # px, white noise on each coordinate of a track at rest (the
+                               # image sensor's noise moves a tracked corner by hundredths)
     # Scene and tracking
     'landmark_density': 5.0,   # landmarks per metre of road (both sides together)
     'target_obs': 70,          # observations per frame the tracker aims at (varies +-25 %)
@@ -136,7 +140,8 @@ def simulate(seed, **options):
     point_of_id[obs_id] = obs_point
     features_true = np.full((4, num_ids, len(t)), UNOBSERVED)
     features_true[:, obs_id, obs_frame] = z_true.T
-    z_meas, is_outlier = _measure_pixels(rngs['noise'], z_true, obs_frame, obs_id, opts)
+    z_meas, is_outlier = _measure_pixels(rngs['noise'], z_true, obs_frame, obs_id, opts,
+                                         still=at_rest)
     features = np.full_like(features_true, UNOBSERVED)
     features[:, obs_id, obs_frame] = z_meas.T
     outlier_mask = np.zeros((num_ids, len(t)), dtype=bool)
@@ -178,7 +183,7 @@ def _check_options(opts):
     if opts['length_m'] is not None and not opts['length_m'] > 0:
         raise ValueError('length_m must be positive, got %r' % opts['length_m'])
     for name in ('pixel_noise', 'velocity_noise', 'gyro_noise', 'time_jitter', 'min_disparity',
-                 'roll_amplitude', 'pitch_amplitude'):
+                 'roll_amplitude', 'pitch_amplitude', 'rest_pixel_jitter'):
         if not opts[name] >= 0:
             raise ValueError('%s must not be negative, got %r' % (name, opts[name]))
     for name in ('outlier_rate', 'track_loss', 'pixel_correlation'):
@@ -494,11 +499,15 @@ def _track(rng, points, world_T_imu, opts):
 # ---------------------------------------------------------------------------------------------
 # Measurements
 # ---------------------------------------------------------------------------------------------
-def _pixel_errors(rng, obs_frame, obs_id, opts):
+def _pixel_errors(rng, obs_frame, obs_id, opts, still=None):
     """Pixel error of every observation (n,4): white, or AR(1) along each track (a track: an id
-    seen in consecutive frames), e_k = rho e_(k-1) + sqrt(1 - rho^2) sigma n_k, e_0 = sigma n_0."""
+    seen in consecutive frames), e_k = rho e_(k-1) + sqrt(1 - rho^2) sigma n_k, e_0 = sigma n_0.
+    At a frame whose pose is the one before (`still`, per frame), a track seen there too keeps
+    that frame's error plus rest_pixel_jitter."""
     errors = rng.normal(0.0, opts['pixel_noise'], (obs_id.size, 4))
     rho = opts['pixel_correlation']
+    if still is not None and np.any(still) and obs_id.size:
+        return _errors_at_rest(errors, rng, obs_frame, obs_id, opts, still)
     if rho == 0.0 or obs_id.size == 0:
         return errors
     scale = np.sqrt(1.0 - rho * rho)
@@ -510,6 +519,28 @@ def _pixel_errors(rng, obs_frame, obs_id, opts):
         going_on = last_frame[ids] == k - 1
         errors[idx[going_on]] = (rho * last_error[ids[going_on]] +
                                  scale * errors[idx[going_on]])
+        last_error[ids] = errors[idx]
+        last_frame[ids] = k
+    return errors
+
+
+def _errors_at_rest(errors, rng, obs_frame, obs_id, opts, still):
+    """_pixel_errors with stops: the AR(1) recursion (rho 0: white) frame by frame, and at a still
+    frame the previous frame's error of each track seen in both, plus white jitter."""
+    rho = opts['pixel_correlation']
+    scale = np.sqrt(1.0 - rho * rho)
+    jitter = rng.normal(0.0, opts['rest_pixel_jitter'], errors.shape)
+    last_frame = np.full(int(obs_id.max()) + 1, -2, dtype=np.int64)
+    last_error = np.zeros((last_frame.size, 4))
+    for k in np.unique(obs_frame):  # observations are in frame order
+        idx = np.flatnonzero(obs_frame == k)
+        ids = obs_id[idx]
+        going_on = last_frame[ids] == k - 1
+        if still[k]:
+            errors[idx[going_on]] = last_error[ids[going_on]] + jitter[idx[going_on]]
+        elif rho > 0.0:
+            errors[idx[going_on]] = (rho * last_error[ids[going_on]] +
+                                     scale * errors[idx[going_on]])
         last_error[ids] = errors[idx]
         last_frame[ids] = k
     return errors
@@ -532,7 +563,7 @@ def _track_drift(z_true, obs_frame, obs_id, opts):
     return drift
 
 
-def _measure_pixels(rng, z_true, obs_frame, obs_id, opts):
+def _measure_pixels(rng, z_true, obs_frame, obs_id, opts, still=None):
     """Pixel noise on every coordinate, and gross outliers -> (z (n,4), is_outlier (n,)).
 
     An outlier (probability outlier_rate) is a wrong match: a third get a negative disparity
@@ -542,8 +573,8 @@ def _measure_pixels(rng, z_true, obs_frame, obs_id, opts):
     width, height = KITTI_IMAGE_SIZE
     limits = np.array([width - 1, height - 1, width - 1, height - 1], float)
     n = z_true.shape[0]
-    z = z_true + _pixel_errors(rng, obs_frame, obs_id, opts) + _track_drift(z_true, obs_frame,
-                                                                             obs_id, opts)
+    z = (z_true + _pixel_errors(rng, obs_frame, obs_id, opts, still)
+         + _track_drift(z_true, obs_frame, obs_id, opts))
     z[:, 2] -= opts['disparity_offset']
     is_outlier = rng.random(n) < opts['outlier_rate']
     idx = np.flatnonzero(is_outlier)

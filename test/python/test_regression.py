@@ -159,8 +159,10 @@ class StopTest(unittest.TestCase):
     # A simulated drive with a 30-s stop (traffic lights), its wheel odometry reading exactly 0 at
     # rest. Before the twist-noise estimate left held values out, the stop set the estimated
     # linear noise to zero and after it the filter took the twist for exact: SLAM ATE 1.216 m,
-    # position / pose NEES 8.02 / 128.31 on this seed; now 0.214 m, 1.05 / 1.62 (the drive without
-    # the stop: 0.434 m, 1.53 / 2.09).
+    # position / pose NEES 8.02 / 128.31 on this seed; then 0.214 m, 1.05 / 1.62 (the drive without
+    # the stop: 0.434 m, 1.53 / 2.09). Since the simulated tracks keep their error at rest (the same
+    # view gives the same track), the stop driven through (standstill/enabled: false) gives 0.247 m,
+    # 0.37 / 1.75, and held at rest (the default) 0.141 m, 0.20 / 1.01.
 
     def test_a_stop_keeps_the_covariance_honest(self):
         tmp = paths.make_temp_dir(self)
@@ -174,7 +176,7 @@ class StopTest(unittest.TestCase):
         nees = consistency(slam_dir, prefix + '_groundtruth.tum')
         position, pose = nees['nees_position']['mean'], nees['nees_pose']['mean']
         print('30-s stop: SLAM ATE %.3f m, position / pose NEES %.2f / %.2f' % (ate, position, pose))
-        self.assertLess(ate, 0.6)
+        self.assertLess(ate, 0.2)
         self.assertLess(position, 6.0)
         self.assertLess(pose, 8.0)
 

@@ -258,6 +258,17 @@ class DeterminismTest(unittest.TestCase):
         np.testing.assert_array_equal(r['v_true'][:, early], plain['v_true'][:, early])
         np.testing.assert_allclose(integrate(r['t'], r['v_true'], r['w_true']), r['world_T_imu'],
                                    atol=1e-9)
+        # At rest a track keeps its pixel error (the same view gives the same track) but for the
+        # sensor's jitter, rest_pixel_jitter (0.02 px); the error itself stays pixel-sized.
+        error = r['features'] - r['features_true']
+        k = np.flatnonzero(rest)[5]
+        both = ((r['features'][0, :, k] >= 0) & (r['features'][0, :, k - 1] >= 0) &
+                ~r['outlier_mask'][:, k] & ~r['outlier_mask'][:, k - 1])
+        self.assertGreater(both.sum(), 20)
+        step = error[:, both, k] - error[:, both, k - 1]
+        self.assertLess(np.abs(step).max(), 0.15)
+        self.assertGreater(np.abs(step).max(), 0.01)
+        self.assertGreater(np.abs(error[:, both, k]).mean(), 0.5)
         for bad in (((1.0, 5.0),), ((10.0, 0.0),), ((10.0,),)):
             with self.assertRaises(ValueError):
                 simulator.simulate(1, frames=200, stops=bad)
@@ -265,6 +276,8 @@ class DeterminismTest(unittest.TestCase):
     def test_bad_options(self):
         with self.assertRaises(ValueError):
             simulator.simulate(1, pitch_amplitude=-1.0)
+        with self.assertRaises(ValueError):
+            simulator.simulate(1, rest_pixel_jitter=-0.1)
         with self.assertRaises(ValueError):
             simulator.simulate(1, outlier_rate=1.5)
         with self.assertRaises(ValueError):

@@ -15,8 +15,9 @@ enum class Counter : int {
   kTwistNonFinite,      ///< NaN/Inf component: rejected
   kTwistImplausible,    ///< speed beyond limits/max_linear_speed or max_angular_speed: rejected
   kTwistNotIncreasing,  ///< stamp <= previous twist stamp (duplicate or backwards): rejected
-  kTwistLate,  ///< older than the filter time (a frame was processed after it): held, no predict
-  kTwistGap,   ///< time gap beyond limits/max_twist_gap: handled per gap policy
+  kTwistLate,    ///< older than the filter time (a frame was processed after it): held, no predict
+  kTwistGap,     ///< time gap beyond limits/max_twist_gap: handled per gap policy
+  kTwistAtRest,  ///< camera at rest (standstill/): pose held, the gyro sample measured the bias
   // Feature messages
   kFrameUsed,
   kFrameEmpty,              ///< no features (prediction still done)
@@ -28,6 +29,7 @@ enum class Counter : int {
   kFrameNonFiniteStamp,     ///< stamp NaN/Inf: rejected
   kFramePredictionWidened,  ///< most observations gated: the prediction's noise widened
   kFrameGatedJointly,       ///< most observations gated: gated again after their shared error
+  kFrameAtRest,  ///< the camera still at rest (standstill/): the frame's tracks did not update
   // Observations (one feature of one frame)
   kObservationUpdate,        ///< used in an EKF update
   kObservationInitialized,   ///< started a new landmark
@@ -42,6 +44,7 @@ enum class Counter : int {
   kObsBehindCamera,          ///< predicted point not in front of the camera
   kObsIgnoredDeadReckoning,  ///< dead reckoning mode: observations not used
   kObsWaiting,               ///< new track not started: landmarks/max_active in the state
+  kObsAtRest,                ///< in a frame at rest (kFrameAtRest): not used
   // Landmark life cycle
   kLandmarkInitialized,
   kLandmarkReinitialized,  ///< a landmark whose first observation was gated out restarted

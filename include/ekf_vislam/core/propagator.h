@@ -65,6 +65,9 @@ class Propagator {
   /// times noise_scale (a twist gap), the auxiliary states' random walks, and in SLAM mode the
   /// landmarks' invariant errors moving with the pose error.
   void predict(double dt, const TwistData& twist, double noise_scale, FilterState* state) const;
+  /// Moves the state over dt at rest (standstill/): the pose and its covariance stay, the
+  /// auxiliary states' random walks go on.
+  void holdStill(double dt, FilterState* state) const;
 
   /// u_true = G R_m (u_measured - b) for the current estimates (G: vehicle prior gains).
   Vector6d correctedTwist(const FilterState& state, const TwistData& twist) const;

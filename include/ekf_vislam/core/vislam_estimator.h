@@ -37,6 +37,7 @@
 #include "ekf_vislam/core/propagator.h"
 #include "ekf_vislam/core/repeated_frame_detector.h"
 #include "ekf_vislam/core/repeated_frame_handler.h"
+#include "ekf_vislam/core/standstill_detector.h"
 #include "ekf_vislam/core/stereo_camera.h"
 #include "ekf_vislam/core/stereo_updater.h"
 #include "ekf_vislam/core/types.h"
@@ -165,7 +166,14 @@ class VislamEstimator {
   void advanceTo(double stamp, const TwistData& twist, double twist_stamp, FeedResult* result);
   /// Why a feature frame cannot be used now (stamp, time origin, calibration), or nothing.
   std::optional<Counter> checkFrame(const FeatureFrame& frame, std::string* why) const;
-  void processFrame(const FeatureFrame& frame, FeedResult* result);
+  /// view_repeated: the camera still at rest since the last frame (standstill/): its tracks see
+  /// what they saw and do not update.
+  void processFrame(const FeatureFrame& frame, bool view_repeated, FeedResult* result);
+  /// A twist sample that moves (a speed above standstill/max_twist_speed, or a rate beyond its
+  /// noise from 0) ends a hold at once and keeps the next frame from starting one.
+  void checkTwistAtRest(const TwistData& twist);
+  /// At rest, the accepted twist's gyro sample measures the gyro bias (standstill/).
+  void measureGyroBiasAtRest(const TwistData& twist, double sample_period);
   /// Sorts a frame's usable observations into updates (tracked ids) and initializations.
   void collectCandidates(const FeatureFrame& frame, size_t count,
                          std::unordered_set<uint32_t>* present,
@@ -213,6 +221,10 @@ class VislamEstimator {
   ConsiderErrorMonitor disparity_monitor_;
   double disparity_offset_counted_shown_ = 0.0;
   RepeatedFrameDetector repeated_frames_;
+  StandstillDetector standstill_;
+  /// The last frame showed the camera at rest: the pose is held until a frame shows it moved.
+  bool holding_still_ = false;
+  bool twist_moved_ = false;  ///< a twist since the last frame was beyond its noise from rest
 
   StereoCalibration nominal_calibration_;
   StereoCamera camera_;  ///< nominal calibration, baseline scaled by the current estimate

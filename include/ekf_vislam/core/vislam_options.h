@@ -245,6 +245,20 @@ struct LimitsOptions {
   int max_features_per_frame = 400;  ///< 0 = unlimited; extra features of a frame dropped
 };
 
+/// standstill/: a camera at rest (SLAM mode, StandstillDetector).
+struct StandstillOptions {
+  /// While the tracks and the twist show the camera at rest, the pose is held (no twist
+  /// integrated, no process noise), each gyro sample measures the gyro bias (the true rate is 0),
+  /// and the frames after the first one at rest do not update the filter (the same view again).
+  bool enabled = true;
+  /// px: at rest while 80 % of the tracks moved at most this since the rest began.
+  double max_displacement_px = 0.5;
+  /// m/s: at rest while every twist sample's linear velocity is at most this (a wheel odometry
+  /// at rest reads 0; a velocity with noise, as the KITTI course twists', never rests).
+  double max_twist_speed = 0.01;
+  int min_tracks = 10;  ///< fewer shared tracks: not at rest
+};
+
 /// health/: divergence detection and recovery.
 struct HealthOptions {
   double max_position_sigma = 1000.0;  ///< m; pose sigma beyond: divergence
@@ -267,6 +281,7 @@ struct VislamOptions {
   GravityOptions gravity;
   LandmarkOptions landmarks;
   LimitsOptions limits;
+  StandstillOptions standstill;
   HealthOptions health;
 
   /// Empty when every key is within its range and the keys agree; otherwise one line naming the

@@ -3,6 +3,7 @@
 #include "ekf_vislam/core/se3.h"
 #include "ekf_vislam/core/stereo_camera.h"
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -52,17 +53,29 @@ struct Random {
   std::uniform_real_distribution<double> uniform_distribution{0.0, 1.0};
 };
 
+// 1 on the road, 0 at rest during the stop, a half cosine over 20 frames on either side.
+double movingFraction(const ScenarioOptions& o, int k) {
+  if (o.stop_frames <= 0) return 1.0;
+  constexpr double kRampFrames = 20.0;
+  const double before = (o.stop_first_frame - k) / kRampFrames;
+  const double after = (k - (o.stop_first_frame + o.stop_frames - 1)) / kRampFrames;
+  const double level = std::clamp(std::max(before, after), 0.0, 1.0);
+  return 0.5 - 0.5 * std::cos(M_PI * level);
+}
+
 // Trajectory: forward speed and yaw rate varying smoothly; index k+1 drives [t_k, t_k+1].
 void drive(const ScenarioOptions& o, Random* random, Scenario* s) {
   const double phase = 2.0 * M_PI * random->uniform();
   Eigen::Matrix4d T = Eigen::Matrix4d::Identity();
   for (int k = 0; k < o.frames; ++k) {
     const double t = k * o.dt;
+    const double moving = movingFraction(o, k);
     TwistData truth;
     truth.stamp = 1000.0 + t;
-    truth.v_imu = Eigen::Vector3d(7.5 + 1.5 * std::sin(0.3 * t + phase), 0.0, 0.05 * std::sin(t));
-    truth.w_imu = Eigen::Vector3d(0.01 * std::sin(1.3 * t), 0.01 * std::cos(0.9 * t),
-                                  0.18 * std::sin(2.0 * M_PI * t / 25.0 + phase));
+    truth.v_imu =
+        moving * Eigen::Vector3d(7.5 + 1.5 * std::sin(0.3 * t + phase), 0.0, 0.05 * std::sin(t));
+    truth.w_imu = moving * Eigen::Vector3d(0.01 * std::sin(1.3 * t), 0.01 * std::cos(0.9 * t),
+                                           0.18 * std::sin(2.0 * M_PI * t / 25.0 + phase));
     if (k > 0) {
       Vector6d xi;
       xi << truth.v_imu, truth.w_imu;
@@ -70,11 +83,13 @@ void drive(const ScenarioOptions& o, Random* random, Scenario* s) {
     }
     s->world_T_imu.push_back(T);
     s->true_twists.push_back(truth);
+    s->still.push_back(k > 0 && moving == 0.0);
     TwistData measured = truth;
     for (int i = 0; i < 3; ++i) {
       measured.v_imu(i) += o.linear_velocity_noise * random->normal();
       measured.w_imu(i) += o.angular_velocity_noise * random->normal() + o.gyro_bias(i);
     }
+    if (s->still.back()) measured.v_imu.setZero();
     s->twists.push_back(measured);
   }
   s->true_twists[0] = s->true_twists[1];
@@ -127,13 +142,18 @@ class TrackNoise {
  public:
   TrackNoise(const ScenarioOptions& o, Random* random) : o_(o), random_(random) {}
 
-  StereoObservation observe(uint32_t id, const Eigen::Vector4d& z) {
+  /// still: the camera has not moved since the last frame (the track keeps its error).
+  StereoObservation observe(uint32_t id, const Eigen::Vector4d& z, bool still = false) {
     auto [it, first] = pixel_error_.try_emplace(id, Eigen::Vector4d::Zero());
     Eigen::Vector4d& e = it->second;
     const double innovation = std::sqrt(1.0 - o_.pixel_correlation * o_.pixel_correlation);
     const double scale = first ? 1.0 : innovation;
     for (int i = 0; i < 4; ++i) {
-      e(i) = o_.pixel_correlation * e(i) + scale * o_.pixel_sigma * random_->normal();
+      if (still && !first) {
+        e(i) += o_.rest_pixel_jitter * random_->normal();
+      } else {
+        e(i) = o_.pixel_correlation * e(i) + scale * o_.pixel_sigma * random_->normal();
+      }
     }
     Eigen::Vector4d error = e;
     if (o_.pixel_random_walk > 0.0) {
@@ -172,7 +192,7 @@ void addOutliers(double outlier_rate, Random* random, FeatureFrame* frame) {
 }
 
 // Tracks: an id per contiguous run; a point is tracked at most once, until it leaves the view or
-// is lost (4 % per frame); new tracks fill up to target_observations per frame.
+// is lost (4 % per frame while moving); new tracks fill up to target_observations per frame.
 void track(const ScenarioOptions& o, const std::vector<Eigen::Vector3d>& points, Random* random,
            Scenario* s) {
   const StereoCamera camera(s->calibration);
@@ -195,7 +215,8 @@ void track(const ScenarioOptions& o, const std::vector<Eigen::Vector3d>& points,
                            p_cam.z() < 50.0 && camera.inImage(z(0), z(1)) &&
                            camera.inImage(z(2), z(3)) && z(0) - z(2) > 0.5;
       if (state[i] == 1) {
-        if (!visible || random->uniform() < 0.04) {
+        // A tracker does not lose a track on a view that does not change (a stop).
+        if (!visible || (!s->still[k] && random->uniform() < 0.04)) {
           state[i] = 2;
           continue;
         }
@@ -205,7 +226,7 @@ void track(const ScenarioOptions& o, const std::vector<Eigen::Vector3d>& points,
           camera.projectTurned(imu_T_world, points[i], age * o.track_drift_rate_imu, &z, nullptr,
                                nullptr);
         }
-        frame.features.push_back(noise.observe(id_of[i], z));
+        frame.features.push_back(noise.observe(id_of[i], z, s->still[k]));
       } else if (visible) {
         visible_new.emplace_back(i, z);
       }

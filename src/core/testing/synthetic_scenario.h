@@ -35,6 +35,13 @@ struct ScenarioOptions {
   /// Measured disparity minus the true one, px (uR shifted by minus this; real tracks: ~+0.5).
   double disparity_offset_px = 0.0;
   int target_observations = 70;
+  /// A stop: the vehicle slows to rest over 20 frames before stop_first_frame, stands still for
+  /// stop_frames (0: no stop) and drives off over 20 frames. At rest the measured linear velocity
+  /// is exactly 0 (a wheel odometry), the gyro keeps its noise and bias, and each track keeps its
+  /// pixel error (the same view gives the same track) but for rest_pixel_jitter.
+  int stop_first_frame = 0;
+  int stop_frames = 0;
+  double rest_pixel_jitter = 0.02;  ///< px
   uint32_t seed = 1;
   /// Accelerometer: white noise per sample (m/s^2; negative: no accelerometer), constant bias,
   /// and gravity's up axis in world axes (the world is the first pose).
@@ -53,7 +60,8 @@ struct Scenario {
   /// One per frame, same stamps (ScenarioOptions::accel_noise >= 0): the mean specific force over
   /// the period ending there at ScenarioOptions::accel_lever_arm, IMU axes.
   std::vector<AccelerometerData> accels;
-  std::vector<Eigen::Matrix4d> world_T_imu;     ///< ground truth per frame
+  std::vector<Eigen::Matrix4d> world_T_imu;  ///< ground truth per frame
+  std::vector<bool> still;  ///< per frame: the pose is the previous frame's (a stop)
   std::map<uint32_t, Eigen::Vector3d> p_world;  ///< ground truth landmark of each id
 };
 

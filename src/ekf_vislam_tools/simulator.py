@@ -506,41 +506,21 @@ def _pixel_errors(rng, obs_frame, obs_id, opts, still=None):
     that frame's error plus rest_pixel_jitter."""
     errors = rng.normal(0.0, opts['pixel_noise'], (obs_id.size, 4))
     rho = opts['pixel_correlation']
-    if still is not None and np.any(still) and obs_id.size:
-        return _errors_at_rest(errors, rng, obs_frame, obs_id, opts, still)
-    if rho == 0.0 or obs_id.size == 0:
+    stops = still is not None and bool(np.any(still))
+    if (rho == 0.0 and not stops) or obs_id.size == 0:
         return errors
+    jitter = rng.normal(0.0, opts['rest_pixel_jitter'], errors.shape) if stops else None
     scale = np.sqrt(1.0 - rho * rho)
     last_frame = np.full(int(obs_id.max()) + 1, -2, dtype=np.int64)
     last_error = np.zeros((last_frame.size, 4))
     for k in np.unique(obs_frame):  # observations are in frame order
         idx = np.flatnonzero(obs_frame == k)
         ids = obs_id[idx]
-        going_on = last_frame[ids] == k - 1
-        errors[idx[going_on]] = (rho * last_error[ids[going_on]] +
-                                 scale * errors[idx[going_on]])
-        last_error[ids] = errors[idx]
-        last_frame[ids] = k
-    return errors
-
-
-def _errors_at_rest(errors, rng, obs_frame, obs_id, opts, still):
-    """_pixel_errors with stops: the AR(1) recursion (rho 0: white) frame by frame, and at a still
-    frame the previous frame's error of each track seen in both, plus white jitter."""
-    rho = opts['pixel_correlation']
-    scale = np.sqrt(1.0 - rho * rho)
-    jitter = rng.normal(0.0, opts['rest_pixel_jitter'], errors.shape)
-    last_frame = np.full(int(obs_id.max()) + 1, -2, dtype=np.int64)
-    last_error = np.zeros((last_frame.size, 4))
-    for k in np.unique(obs_frame):  # observations are in frame order
-        idx = np.flatnonzero(obs_frame == k)
-        ids = obs_id[idx]
-        going_on = last_frame[ids] == k - 1
-        if still[k]:
-            errors[idx[going_on]] = last_error[ids[going_on]] + jitter[idx[going_on]]
+        going_on = idx[last_frame[ids] == k - 1]
+        if stops and still[k]:
+            errors[going_on] = last_error[obs_id[going_on]] + jitter[going_on]
         elif rho > 0.0:
-            errors[idx[going_on]] = (rho * last_error[ids[going_on]] +
-                                     scale * errors[idx[going_on]])
+            errors[going_on] = rho * last_error[obs_id[going_on]] + scale * errors[going_on]
         last_error[ids] = errors[idx]
         last_frame[ids] = k
     return errors

@@ -36,7 +36,11 @@ double StandstillDetector::displacementQuantile(const FeatureFrame& frame) const
 }
 
 bool StandstillDetector::observe(const FeatureFrame& frame) {
-  const double moved = options_->enabled ? displacementQuantile(frame) : -1.0;
+  if (!options_->enabled) {
+    reset();
+    return false;
+  }
+  const double moved = displacementQuantile(frame);
   at_rest_ = moved >= 0.0 && moved <= options_->max_displacement_px;
   // At rest the reference keeps its positions, and tracks that start during the rest join it
   // where they start; tracks gone from this frame leave it (ids are not reused), so a long stop

@@ -31,6 +31,7 @@ struct StopRun {
   Eigen::Matrix4d at_stop_start, at_stop_end;  ///< estimates 10 frames in and at the last frame
   Eigen::Vector3d gyro_bias_at_stop_end = Eigen::Vector3d::Zero();
   uint64_t frames_at_rest = 0, twists_at_rest = 0;
+  double mean_speed = 0.0;  ///< VislamEstimator::meanTwistSpeed at the end
 };
 
 StopRun drive(const Scenario& s, const VislamOptions& options) {
@@ -60,6 +61,7 @@ StopRun drive(const Scenario& s, const VislamOptions& options) {
   r.mean_pose_nees = nees / (s.frames.size() - 1);
   r.frames_at_rest = estimator.stats().get(Counter::kFrameAtRest);
   r.twists_at_rest = estimator.stats().get(Counter::kTwistAtRest);
+  r.mean_speed = estimator.meanTwistSpeed();
   return r;
 }
 
@@ -109,6 +111,17 @@ TEST(Standstill, AStopHoldsThePoseAndMeasuresTheGyroBias) {
   EXPECT_LT(held.mean_pose_nees, 3.0);
   // 300 samples of 0.05 rad/s measure the bias to 0.003 rad/s per axis.
   EXPECT_LT(bias_error_held.cwiseAbs().maxCoeff(), 0.009);
+  // The mean speed (the slow-drive warning's) is the drive's: the samples held at rest are left
+  // out; driven through, the stop halves it.
+  double moving_sum = 0.0;
+  int moving = 0;
+  for (size_t k = 0; k < s.twists.size(); ++k) {
+    if (s.still[k]) continue;
+    moving_sum += std::abs(s.twists[k].v_imu.x());
+    ++moving;
+  }
+  EXPECT_NEAR(held.mean_speed, moving_sum / moving, 0.01 * moving_sum / moving);
+  EXPECT_LT(driven.mean_speed, 0.6 * held.mean_speed);
 }
 
 TEST(Standstill, ADriveWithoutAStopIsNotChanged) {

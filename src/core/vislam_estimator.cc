@@ -418,6 +418,19 @@ bool VislamEstimator::consumeJumpTest() {
   return false;
 }
 
+size_t VislamEstimator::twistSpeedSamples() const {
+  const size_t samples = propagator_.speedSamples();
+  return samples - std::min<size_t>(samples, stats_.get(Counter::kTwistAtRest));
+}
+
+double VislamEstimator::meanTwistSpeed() const {
+  // A sample held at rest reads at most standstill/max_twist_speed: it adds nothing to the sum.
+  const size_t moving = twistSpeedSamples();
+  return moving > 0 ? propagator_.meanSpeed() * static_cast<double>(propagator_.speedSamples()) /
+                          static_cast<double>(moving)
+                    : 0.0;
+}
+
 void VislamEstimator::checkTwistAtRest(const TwistData& twist) {
   const StandstillOptions& o = options_->standstill;
   if (options_->mode != EstimatorMode::kSlam || !o.enabled) return;

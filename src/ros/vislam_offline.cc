@@ -374,6 +374,13 @@ void printSummary(const EstimatorRunner& runner, const std::string& out_dir) {
                                           stats.get(Counter::kObservationInitialized)),
                static_cast<unsigned long>(stats.observationsRejected()), times.mean(),
                times.percentile(0.99), summary.wall_s, p.x(), p.y(), p.z(), out_dir.c_str());
+  if (const uint64_t at_rest = stats.get(Counter::kFrameAtRest); at_rest > 0) {
+    std::fprintf(stderr,
+                 "vislam_offline: at rest in %lu frames (standstill/): the pose held, the gyro "
+                 "bias measured by %lu twist samples\n",
+                 static_cast<unsigned long>(at_rest),
+                 static_cast<unsigned long>(stats.get(Counter::kTwistAtRest)));
+  }
   const VislamEstimator& estimator = runner.estimator();
   const VislamOptions& options = estimator.options();
   const StateHints state = stateHints(estimator);

@@ -144,8 +144,10 @@ class VislamEstimator {
   /// ready, else configured), its mean forward speed (m/s) and the samples that speed covers.
   double linearNoiseDensity() const { return propagator_.linearNoiseDensity(); }
   double angularNoiseDensity() const { return propagator_.angularNoiseDensity(); }
-  double meanTwistSpeed() const { return propagator_.meanSpeed(); }
-  size_t twistSpeedSamples() const { return propagator_.speedSamples(); }
+  /// Mean forward speed (m/s) of the twist samples, those held at rest (standstill/) left out:
+  /// the drive's, however long it stood; and the samples it covers.
+  double meanTwistSpeed() const;
+  size_t twistSpeedSamples() const;
 
   /// Every landmark ever initialized (active ones carry their current estimate).
   const std::vector<LandmarkEstimate>& landmarks() const { return landmarks_.map(); }

@@ -424,7 +424,8 @@ size_t VislamEstimator::twistSpeedSamples() const {
 }
 
 double VislamEstimator::meanTwistSpeed() const {
-  // A sample held at rest reads at most standstill/max_twist_speed: it adds nothing to the sum.
+  // The samples held at rest leave the count; their speed, at most standstill/max_twist_speed
+  // each (0 for a wheel odometry), stays in the sum.
   const size_t moving = twistSpeedSamples();
   return moving > 0 ? propagator_.meanSpeed() * static_cast<double>(propagator_.speedSamples()) /
                           static_cast<double>(moving)

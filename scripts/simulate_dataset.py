@@ -4,6 +4,7 @@
     simulate_dataset.py --seed N --out PREFIX [--frames N | --length-m L] [--pixel-noise PX]
                         [--outlier-rate R] [--velocity-noise V] [--gyro-noise W] [--gyro-bias B]
                         [--accel-noise SIGMA [--accel-bias B [B B]]]
+                        [--vehicles-ahead N] [--oncoming-per-minute R]
 
 Writes PREFIX.npz (2019 course layout with a correct cam_T_imu, marked by
 cam_T_imu_translation_correct = True, and image_size), PREFIX_groundtruth.tum (world_T_imu, first
@@ -94,6 +95,12 @@ def parse_args(argv):
                        help='the vehicle comes to rest at START s after the drive starts (slowing '
                             'over the 3 s before) and waits DURATION s; at rest the linear '
                             'velocity reads exactly 0, as a wheel odometry does (repeatable)')
+    scene.add_argument('--vehicles-ahead', type=int, default=d['vehicles_ahead'], metavar='N',
+                       help='traffic: N cars drive 10-35 m ahead (ego lane or the left one), their '
+                            'corners tracked too (default %(default)s)')
+    scene.add_argument('--oncoming-per-minute', type=float, default=d['oncoming_per_minute'],
+                       metavar='R', help='traffic: oncoming cars per minute in the left lane, '
+                       '8-14 m/s, their corners tracked too (default %(default)s)')
     args = parser.parse_args(argv)
     if args.gyro_bias is not None and len(args.gyro_bias) not in (1, 3):
         parser.error('--gyro-bias takes one value or three')
@@ -113,7 +120,8 @@ def main(argv=None):
         'disparity_offset', 'outlier_rate',
         'velocity_noise', 'gyro_noise', 'gyro_bias', 'rate_hz', 'start_time', 'speed_min',
         'speed_max', 'max_yaw_rate', 'roll_amplitude', 'pitch_amplitude', 'target_obs',
-        'track_loss', 'landmark_density', 'max_depth', 'accel_noise', 'accel_bias')}
+        'track_loss', 'landmark_density', 'max_depth', 'accel_noise', 'accel_bias',
+        'vehicles_ahead', 'oncoming_per_minute')}
     options['stops'] = tuple(tuple(stop) for stop in args.stops)
     try:
         result = simulator.simulate(args.seed, **options)

@@ -36,6 +36,8 @@ const char* counterName(Counter counter) {
     case Counter::kObsIgnoredDeadReckoning: return "observation_ignored_deadreckoning";
     case Counter::kObsWaiting: return "observation_waiting";
     case Counter::kObsAtRest: return "observation_at_rest";
+    case Counter::kObsTrackDropped: return "observation_track_dropped";
+    case Counter::kLandmarkTrackDropped: return "landmark_track_dropped";
     case Counter::kLandmarkInitialized: return "landmark_initialized";
     case Counter::kLandmarkReinitialized: return "landmark_reinitialized";
     case Counter::kLandmarkSplit: return "landmark_split";
@@ -70,7 +72,7 @@ uint64_t EstimatorStats::observationsRejected() const {
 uint64_t EstimatorStats::observationsScreened() const {
   return observationsRejected() + get(Counter::kObservationUpdate) +
          get(Counter::kObservationInitialized) + get(Counter::kObsWaiting) +
-         get(Counter::kObsJumpHeld) + get(Counter::kObsAtRest);
+         get(Counter::kObsJumpHeld) + get(Counter::kObsAtRest) + get(Counter::kObsTrackDropped);
 }
 
 }  // namespace ekf_vislam

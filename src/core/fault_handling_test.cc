@@ -886,6 +886,48 @@ TEST(FaultHandling, RepeatedFeatureFrameKeepsTheFilterHealthy) {
   expectRecovers(&e, kFault + 1, faultOptions());
 }
 
+/// Frame k with 12 points that move with the camera (the back of a car driving ahead at a fixed
+/// distance): same pixels, same disparity, every frame.
+FeatureFrame withCarAhead(size_t k) {
+  FeatureFrame frame = drive().frames[k];
+  for (uint32_t i = 0; i < 12; ++i) {
+    StereoObservation f;
+    f.id = 900000 + i;
+    f.u_left = 580.0 + 20.0 * (i % 4);
+    f.v_left = f.v_right = 170.0 + 15.0 * (i / 4);
+    f.u_right = f.u_left - 25.0;
+    frame.features.push_back(f);
+  }
+  return frame;
+}
+
+TEST(FaultHandling, TracksOfPointsMovingWithTheCameraAreDropped) {
+  double error[2];
+  for (int limit : {0, 2}) {
+    VislamOptions o = faultOptions();
+    o.landmarks.max_restarts = limit;
+    VislamEstimator e = startedEstimator(o);
+    const EstimatorStats before = e.stats();
+    for (size_t k = kFault; k < kFrames; ++k) {
+      ASSERT_TRUE(e.feedTwist(twistAt(k)).accepted);
+      ASSERT_TRUE(e.feedFeatures(withCarAhead(k)).accepted);
+    }
+    expectHealthy(e, "end of the drive");
+    error[limit > 0] = positionError(e, kFrames - 1);
+    const int64_t dropped = delta(before, e.stats(), Counter::kLandmarkTrackDropped);
+    std::printf("    max_restarts %d: %lld tracks dropped, final position error %.3f m\n", limit,
+                static_cast<long long>(dropped), error[limit > 0]);
+    if (limit == 0) {
+      EXPECT_EQ(dropped, 0);
+    } else {
+      EXPECT_EQ(dropped, 12);  // each car point once: its track never ends
+      EXPECT_GT(delta(before, e.stats(), Counter::kObsTrackDropped), 12 * 100);
+      EXPECT_EQ(delta(before, e.stats(), Counter::kDivergenceRecovery), 0);
+    }
+  }
+  EXPECT_LT(error[1], error[0]);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Divergence detection and recovery
 // ---------------------------------------------------------------------------------------------

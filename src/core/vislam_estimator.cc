@@ -73,6 +73,7 @@ VislamEstimator::VislamEstimator(const VislamOptions& options)
       updater_(*options_),
       landmarks_(*options_),
       repeated_handler_(*options_),
+      restart_limiter_(options_->landmarks.max_restarts, options_->landmarks.max_track_gap),
       health_(*options_),
       standstill_(options_->standstill) {
   initializeState();
@@ -140,6 +141,7 @@ void VislamEstimator::initializeState() {
   repeated_handler_.clear();
   if (has_calibration_) camera_ = scaledStereoCamera(nominal_calibration_, 0.0);
   landmarks_.clear();
+  restart_limiter_.reset();
   health_.reset();
   speed_monitor_.clear();
   disparity_monitor_.clear();
@@ -365,19 +367,26 @@ FeedResult VislamEstimator::feedFeatures(const FeatureFrame& frame) {
   return result;
 }
 
-void VislamEstimator::collectCandidates(const FeatureFrame& frame, size_t count,
-                                        std::unordered_set<uint32_t>* present,
-                                        std::vector<StereoCandidate>* updates,
-                                        std::vector<StereoCandidate>* initializations,
-                                        FeedResult* result) {
+int VislamEstimator::collectCandidates(const FeatureFrame& frame, size_t count,
+                                       std::unordered_set<uint32_t>* present,
+                                       std::vector<StereoCandidate>* updates,
+                                       std::vector<StereoCandidate>* initializations,
+                                       FeedResult* result) {
   // Every id present keeps its track alive, even when its observation is rejected.
   present->reserve(2 * count);
   updates->reserve(count);
+  int of_dropped_tracks = 0;
   for (size_t i = 0; i < count; ++i) {
     const StereoObservation& f = frame.features[i];
     if (!present->insert(f.id).second) {
       stats_.increment(Counter::kObsDuplicateId);
       ++result->observations_rejected;
+      continue;
+    }
+    if (restart_limiter_.dropped(f.id)) {
+      stats_.increment(Counter::kObsTrackDropped);
+      ++result->observations_rejected;
+      ++of_dropped_tracks;
       continue;
     }
     const std::optional<size_t> k = landmarks_.find(f.id);
@@ -393,6 +402,7 @@ void VislamEstimator::collectCandidates(const FeatureFrame& frame, size_t count,
       initializations->push_back(std::move(c));
     }
   }
+  return of_dropped_tracks;
 }
 
 void VislamEstimator::endAbsentTracks(const FeatureFrame& frame,
@@ -466,7 +476,8 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, bool view_repeated
   }
   std::unordered_set<uint32_t> present;
   std::vector<StereoCandidate> updates, initializations;
-  collectCandidates(frame, count, &present, &updates, &initializations, result);
+  const int of_dropped_tracks =
+      collectCandidates(frame, count, &present, &updates, &initializations, result);
   endAbsentTracks(frame, present, &updates, result);
 
   // Joint update with the re-observed landmarks, then new landmarks from the corrected pose.
@@ -480,6 +491,7 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, bool view_repeated
     }
     outcome = updater_.update(&updates, consumeJumpTest(), nominal_calibration_, &camera_, &state_,
                               &landmarks_, &stats_, result);
+    limitRestarts(&outcome);
     landmarks_.apply(outcome.leaving, &state_, &stats_, result);
     speed_monitor_.add(outcome.speed_scale);
     disparity_monitor_.add(outcome.disparity_offset);
@@ -499,9 +511,32 @@ void VislamEstimator::processFrame(const FeatureFrame& frame, bool view_repeated
     }
   }
   landmarks_.syncMap(state_, time_);
+  restart_limiter_.endFrame(present, frame.features.empty());
   // The previous frame's pose for the next frame's differenced observations.
   if (options_->noise.pixel_correlation > 0.0) state_.clonePose();
-  checkHealth(static_cast<int>(updates.size()), outcome.disagreeing, result);
+  // A dropped track's observation is one that disagreed: a frame of mostly such tracks is a
+  // frame whose observations are mostly gated.
+  checkHealth(static_cast<int>(updates.size()) + of_dropped_tracks,
+              outcome.disagreeing + of_dropped_tracks, result);
+}
+
+void VislamEstimator::limitRestarts(StereoUpdateOutcome* outcome) {
+  // Mapping: the landmarks restart as the dead-reckoned pose drifts, and none moves the pose.
+  if (options_->mode != EstimatorMode::kSlam) return;
+  std::unordered_set<uint32_t> dropped;
+  for (const std::vector<size_t>* leaving : {&outcome->leaving.restart, &outcome->leaving.jumped}) {
+    for (size_t k : *leaving) {
+      const uint32_t id = landmarks_.mapEntry(k).id;
+      if (restart_limiter_.recordRestart(id)) dropped.insert(id);
+    }
+  }
+  if (dropped.empty()) return;
+  stats_.increment(Counter::kLandmarkTrackDropped, dropped.size());
+  std::vector<StereoCandidate>& starts = outcome->restart_from;
+  starts.erase(
+      std::remove_if(starts.begin(), starts.end(),
+                     [&](const StereoCandidate& c) { return dropped.count(c.feature.id); }),
+      starts.end());
 }
 
 void VislamEstimator::countObservedSpeedError() {

@@ -110,6 +110,7 @@ void visitVislamOptions(Options& o, Visitor& v) {
   v.number("landmarks/gating_probability", landmarks.gating_probability, Bound::kOpenUnit);
   v.integer("landmarks/reinitialize_after_gated", landmarks.reinitialize_after_gated,
             Bound::kNonNegative);
+  v.integer("landmarks/max_restarts", landmarks.max_restarts, Bound::kNonNegative);
   v.flag("landmarks/prediction_check", landmarks.prediction_check);
   v.integer("landmarks/max_track_length", landmarks.max_track_length, Bound::kNonNegative);
   v.number("landmarks/jump_threshold_px", landmarks.jump_threshold_px, Bound::kNonNegative);

@@ -30,7 +30,7 @@ import numpy as np
 from scipy.interpolate import PchipInterpolator
 from scipy.spatial import cKDTree
 
-from ekf_vislam_tools import se3, stereo_geometry, trajectory
+from ekf_vislam_tools import se3, stereo_geometry, traffic, trajectory
 from ekf_vislam_tools.dataset import TRANSLATION_CORRECT_KEY, UNOBSERVED, observed_mask
 
 # KITTI odometry sequence 07 calibration (rectified gray cameras, IMU -> cam0).
@@ -75,6 +75,9 @@ DEFAULT_OPTIONS = {
     'min_depth': 2.0,          # observable depth range, m
     'max_depth': 60.0,
     'min_disparity': 0.5,      # px
+    'vehicles_ahead': 0,       # traffic: cars driving ahead of the ego vehicle, their corners
+                               # tracked too (they move with it: ekf_vislam_tools.traffic)
+    'oncoming_per_minute': 0.0,  # traffic: oncoming cars per minute in the lane to the left
     # Noise
     'pixel_noise': 1.0,        # std of each pixel coordinate, px
     'pixel_correlation': 0.0,  # drifting tracks: a track's pixel error is AR(1) with this
@@ -105,7 +108,8 @@ STOP_RAMP_S = 3.0
 
 # New streams go at the end: the children of a SeedSequence do not depend on how many are
 # spawned, so the existing streams (and every existing drive) stay the same.
-_STREAMS = ('trajectory', 'landmarks', 'tracking', 'noise', 'gyro_bias', 'twist_noise', 'accel')
+_STREAMS = ('trajectory', 'landmarks', 'tracking', 'noise', 'gyro_bias', 'twist_noise', 'accel',
+            'traffic', 'traffic_noise')
 
 
 def simulate(seed, **options):
@@ -115,7 +119,8 @@ def simulate(seed, **options):
     'rotational_velocity' (3,T) as measured, 'K', 'b', 'cam_T_imu' (correct), 'image_size'.
     Truth: 'world_T_imu' (T,4,4) with the first pose the identity, 'v_true', 'w_true' (3,T),
     'features_true' (4,M,T, noiseless), 'outlier_mask' (M,T), 'landmarks' (M,3) world position of
-    each feature id, 'landmark_points' (L,3) all physical points, 'point_of_id' (M,),
+    each feature id (a car's corner: where it was first seen), 'landmark_points' (L,3) all the
+    static points, 'point_of_id' (M,) (-1: a corner on a car, which moves),
     'gyro_bias' (3,), 'path_length' (m), 'options' (the options used).
     With accel_noise: 'specific_force' (3,T) as measured (m/s^2, body frame, bias and noise
     included), and the truth 'up_world' (3,) (unit "up", against gravity, in world axes) and
@@ -134,14 +139,25 @@ def simulate(seed, **options):
     path_length = float(travelled_distance(world_T_imu)[-1])
     points = _landmark_points(rngs['landmarks'], world_T_imu, opts)
     obs_frame, obs_point, obs_id, z_true = _track(rngs['tracking'], points, world_T_imu, opts)
-
-    num_ids = int(obs_id.max()) + 1 if obs_id.size else 0
-    point_of_id = np.zeros(num_ids, dtype=np.int64)
-    point_of_id[obs_id] = obs_point
-    features_true = np.full((4, num_ids, len(t)), UNOBSERVED)
-    features_true[:, obs_id, obs_frame] = z_true.T
     z_meas, is_outlier = _measure_pixels(rngs['noise'], z_true, obs_frame, obs_id, opts,
                                          still=at_rest)
+
+    num_static = int(obs_id.max()) + 1 if obs_id.size else 0
+    point_of_id = np.zeros(num_static, dtype=np.int64)
+    point_of_id[obs_id] = obs_point
+    landmarks = points[point_of_id]
+    if opts['vehicles_ahead'] or opts['oncoming_per_minute']:
+        car = _vehicle_observations(rngs['traffic'], rngs['traffic_noise'], t, world_T_imu, opts)
+        obs_frame, obs_id, z_true, z_meas, is_outlier = (
+            np.concatenate(pair) for pair in zip(
+                (obs_frame, obs_id, z_true, z_meas, is_outlier),
+                (car['frame'], car['id'] + num_static, car['z_true'], car['z'],
+                 car['is_outlier'])))
+        landmarks = np.concatenate([landmarks, car['first_position']])
+        point_of_id = np.concatenate([point_of_id, np.full(len(car['first_position']), -1)])
+    num_ids = len(landmarks)
+    features_true = np.full((4, num_ids, len(t)), UNOBSERVED)
+    features_true[:, obs_id, obs_frame] = z_true.T
     features = np.full_like(features_true, UNOBSERVED)
     features[:, obs_id, obs_frame] = z_meas.T
     outlier_mask = np.zeros((num_ids, len(t)), dtype=bool)
@@ -160,7 +176,7 @@ def simulate(seed, **options):
         'cam_T_imu': KITTI_CAM_T_IMU.copy(), 'image_size': np.array(KITTI_IMAGE_SIZE),
         'world_T_imu': world_T_imu, 'v_true': v_true, 'w_true': w_true,
         'features_true': features_true, 'outlier_mask': outlier_mask,
-        'landmarks': points[point_of_id], 'landmark_points': points, 'point_of_id': point_of_id,
+        'landmarks': landmarks, 'landmark_points': points, 'point_of_id': point_of_id,
         'gyro_bias': gyro_bias, 'path_length': path_length, 'options': opts,
     }
     if opts['accel_noise'] is not None:
@@ -197,6 +213,12 @@ def _check_options(opts):
         if len(stop) != 2 or not (stop[0] >= STOP_RAMP_S and stop[1] > 0):
             raise ValueError('a stop is (start s >= %g, duration s > 0), got %r'
                              % (STOP_RAMP_S, stop))
+    if not (float(opts['vehicles_ahead']).is_integer() and opts['vehicles_ahead'] >= 0):
+        raise ValueError('vehicles_ahead must be a non-negative integer, got %r'
+                         % opts['vehicles_ahead'])
+    if not 0 <= opts['oncoming_per_minute'] < np.inf:
+        raise ValueError('oncoming_per_minute must be finite and not negative, got %r'
+                         % opts['oncoming_per_minute'])
     if opts['max_depth'] <= opts['min_depth']:
         raise ValueError('max_depth must exceed min_depth')
     if opts['time_jitter'] >= 0.25 / opts['rate_hz']:
@@ -371,25 +393,28 @@ def specific_force(t, world_R_imu, v_body, up_world, gravity=GRAVITY):
 # ---------------------------------------------------------------------------------------------
 # Scene
 # ---------------------------------------------------------------------------------------------
-def _landmark_points(rng, world_T_imu, opts):
-    """Points on both sides of the road: lateral 3-25 m, height -1.5..6 m relative to the IMU,
-    uniformly along the path (and max_depth beyond its ends); none within 3 m of the road."""
+def _extended_path(world_T_imu, opts):
+    """The drive's path, extended straight beyond both ends by max_depth + 10 m so that the first
+    and last frames see a scene too -> (positions (N,3), horizontal unit heading (N,3), distance
+    along the path (N,), negative before the first pose)."""
     positions = world_T_imu[:, :3, 3]
     heading = world_T_imu[:, :3, 0].copy()
     heading[:, 2] = 0.0
     heading /= np.linalg.norm(heading, axis=1, keepdims=True)
     arc = travelled_distance(world_T_imu)
-
-    extra = opts['max_depth'] + 10.0
-    # Extend the path straight beyond both ends so the first and last frames see a scene too.
-    steps = np.arange(1.0, extra + 1.0)
+    steps = np.arange(1.0, opts['max_depth'] + 11.0)
     before = positions[0] - steps[::-1, None] * heading[0]
     after = positions[-1] + steps[:, None] * heading[-1]
     path = np.concatenate([before, positions, after])
     path_heading = np.concatenate([np.repeat(heading[:1], steps.size, 0), heading,
                                    np.repeat(heading[-1:], steps.size, 0)])
-    path_arc = np.concatenate([-steps[::-1], arc, arc[-1] + steps])
+    return path, path_heading, np.concatenate([-steps[::-1], arc, arc[-1] + steps])
 
+
+def _landmark_points(rng, world_T_imu, opts):
+    """Points on both sides of the road: lateral 3-25 m, height -1.5..6 m relative to the IMU,
+    uniformly along the path (and max_depth beyond its ends); none within 3 m of the road."""
+    path, path_heading, path_arc = _extended_path(world_T_imu, opts)
     count = int(round(opts['landmark_density'] * (path_arc[-1] - path_arc[0])))
     s = rng.uniform(path_arc[0], path_arc[-1], count)
     side = rng.choice([-1.0, 1.0], count)
@@ -494,6 +519,22 @@ def _track(rng, points, world_T_imu, opts):
         was_active[previous] = False
     return (np.concatenate(frames), np.concatenate(pts), np.concatenate(ids),
             np.concatenate(zs))
+
+
+def _vehicle_observations(rng, noise_rng, t, world_T_imu, opts):
+    """The tracks on the other cars (traffic.vehicle_tracks), measured as the scene's are (their
+    own noise stream, so the scene's measurements stay those of the drive without traffic) ->
+    dict of frame, id (from 0), z_true, z, is_outlier, first_position (per id)."""
+    def observe(points_world, pose):
+        z, depth = project(points_world, pose)
+        return z, _visible(z, depth, opts)
+
+    frame, ids, z_true, first = traffic.vehicle_tracks(
+        rng, t, world_T_imu, travelled_distance(world_T_imu), _extended_path(world_T_imu, opts),
+        (KITTI_CAM_T_IMU, observe), opts)
+    z, is_outlier = _measure_pixels(noise_rng, z_true, frame, ids, opts)
+    return {'frame': frame, 'id': ids, 'z_true': z_true, 'z': z, 'is_outlier': is_outlier,
+            'first_position': first}
 
 
 # ---------------------------------------------------------------------------------------------

@@ -133,6 +133,30 @@ class SimulatorTest(unittest.TestCase):
         np.testing.assert_array_equal(plain['features'][[0, 1, 3]], offset['features'][[0, 1, 3]])
         np.testing.assert_array_equal(plain['features_true'], offset['features_true'])
 
+    def test_traffic_adds_moving_tracks_and_leaves_the_scene_alone(self):
+        plain = simulator.simulate(7, frames=200)
+        busy = simulator.simulate(7, frames=200, vehicles_ahead=1, oncoming_per_minute=6.0)
+        static = plain['features'].shape[1]
+        np.testing.assert_array_equal(busy['features'][:, :static], plain['features'])
+        cars = np.arange(static, busy['features'].shape[1])
+        self.assertGreater(len(cars), 24)
+        np.testing.assert_array_equal(busy['point_of_id'][cars], -1)
+        seen = observed_mask(busy['features_true'])[cars]  # (cars, T)
+        self.assertTrue(seen.any(axis=1).all())  # every car id is observed
+        self.assertGreater(seen.any(axis=0).mean(), 0.8)  # a car in sight most of the drive
+        # A car's corner is not where it was first seen: reprojected from there it misses by
+        # pixels within a second (a static point misses by nothing).
+        misses = []
+        for i in np.flatnonzero(seen.sum(axis=1) >= 10):
+            frames = np.flatnonzero(seen[i])
+            k = frames[9]
+            z, _ = simulator.project(busy['landmarks'][cars[i]][None], busy['world_T_imu'][k])
+            misses.append(np.abs(z[0] - busy['features_true'][:, cars[i], k]).max())
+        self.assertGreater(len(misses), 24)
+        self.assertGreater(np.median(misses), 2.0)
+        with self.assertRaises(ValueError):
+            simulator.simulate(7, frames=10, vehicles_ahead=-1)
+
     def test_few_observations_per_frame(self):
         # Below the 20 per frame the simulator once floored the target at.
         for target in (2, 5):

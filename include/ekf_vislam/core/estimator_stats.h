@@ -45,13 +45,15 @@ enum class Counter : int {
   kObsIgnoredDeadReckoning,  ///< dead reckoning mode: observations not used
   kObsWaiting,               ///< new track not started: landmarks/max_active in the state
   kObsAtRest,                ///< in a frame at rest (kFrameAtRest): not used
+  kObsTrackDropped,          ///< of a dropped track (kLandmarkTrackDropped): not used
   // Landmark life cycle
   kLandmarkInitialized,
   kLandmarkReinitialized,  ///< a landmark whose first observation was gated out restarted
   kLandmarkMarginalized,
-  kLandmarkSplit,    ///< a track reached landmarks/max_track_length: continued as a new landmark
-  kLandmarkJump,     ///< a track jumped (flow test): continued as a new landmark
-  kLandmarkShifted,  ///< tracked through a repeated frame: moved by one frame of motion
+  kLandmarkSplit,  ///< a track reached landmarks/max_track_length: continued as a new landmark
+  kLandmarkJump,   ///< a track jumped (flow test): continued as a new landmark
+  kLandmarkTrackDropped,  ///< restarted beyond landmarks/max_restarts (a moving point): dropped
+  kLandmarkShifted,       ///< tracked through a repeated frame: moved by one frame of motion
   // Filter health
   kCovarianceRepaired,  ///< covariance lost symmetry/positivity and was repaired
   kDivergenceRecovery,  ///< divergence detected; recovery policy applied

@@ -37,6 +37,7 @@
 #include "ekf_vislam/core/propagator.h"
 #include "ekf_vislam/core/repeated_frame_detector.h"
 #include "ekf_vislam/core/repeated_frame_handler.h"
+#include "ekf_vislam/core/restart_limiter.h"
 #include "ekf_vislam/core/standstill_detector.h"
 #include "ekf_vislam/core/stereo_camera.h"
 #include "ekf_vislam/core/stereo_updater.h"
@@ -177,10 +178,11 @@ class VislamEstimator {
   /// At rest, the accepted twist's gyro sample measures the gyro bias (standstill/).
   void measureGyroBiasAtRest(const TwistData& twist, double sample_period);
   /// Sorts a frame's usable observations into updates (tracked ids) and initializations.
-  void collectCandidates(const FeatureFrame& frame, size_t count,
-                         std::unordered_set<uint32_t>* present,
-                         std::vector<StereoCandidate>* updates,
-                         std::vector<StereoCandidate>* initializations, FeedResult* result);
+  /// Returns how many observations belong to dropped tracks (landmarks/max_restarts).
+  int collectCandidates(const FeatureFrame& frame, size_t count,
+                        std::unordered_set<uint32_t>* present,
+                        std::vector<StereoCandidate>* updates,
+                        std::vector<StereoCandidate>* initializations, FeedResult* result);
   /// Tracks absent beyond landmarks/max_track_gap leave the state; updates' indices follow.
   void endAbsentTracks(const FeatureFrame& frame, const std::unordered_set<uint32_t>& present,
                        std::vector<StereoCandidate>* updates, FeedResult* result);
@@ -200,6 +202,10 @@ class VislamEstimator {
   /// The reported tilt takes the error the road tilt's estimate shows beyond its prior
   /// (vehicle/count_shown_tilt_error).
   void countShownTiltError();
+  /// The landmarks the update restarts (or whose tracks jumped) count against their ids'
+  /// restarts (landmarks/max_restarts); a track that restarted once too often is dropped and
+  /// does not restart.
+  void limitRestarts(StereoUpdateOutcome* outcome);
   void resetToPrior();
   StatePrior prior() const;
   // The largest position sigma of the linear world-axes covariance (the health check's).
@@ -218,6 +224,7 @@ class VislamEstimator {
   StereoUpdater updater_;
   LandmarkManager landmarks_;
   RepeatedFrameHandler repeated_handler_;
+  RestartLimiter restart_limiter_;
   HealthMonitor health_;
   ConsiderErrorMonitor speed_monitor_;
   ConsiderErrorMonitor disparity_monitor_;

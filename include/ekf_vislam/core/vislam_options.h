@@ -198,6 +198,10 @@ struct LandmarkOptions {
   /// A landmark whose observations disagree grossly (beyond the chi-square 0.9999 quantile) this
   /// many frames in a row restarts from its current observation; 0 = never.
   int reinitialize_after_gated = 1;
+  /// SLAM: a track whose landmark restarted (gated grossly, or the track-jump test) more than this
+  /// many times is dropped until it ends: a point that moves (a car ahead) disagrees with every
+  /// static prediction (restart_limiter.h). 0 = no limit.
+  int max_restarts = 2;
   /// SLAM: when more than half of a frame's re-observed landmarks (8 or more; not those seen from
   /// the clone of a repeated frame, which the prediction does not reach) fail the gate, the
   /// prediction is taken to be what is wrong: the pose's process noise since the last update is
